@@ -1,0 +1,244 @@
+//! Camera paths: the frames of a walkthrough, as JSON files or built in.
+//!
+//! File format (all fields but `frames` optional, defaults shown):
+//! ```json
+//! {"up":[0,1,0],"fov_y_deg":60,"near":0.1,"far":2000,"width":1024,"height":1024,
+//!  "frames":[{"eye":[0,1.7,0],"target":[0,1.7,-1]}]}
+//! ```
+
+use glam::Vec3;
+use hom::geom::Camera;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use thiserror::Error;
+
+/// Most frames a path may hold (a path file is read whole).
+pub const MAX_FRAMES: usize = 1_000_000;
+
+/// Why a camera path could not be read or used.
+#[derive(Debug, Error)]
+pub enum CameraPathError {
+    /// The file could not be read.
+    #[error("cannot read camera path {path}: {source}")]
+    Io {
+        /// File.
+        path: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The JSON is malformed or has the wrong shape.
+    #[error("camera path {path}: {source}")]
+    Json {
+        /// File.
+        path: String,
+        /// Cause (with line and column).
+        source: serde_json::Error,
+    },
+    /// A frame or setting makes no valid camera.
+    #[error("camera path {path}: frame {frame}: {source}")]
+    BadFrame {
+        /// File.
+        path: String,
+        /// Frame index.
+        frame: usize,
+        /// Cause.
+        source: hom::geom::CameraError,
+    },
+    /// No frames, or too many.
+    #[error("camera path {path}: has {count} frames; need 1..={max}", max = MAX_FRAMES)]
+    FrameCount {
+        /// File.
+        path: String,
+        /// Frames found.
+        count: usize,
+    },
+}
+
+/// One frame: where the eye is and what it looks at.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathFrame {
+    /// Eye position.
+    pub eye: [f32; 3],
+    /// Point looked at.
+    pub target: [f32; 3],
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    60.0
+}
+fn default_near() -> f32 {
+    0.1
+}
+fn default_far() -> f32 {
+    2000.0
+}
+fn default_side() -> u32 {
+    1024
+}
+
+/// A camera path: shared lens and viewport, one eye/target per frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraPath {
+    /// Up direction.
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees.
+    #[serde(default = "default_fov")]
+    pub fov_y_deg: f32,
+    /// Near clip distance.
+    #[serde(default = "default_near")]
+    pub near: f32,
+    /// Far clip distance.
+    #[serde(default = "default_far")]
+    pub far: f32,
+    /// Image width.
+    #[serde(default = "default_side")]
+    pub width: u32,
+    /// Image height.
+    #[serde(default = "default_side")]
+    pub height: u32,
+    /// The frames.
+    pub frames: Vec<PathFrame>,
+}
+
+impl CameraPath {
+    /// A path with default lens and viewport through the given frames.
+    pub fn new(frames: Vec<PathFrame>) -> CameraPath {
+        CameraPath {
+            up: default_up(),
+            fov_y_deg: default_fov(),
+            near: default_near(),
+            far: default_far(),
+            width: default_side(),
+            height: default_side(),
+            frames,
+        }
+    }
+
+    /// Reads and validates a path file.
+    pub fn load(path: &Path) -> Result<CameraPath, CameraPathError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CameraPathError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        let p: CameraPath = serde_json::from_str(&text).map_err(|source| CameraPathError::Json {
+            path: name.clone(),
+            source,
+        })?;
+        p.validate(&name)?;
+        Ok(p)
+    }
+
+    /// Checks that there are frames and that every frame makes a valid camera.
+    /// `name` is used in the error (a file name, or a scene name for built-in paths).
+    pub fn validate(&self, name: &str) -> Result<(), CameraPathError> {
+        if self.frames.is_empty() || self.frames.len() > MAX_FRAMES {
+            return Err(CameraPathError::FrameCount {
+                path: name.to_string(),
+                count: self.frames.len(),
+            });
+        }
+        for frame in 0..self.frames.len() {
+            self.camera(frame)
+                .validate()
+                .map_err(|source| CameraPathError::BadFrame {
+                    path: name.to_string(),
+                    frame,
+                    source,
+                })?;
+        }
+        Ok(())
+    }
+
+    /// The same path at another viewport size.
+    pub fn with_viewport(mut self, width: u32, height: u32) -> CameraPath {
+        self.width = width;
+        self.height = height;
+        self
+    }
+
+    /// The camera of frame `i`.
+    ///
+    /// # Panics
+    /// If `i >= self.frames.len()`.
+    pub fn camera(&self, i: usize) -> Camera {
+        let f = &self.frames[i];
+        Camera::new(
+            Vec3::from(f.eye),
+            Vec3::from(f.target),
+            Vec3::from(self.up),
+            self.fov_y_deg.to_radians(),
+            self.near,
+            self.far,
+            self.width,
+            self.height,
+        )
+    }
+
+    /// Frames sampled along a polyline of eye points at `step` metres, each
+    /// looking `look_ahead` metres further along the polyline (waypoints at eye height).
+    ///
+    /// # Panics
+    /// If `waypoints` has fewer than two points or `step <= 0`.
+    pub fn along(waypoints: &[Vec3], step: f32, look_ahead: f32) -> CameraPath {
+        assert!(waypoints.len() >= 2 && step > 0.0);
+        let mut eyes = Vec::new();
+        for w in waypoints.windows(2) {
+            let len = (w[1] - w[0]).length();
+            let n = (len / step).ceil().max(1.0) as usize;
+            eyes.extend((0..n).map(|i| w[0].lerp(w[1], i as f32 / n as f32)));
+        }
+        eyes.push(*waypoints.last().unwrap());
+        let ahead = |i: usize| -> Vec3 {
+            // Walk forward along the sampled eyes until look_ahead metres are covered.
+            let mut d = 0.0;
+            let mut j = i;
+            while j + 1 < eyes.len() && d < look_ahead {
+                d += (eyes[j + 1] - eyes[j]).length();
+                j += 1;
+            }
+            let dir = if j > i { eyes[j] - eyes[i] } else { eyes[i] - eyes[i.saturating_sub(1)] };
+            eyes[i] + dir.normalize_or(Vec3::NEG_Z) * look_ahead.max(1.0)
+        };
+        let frames = (0..eyes.len())
+            .map(|i| PathFrame {
+                eye: eyes[i].to_array(),
+                target: ahead(i).to_array(),
+            })
+            .collect();
+        CameraPath::new(frames)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_documented_format_and_rejects_bad_frames() {
+        let ok = r#"{"up":[0,1,0],"fov_y_deg":60,"near":0.1,"far":2000,"width":1024,"height":1024,
+                     "frames":[{"eye":[0,1.7,0],"target":[0,1.7,-1]}]}"#;
+        let p: CameraPath = serde_json::from_str(ok).unwrap();
+        p.validate("x").unwrap();
+        assert_eq!(p.camera(0).eye, Vec3::new(0.0, 1.7, 0.0));
+        let same: CameraPath = serde_json::from_str(r#"{"frames":[{"eye":[1,1,1],"target":[1,1,1]}]}"#).unwrap();
+        assert!(matches!(same.validate("x"), Err(CameraPathError::BadFrame { frame: 0, .. })));
+        let none: CameraPath = serde_json::from_str(r#"{"frames":[]}"#).unwrap();
+        assert!(matches!(none.validate("x"), Err(CameraPathError::FrameCount { .. })));
+        assert!(serde_json::from_str::<CameraPath>(r#"{"frames":[], "fov":3}"#).is_err());
+    }
+
+    #[test]
+    fn along_samples_the_polyline_and_looks_ahead() {
+        let p = CameraPath::along(&[Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)], 1.0, 5.0);
+        assert_eq!(p.frames.len(), 11);
+        p.validate("line").unwrap();
+        assert!(p.frames.iter().all(|f| f.target[0] > f.eye[0] - 1e-3 || f.eye[0] >= 10.0));
+    }
+}

@@ -1,0 +1,47 @@
+use hom::scene::SceneError;
+use thiserror::Error;
+
+/// Why a scene could not be loaded, generated or exported. Each variant names the file.
+#[derive(Debug, Error)]
+pub enum LoadError {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// File.
+        path: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// The extension names no supported format.
+    #[error("{path}: unknown scene format; use .obj, .gltf or .glb, or a built-in scene name (see `hom scenes`)")]
+    UnknownFormat {
+        /// File.
+        path: String,
+    },
+    /// The file's syntax or structure is malformed.
+    #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Malformed {
+        /// File.
+        path: String,
+        /// 1-based line, where the format has lines and it is known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// The geometry was parsed but is invalid (NaN vertex, index out of range, empty…).
+    #[error("{path}: {source}")]
+    Scene {
+        /// File.
+        path: String,
+        /// Cause.
+        source: SceneError,
+    },
+    /// No built-in scene has this name.
+    #[error("no built-in scene or file named '{name}'; built-in scenes: {known}")]
+    UnknownBuiltin {
+        /// The name asked for.
+        name: String,
+        /// Comma-separated known names.
+        known: String,
+    },
+}

@@ -1,0 +1,1 @@
+//! OBJ export of world-space triangles. (Being written.)

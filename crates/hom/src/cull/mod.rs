@@ -1,0 +1,97 @@
+//! The culler interface every algorithm implements, and the basic cullers.
+//!
+//! A [`Culler`] is built for one scene, then asked once per frame which objects
+//! to draw. It reports what it culled and why, and how long each of its stages
+//! took, so the walkthrough harness can compare cullers on equal terms.
+
+mod frustum;
+
+pub use frustum::{FrustumCuller, NoCuller};
+
+use crate::geom::{Camera, CameraError};
+use crate::scene::Scene;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Why a culler could not process a frame.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum CullError {
+    /// The camera is unusable (NaN, degenerate, bad viewport…).
+    #[error("invalid camera: {0}")]
+    Camera(#[from] CameraError),
+    /// The scene passed to `cull` is not the one the culler was built for.
+    #[error("culler was built for a scene of {expected} objects, got {got}")]
+    SceneMismatch {
+        /// Objects at build time.
+        expected: usize,
+        /// Objects now.
+        got: usize,
+    },
+}
+
+/// What a culler decided for one frame. Reused across frames to avoid allocation.
+#[derive(Clone, Debug, Default)]
+pub struct CullOutput {
+    /// Ids to render, ascending.
+    pub visible: Vec<u32>,
+    /// Ids culled as occluded (inside the frustum), ascending.
+    pub occluded: Vec<u32>,
+    /// Ids selected as occluders this frame (they are drawn too).
+    pub occluders: Vec<u32>,
+    /// Milliseconds per stage, in execution order.
+    pub stages: Vec<(&'static str, f64)>,
+    /// Named counters (node tests, levels visited, …).
+    pub counters: Vec<(&'static str, u64)>,
+}
+
+impl CullOutput {
+    /// Empties every list, keeping capacity.
+    pub fn clear(&mut self) {
+        self.visible.clear();
+        self.occluded.clear();
+        self.occluders.clear();
+        self.stages.clear();
+        self.counters.clear();
+    }
+
+    /// Runs `f`, recording its wall time as stage `name`.
+    pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let r = f();
+        self.stages
+            .push((name, start.elapsed().as_secs_f64() * 1e3));
+        r
+    }
+
+    /// Total milliseconds over all stages.
+    pub fn total_ms(&self) -> f64 {
+        self.stages.iter().map(|s| s.1).sum()
+    }
+
+    /// Adds `n` to counter `name` (created at 0).
+    pub fn count(&mut self, name: &'static str, n: u64) {
+        match self.counters.iter_mut().find(|c| c.0 == name) {
+            Some(c) => c.1 += n,
+            None => self.counters.push((name, n)),
+        }
+    }
+}
+
+/// A visibility culler: built for one scene, asked per frame.
+///
+/// Contract: every object that owns a pixel of the full rendering of the
+/// scene from `camera` must be in `out.visible` — unless the culler was
+/// configured to approximate, and says so in [`Culler::config`].
+pub trait Culler {
+    /// Short name, as accepted by `hom walk --culler`.
+    fn name(&self) -> &'static str;
+
+    /// Configuration as key/value pairs, for report headers.
+    fn config(&self) -> Vec<(&'static str, String)> {
+        Vec::new()
+    }
+
+    /// Decides this frame's visible set. `scene` is the scene the culler was
+    /// built for, with dynamic objects already moved to this frame's time.
+    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError>;
+}

@@ -1,0 +1,92 @@
+//! View frusta as six planes, and the three-way box test.
+
+use super::{Aabb, Obb, Plane};
+use glam::{Mat4, Vec3};
+
+/// Where a box lies relative to a frustum. The three-way answer lets a
+/// hierarchy skip the tests of a subtree that is wholly inside.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Containment {
+    /// Entirely outside (safe to cull).
+    Outside,
+    /// Partly inside, or not decided (conservative).
+    Intersecting,
+    /// Entirely inside.
+    Inside,
+}
+
+/// The six inward-facing planes of a view frustum: left, right, bottom, top, near, far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    /// Planes in the order left, right, bottom, top, near, far.
+    pub planes: [Plane; 6],
+}
+
+impl Frustum {
+    /// The frustum of a view-projection matrix whose clip space has `-w <= x, y <= w`
+    /// and `0 <= z <= w` (glam's `perspective_rh`; Gribb & Hartmann's extraction).
+    ///
+    /// Returns `None` when the matrix is degenerate or not finite.
+    pub fn from_view_proj(m: &Mat4) -> Option<Frustum> {
+        let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
+        let planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2];
+        let mut out = [Plane::from_point_normal(Vec3::ZERO, Vec3::X); 6];
+        for (o, p) in out.iter_mut().zip(planes) {
+            *o = Plane::from_coefficients(p)?;
+        }
+        Some(Frustum { planes: out })
+    }
+
+    /// Three-way test of an axis-aligned box.
+    pub fn test_aabb(&self, b: &Aabb) -> Containment {
+        let mut result = Containment::Inside;
+        for p in &self.planes {
+            // The corner farthest along the normal decides "outside"; the nearest, "inside".
+            let far = Vec3::select(p.normal.cmpge(Vec3::ZERO), b.max, b.min);
+            if p.signed_distance(far) < 0.0 {
+                return Containment::Outside;
+            }
+            let near = Vec3::select(p.normal.cmpge(Vec3::ZERO), b.min, b.max);
+            if p.signed_distance(near) < 0.0 {
+                result = Containment::Intersecting;
+            }
+        }
+        result
+    }
+
+    /// Three-way test of an oriented box.
+    pub fn test_obb(&self, b: &Obb) -> Containment {
+        let mut result = Containment::Inside;
+        for p in &self.planes {
+            let r = p.normal.dot(b.axes.x_axis).abs() * b.half_extents.x
+                + p.normal.dot(b.axes.y_axis).abs() * b.half_extents.y
+                + p.normal.dot(b.axes.z_axis).abs() * b.half_extents.z;
+            let d = p.signed_distance(b.center);
+            if d < -r {
+                return Containment::Outside;
+            }
+            if d < r {
+                result = Containment::Intersecting;
+            }
+        }
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Camera;
+
+    #[test]
+    fn boxes_in_front_inside_behind_outside() {
+        let cam = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60f32.to_radians(), 0.1, 100.0, 640, 480);
+        let f = cam.frustum().unwrap();
+        let unit = |c: Vec3| Aabb::new(c - 0.5, c + 0.5);
+        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -10.0))), Containment::Inside);
+        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, 10.0))), Containment::Outside);
+        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, 0.0))), Containment::Intersecting);
+        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -200.0))), Containment::Outside);
+        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -100.0))), Containment::Intersecting);
+    }
+}

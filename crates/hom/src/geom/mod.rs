@@ -1,0 +1,15 @@
+//! Geometry: boxes, planes, frusta, the camera, and conservative screen projection.
+
+mod aabb;
+mod camera;
+mod frustum;
+mod obb;
+mod plane;
+pub mod screen;
+
+pub use aabb::Aabb;
+pub use camera::{Camera, CameraError, MAX_VIEWPORT_SIDE};
+pub use frustum::{Containment, Frustum};
+pub use obb::Obb;
+pub use plane::Plane;
+pub use screen::{project_points, Footprint, ScreenRect};

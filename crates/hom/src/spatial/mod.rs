@@ -1,0 +1,5 @@
+//! Spatial hierarchies over object bounds: the model database.
+
+pub mod bvh;
+
+pub use bvh::{Bvh, BvhConfig, BvhNode};
