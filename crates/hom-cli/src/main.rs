@@ -1,1 +1,437 @@
-fn main() {}
+//! `hom` — visibility culling for large 3D scenes, from the command line.
+//!
+//! The subcommand names and flags are a contract that scripts depend on.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use hom::cull::CullOutput;
+use hom_render::{Framebuffer, RenderOptions, Renderer};
+use hom_scene::CameraPath;
+use hom_walk::report::{self, FrameRecord, Summary};
+use hom_walk::{cullers, pictures, WalkOptions, WalkResult};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(Parser)]
+#[command(name = "hom", version, about = "Visibility culling for large 3D scenes: hierarchical occlusion maps and friends")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Walk the built-in city with hom's best culler; print a table and write pictures.
+    Demo(DemoArgs),
+    /// Walk a camera path through a scene with a culler, optionally checking against the oracle.
+    Walk(WalkArgs),
+    /// Render one frame of a scene's path to a PNG.
+    Render(RenderArgs),
+    /// List the built-in scenes with object and triangle counts.
+    Scenes,
+    /// Scene tools: info, export.
+    Scene {
+        #[command(subcommand)]
+        command: SceneCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum SceneCommand {
+    /// Object, triangle and bounds information.
+    Info {
+        /// Built-in scene name or scene file (.obj, .gltf, .glb).
+        #[arg(long)]
+        scene: String,
+    },
+    /// Write the scene's world-space triangles as OBJ, one `o` per object in id order.
+    Export {
+        /// Built-in scene name or scene file.
+        #[arg(long)]
+        scene: String,
+        /// Output .obj file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Args)]
+struct View {
+    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb).
+    #[arg(long)]
+    scene: String,
+    /// Camera path JSON file (default: the scene's own walkthrough).
+    #[arg(long)]
+    camera_path: Option<PathBuf>,
+    /// Image width (default: the path's).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height (default: the path's).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Culler: none, frustum.
+    #[arg(long, default_value = cullers::BEST)]
+    culler: String,
+    /// Renderer threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+#[derive(Args)]
+struct WalkArgs {
+    #[command(flatten)]
+    view: View,
+    /// Walk only the first N frames.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Run the oracle every frame: false culls and culling efficiency.
+    #[arg(long)]
+    oracle: bool,
+    /// Write the JSON-lines report here.
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Write plots (frame times, % culled) into this folder.
+    #[arg(long)]
+    plots: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    view: View,
+    /// Frame index along the path.
+    #[arg(long, default_value_t = 0)]
+    frame: usize,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+    /// Colour by fate: occluders blue, drawn grey, occlusion-culled red.
+    #[arg(long)]
+    false_colour: bool,
+}
+
+#[derive(Args)]
+struct DemoArgs {
+    /// Folder for the pictures.
+    #[arg(long, default_value = "hom-out/demo")]
+    out: PathBuf,
+    /// Walk only the first N frames of the city path.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Image width.
+    #[arg(long, default_value_t = 1024)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 1024)]
+    height: u32,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(a) => demo(a),
+        Command::Walk(a) => walk(a),
+        Command::Render(a) => render(a),
+        Command::Scenes => scenes(),
+        Command::Scene { command } => match command {
+            SceneCommand::Info { scene } => scene_info(&scene),
+            SceneCommand::Export { scene, out } => scene_export(&scene, &out),
+        },
+    };
+    if let Err(e) = result {
+        // One line naming the problem; no backtrace.
+        eprintln!("error: {e:#}");
+        std::process::exit(2);
+    }
+}
+
+/// The scene and the path to walk, with the viewport overridden where asked.
+fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
+    let (scene, mut path) = hom_walk::open_scene(&view.scene)?;
+    if let Some(file) = &view.camera_path {
+        path = CameraPath::load(file)?;
+    }
+    if let Some(w) = view.width {
+        path.width = w;
+    }
+    if let Some(h) = view.height {
+        path.height = h;
+    }
+    path.validate(&view.scene)?;
+    Ok((scene, path))
+}
+
+fn make_culler(name: &str, scene: &hom::scene::Scene) -> Result<Box<dyn hom::cull::Culler>> {
+    match cullers::make(name, scene) {
+        Some(c) => Ok(c),
+        None => bail!("unknown culler '{name}'; available: {}", cullers::names()),
+    }
+}
+
+fn progress(len: usize, what: &str) -> ProgressBar {
+    // Draws only on a terminal; quiet when piped.
+    let bar = ProgressBar::new(len as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(what.to_string());
+    bar
+}
+
+/// Walks with progress on a terminal; with `report`, streams the JSON-lines
+/// report (header, frames, summary) as it goes.
+fn run_walk(
+    scene: &mut hom::scene::Scene,
+    path: &CameraPath,
+    culler_name: &str,
+    renderer: &Renderer,
+    options: &WalkOptions,
+    mut report: Option<&mut dyn Write>,
+) -> Result<WalkResult> {
+    let mut culler = make_culler(culler_name, scene)?;
+    if let Some(out) = report.as_deref_mut() {
+        let header = report::Header::new(
+            scene,
+            path,
+            culler.as_ref(),
+            renderer.threads(),
+            options.frame_count(path),
+            options.oracle,
+        );
+        report::write_line(out, &header).context("writing the report")?;
+    }
+    let bar = progress(options.frame_count(path), culler_name);
+    let mut io_error = None;
+    let result = hom_walk::walk(scene, path, culler.as_mut(), renderer, options, |record| {
+        bar.inc(1);
+        if let Some(out) = report.as_deref_mut() {
+            if let Err(e) = report::write_line(out, record) {
+                io_error.get_or_insert(e);
+            }
+        }
+    });
+    bar.finish_and_clear();
+    let result = result?;
+    if let Some(out) = report {
+        if let Some(e) = io_error {
+            return Err(e).context("writing the report");
+        }
+        report::write_line(out, &result.summary).context("writing the report")?;
+        out.flush().context("writing the report")?;
+    }
+    Ok(result)
+}
+
+fn walk(a: WalkArgs) -> Result<()> {
+    let (mut scene, path) = open(&a.view)?;
+    if a.frames == Some(0) {
+        bail!("--frames must be at least 1");
+    }
+    let renderer = Renderer::new(a.view.threads)?;
+    let options = WalkOptions {
+        frames: a.frames,
+        oracle: a.oracle,
+        ..WalkOptions::default()
+    };
+    let mut file = match &a.report {
+        Some(p) => Some(create_report(p)?),
+        None => None,
+    };
+    let result = run_walk(
+        &mut scene,
+        &path,
+        &a.view.culler,
+        &renderer,
+        &options,
+        file.as_mut().map(|f| f as &mut dyn Write),
+    )
+    .with_context(|| match &a.report {
+        Some(p) => format!("walking {} (report {})", a.view.scene, p.display()),
+        None => format!("walking {}", a.view.scene),
+    })?;
+    if let Some(p) = &a.report {
+        eprintln!("report: {}", p.display());
+    }
+    print_table(&scene, &[(&a.view.culler, &result)]);
+    if let Some(dir) = &a.plots {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let plot = dir.join("frame_times.png");
+        pictures::plot_frame_times(&plot, &result.frames, &a.view.culler)?;
+        eprintln!("plot: {}", plot.display());
+    }
+    Ok(())
+}
+
+fn create_report(path: &Path) -> Result<BufWriter<std::fs::File>> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let f = std::fs::File::create(path).with_context(|| format!("creating report {}", path.display()))?;
+    Ok(BufWriter::new(f))
+}
+
+fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map(|x| format!("{x:.digits$}")).unwrap_or_else(|| "-".into())
+}
+
+fn print_table(scene: &hom::scene::Scene, rows: &[(&str, &WalkResult)]) {
+    println!(
+        "scene {}: {} objects, {} triangles ({} dynamic objects)",
+        scene.name(),
+        scene.objects().len(),
+        scene.triangle_count(),
+        scene.dynamic_count()
+    );
+    println!(
+        "{:<10} {:>6} {:>10} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>8} {:>8}",
+        "culler", "frames", "tris drawn", "% culled", "false culls", "effic. %", "cull ms", "render ms", "frame ms", "speedup", "oracle×"
+    );
+    for (name, r) in rows {
+        let s: &Summary = &r.summary;
+        println!(
+            "{:<10} {:>6} {:>10.0} {:>9.1} {:>11} {:>9} {:>10.2} {:>10.2} {:>10.2} {:>8} {:>8}",
+            name,
+            s.frames,
+            s.median_triangles_drawn,
+            s.median_pct_triangles_culled,
+            s.false_culls.map(|n| n.to_string()).unwrap_or_else(|| "-".into()),
+            fmt_opt(s.efficiency.map(|e| e * 100.0), 1),
+            s.median_stage_ms.get("cull").copied().unwrap_or(0.0),
+            s.median_stage_ms.get("render").copied().unwrap_or(0.0),
+            s.median_frame_ms,
+            fmt_opt(s.speedup, 2),
+            fmt_opt(s.oracle_speedup, 2),
+        );
+    }
+    println!("(medians over frames; speedup = frustum-only frame time ÷ frame time; oracle× = the best any culler could reach)");
+}
+
+fn demo(a: DemoArgs) -> Result<()> {
+    let view = View {
+        scene: "city".into(),
+        camera_path: None,
+        width: Some(a.width),
+        height: Some(a.height),
+        culler: cullers::BEST.into(),
+        threads: 0,
+    };
+    let (mut scene, path) = open(&view)?;
+    let renderer = Renderer::new(0)?;
+    let options = WalkOptions {
+        frames: a.frames,
+        oracle: true,
+        ..WalkOptions::default()
+    };
+    let mut names = vec!["frustum"];
+    if cullers::BEST != "frustum" {
+        names.push(cullers::BEST);
+    }
+    let mut results = Vec::new();
+    for name in &names {
+        results.push(run_walk(&mut scene, &path, name, &renderer, &options, None)?);
+    }
+    let rows: Vec<(&str, &WalkResult)> = names.iter().copied().zip(results.iter()).collect();
+    print_table(&scene, &rows);
+
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    let best = results.last().expect("at least one walk");
+    let plot = a.out.join("frame_times.png");
+    pictures::plot_frame_times(&plot, &best.frames, cullers::BEST)?;
+    // The frame where the best culler culled the most as occluded shows it best.
+    let frame = busiest_frame(&best.frames);
+    let picture = a.out.join(format!("false_colour_frame{frame}.png"));
+    write_false_colour(&mut scene, &path, cullers::BEST, frame, &renderer, &picture, options.frame_rate)?;
+    println!("pictures: {} (occluders blue, drawn grey, occlusion-culled red), {}", picture.display(), plot.display());
+    Ok(())
+}
+
+fn busiest_frame(frames: &[FrameRecord]) -> usize {
+    frames
+        .iter()
+        .max_by_key(|f| (f.triangles_occlusion_culled, std::cmp::Reverse(f.frame)))
+        .map_or(0, |f| f.frame)
+}
+
+fn write_false_colour(
+    scene: &mut hom::scene::Scene,
+    path: &CameraPath,
+    culler_name: &str,
+    frame: usize,
+    renderer: &Renderer,
+    out: &Path,
+    frame_rate: f32,
+) -> Result<()> {
+    scene.set_time(frame as f32 / frame_rate);
+    let camera = path.camera(frame);
+    let mut culler = make_culler(culler_name, scene)?;
+    let mut cull = CullOutput::default();
+    culler.cull(scene, &camera, &mut cull)?;
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    pictures::render_false_colour(renderer, scene, &camera, &cull, &mut fb);
+    fb.save_png(out)?;
+    Ok(())
+}
+
+fn render(a: RenderArgs) -> Result<()> {
+    let (mut scene, path) = open(&a.view)?;
+    if a.frame >= path.frames.len() {
+        bail!("--frame {} is past the end of the path ({} frames)", a.frame, path.frames.len());
+    }
+    let renderer = Renderer::new(a.view.threads)?;
+    let frame_rate = WalkOptions::default().frame_rate;
+    if a.false_colour {
+        write_false_colour(&mut scene, &path, &a.view.culler, a.frame, &renderer, &a.out, frame_rate)?;
+    } else {
+        scene.set_time(a.frame as f32 / frame_rate);
+        let camera = path.camera(a.frame);
+        let mut culler = make_culler(&a.view.culler, &scene)?;
+        let mut cull = CullOutput::default();
+        culler.cull(&scene, &camera, &mut cull)?;
+        let mut fb = Framebuffer::new(camera.width, camera.height);
+        renderer.render(&scene, &cull.visible, &camera, &RenderOptions::default(), &mut fb);
+        fb.save_png(&a.out)?;
+    }
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+fn scenes() -> Result<()> {
+    println!("{:<14} {:>8} {:>10} {:>8}  description", "name", "objects", "triangles", "frames");
+    for (name, description) in hom_scene::BUILTIN_SCENES {
+        let b = hom_scene::builtin(name)?;
+        println!(
+            "{:<14} {:>8} {:>10} {:>8}  {}",
+            name,
+            b.scene.objects().len(),
+            b.scene.triangle_count(),
+            b.path.frames.len(),
+            description
+        );
+    }
+    Ok(())
+}
+
+fn scene_info(spec: &str) -> Result<()> {
+    let (scene, path) = hom_walk::open_scene(spec)?;
+    let b = scene.bounds();
+    let dynamic = scene.dynamic_count();
+    let max_tris = scene.objects().iter().map(|o| o.triangles).max().unwrap_or(0);
+    println!("scene:      {}", scene.name());
+    println!("objects:    {} ({dynamic} dynamic)", scene.objects().len());
+    println!("meshes:     {}", scene.meshes().len());
+    println!("triangles:  {}", scene.triangle_count());
+    println!("per object: {:.0} triangles on average, {max_tris} at most", scene.triangle_count() as f64 / scene.objects().len() as f64);
+    println!("bounds:     {:?} .. {:?}", b.min.to_array(), b.max.to_array());
+    println!("path:       {} frames at {}x{}", path.frames.len(), path.width, path.height);
+    Ok(())
+}
+
+fn scene_export(spec: &str, out: &Path) -> Result<()> {
+    let (scene, _) = hom_walk::open_scene(spec)?;
+    hom_scene::export::write_obj(&scene, out)?;
+    println!("wrote {} ({} objects, {} triangles)", out.display(), scene.objects().len(), scene.triangle_count());
+    Ok(())
+}

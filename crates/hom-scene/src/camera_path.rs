@@ -181,6 +181,30 @@ impl CameraPath {
         )
     }
 
+    /// `frames` frames circling `bounds` once, looking at its centre from outside:
+    /// the default walkthrough for a scene file that comes without a path.
+    pub fn orbit(bounds: &hom::geom::Aabb, frames: usize) -> CameraPath {
+        let centre = bounds.center();
+        let diag = bounds.extent().length().max(1e-3);
+        let radius = diag * 0.75;
+        let height = bounds.extent().y * 0.25;
+        let frames_v = (0..frames.max(1))
+            .map(|i| {
+                let a = i as f32 / frames.max(1) as f32 * std::f32::consts::TAU;
+                let eye = centre + Vec3::new(a.cos() * radius, height, a.sin() * radius);
+                PathFrame {
+                    eye: eye.to_array(),
+                    target: centre.to_array(),
+                }
+            })
+            .collect();
+        CameraPath {
+            near: (diag * 1e-4).max(1e-3),
+            far: diag * 4.0,
+            ..CameraPath::new(frames_v)
+        }
+    }
+
     /// Frames sampled along a polyline of eye points at `step` metres, each
     /// looking `look_ahead` metres further along the polyline (waypoints at eye height).
     ///

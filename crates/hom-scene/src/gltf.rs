@@ -1,8 +1,363 @@
-//! glTF loading. (Being written.)
+//! glTF 2.0 loading (`.gltf` with external `.bin` buffers or `data:` URIs, and `.glb`).
+//!
+//! One object per node that has a mesh, in the order of a depth-first walk of the
+//! default scene's node tree (or of every scene, in order, when there is no default).
+//! The object's transform is the node's world matrix (parent transforms accumulated);
+//! nodes instancing the same glTF mesh share one hom mesh. All primitives of a mesh with
+//! mode `TRIANGLES` are merged into that mesh; other modes are skipped, and a mesh with no
+//! triangles places no object. An object is named after its node, else its mesh, else
+//! `node N`. glTF is already right-handed, +Y up, in metres, so no conversion is needed.
+//!
+//! Accessors are read here with checked arithmetic rather than with the `gltf` crate's
+//! reader, and a `.glb` header is checked before the crate sees it, so hostile files
+//! (out-of-range offsets or counts, truncated chunks) give typed errors, never a panic or
+//! an allocation larger than the data in the file.
+
 use crate::LoadError;
-use hom::scene::Scene;
+use ::gltf::accessor::{sparse::IndexType, DataType, Dimensions};
+use ::gltf::buffer::View;
+use ::gltf::mesh::Mode;
+use ::gltf::{Accessor, Document, Gltf, Semantic};
+use glam::{Mat4, Vec3};
+use hom::scene::{Mesh, MeshId, Scene, SceneBuilder, SceneError};
 use std::path::Path;
-/// Loads an glTF file.
+
+/// Loads a `.gltf` or `.glb` file: one object per node with a mesh, world transforms applied.
+///
+/// The scene is named after the file stem. Buffers named by relative URIs are read from
+/// the file's directory.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
-    Err(LoadError::UnknownFormat { path: path.display().to_string() })
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let label = path.display().to_string();
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let base = path.parent().unwrap_or(Path::new("."));
+    let base = if base.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base
+    };
+    let malformed = |message: String| LoadError::Malformed {
+        path: label.clone(),
+        line: None,
+        message,
+    };
+
+    check_glb_header(&bytes).map_err(&malformed)?;
+    let gltf = Gltf::from_slice(&bytes).map_err(|e| malformed(format!("invalid glTF: {e}")))?;
+    drop(bytes);
+    let Gltf { document, blob } = gltf;
+    let buffers = ::gltf::import_buffers(&document, Some(base), blob)
+        .map_err(|e| malformed(format!("cannot load buffer data: {e}")))?;
+    let buffers: Vec<&[u8]> = buffers.iter().map(|d| &d.0[..]).collect();
+    convert(&document, &buffers, &label, &stem)
+}
+
+/// Rejects a `.glb` whose header the `gltf` crate would mishandle (a declared length
+/// shorter than the header itself, or longer than the file).
+fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(length) = bytes.get(8..12) else {
+        return Err("truncated GLB header".to_owned());
+    };
+    let length = u32::from_le_bytes([length[0], length[1], length[2], length[3]]) as u64;
+    if length < 20 || length > bytes.len() as u64 {
+        return Err(format!(
+            "GLB header declares {length} bytes, but the file has {} (truncated or corrupt)",
+            bytes.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Builds the scene from a parsed document and its loaded buffers.
+fn convert(
+    document: &Document,
+    buffers: &[&[u8]],
+    label: &str,
+    stem: &str,
+) -> Result<Scene, LoadError> {
+    let scene_error = |source| LoadError::Scene {
+        path: label.to_owned(),
+        source,
+    };
+    let malformed = |message: String| LoadError::Malformed {
+        path: label.to_owned(),
+        line: None,
+        message,
+    };
+    // No accessor may yield more elements than there are bytes of buffer data, so an
+    // accessor without a buffer view cannot make us allocate from its count alone.
+    let max_count = buffers.iter().map(|b| b.len()).sum::<usize>();
+
+    let mut builder = SceneBuilder::new(stem);
+    // hom mesh per glTF mesh: None = not converted yet, Some(None) = no triangles.
+    let mut mesh_ids: Vec<Option<Option<MeshId>>> = vec![None; document.meshes().len()];
+    let roots: Vec<Vec<usize>> = match document.default_scene() {
+        Some(scene) => vec![scene.nodes().map(|n| n.index()).collect()],
+        None => document
+            .scenes()
+            .map(|s| s.nodes().map(|n| n.index()).collect())
+            .collect(),
+    };
+    let nodes: Vec<::gltf::Node> = document.nodes().collect();
+
+    for scene_roots in roots {
+        let mut visited = vec![false; nodes.len()];
+        // Depth-first, in document order, without recursion (deep trees cannot overflow).
+        let mut stack: Vec<(usize, Mat4)> = scene_roots
+            .iter()
+            .rev()
+            .map(|&n| (n, Mat4::IDENTITY))
+            .collect();
+        while let Some((index, parent)) = stack.pop() {
+            let Some(node) = nodes.get(index) else {
+                return Err(malformed(format!("node {index} does not exist")));
+            };
+            if std::mem::replace(&mut visited[index], true) {
+                return Err(malformed(format!(
+                    "node {index} appears more than once in the node hierarchy (a cycle, or a node with two parents)"
+                )));
+            }
+            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+            let world = parent * local;
+            if let Some(mesh) = node.mesh() {
+                let slot = &mut mesh_ids[mesh.index()];
+                let id = match *slot {
+                    Some(id) => id,
+                    None => {
+                        let id = match convert_mesh(&mesh, buffers, max_count)
+                            .map_err(|m| malformed(format!("mesh {}: {m}", mesh.index())))?
+                        {
+                            Some((positions, triangles)) => {
+                                let name = mesh
+                                    .name()
+                                    .map(str::to_owned)
+                                    .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+                                let m =
+                                    Mesh::new(name, positions, triangles).map_err(scene_error)?;
+                                Some(builder.add_mesh(m))
+                            }
+                            None => None,
+                        };
+                        *slot = Some(id);
+                        id
+                    }
+                };
+                if let Some(id) = id {
+                    let name = node
+                        .name()
+                        .or(mesh.name())
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| format!("node {index}"));
+                    builder.add_object(name, id, world).map_err(scene_error)?;
+                }
+            }
+            for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+                stack.push((child.index(), world));
+            }
+        }
+    }
+    if builder.object_count() == 0 {
+        return Err(scene_error(SceneError::EmptyScene {
+            scene: stem.to_owned(),
+        }));
+    }
+    builder.build().map_err(scene_error)
+}
+
+/// Positions and triangles of a mesh's triangle primitives; `None` when it has none.
+#[allow(clippy::type_complexity)]
+fn convert_mesh(
+    mesh: &::gltf::Mesh,
+    buffers: &[&[u8]],
+    max_count: usize,
+) -> Result<Option<(Vec<Vec3>, Vec<[u32; 3]>)>, String> {
+    let mut positions: Vec<Vec3> = Vec::new();
+    let mut triangles: Vec<[u32; 3]> = Vec::new();
+    for primitive in mesh.primitives() {
+        let p = primitive.index();
+        if primitive.mode() != Mode::Triangles {
+            continue;
+        }
+        let Some(accessor) = primitive.get(&Semantic::Positions) else {
+            continue;
+        };
+        if accessor.data_type() != DataType::F32
+            || accessor.dimensions() != Dimensions::Vec3
+            || accessor.normalized()
+        {
+            return Err(format!(
+                "primitive {p}: POSITION accessor {} must be VEC3 of FLOAT",
+                accessor.index()
+            ));
+        }
+        let prim_positions = read_accessor(&accessor, buffers, max_count, |b| {
+            Vec3::new(
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                f32::from_le_bytes([b[4], b[5], b[6], b[7]]),
+                f32::from_le_bytes([b[8], b[9], b[10], b[11]]),
+            )
+        })
+        .map_err(|m| format!("primitive {p}: POSITION accessor {}: {m}", accessor.index()))?;
+        let n = prim_positions.len();
+        let indices: Vec<u32> = match primitive.indices() {
+            Some(acc) => {
+                let decode: fn(&[u8]) -> u32 = match (acc.data_type(), acc.dimensions()) {
+                    (DataType::U8, Dimensions::Scalar) => |b| u32::from(b[0]),
+                    (DataType::U16, Dimensions::Scalar) => |b| u32::from(u16::from_le_bytes([b[0], b[1]])),
+                    (DataType::U32, Dimensions::Scalar) => {
+                        |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+                    }
+                    _ => {
+                        return Err(format!(
+                            "primitive {p}: index accessor {} must be SCALAR of unsigned integers",
+                            acc.index()
+                        ))
+                    }
+                };
+                let indices = read_accessor(&acc, buffers, max_count, decode)
+                    .map_err(|m| format!("primitive {p}: index accessor {}: {m}", acc.index()))?;
+                if let Some((k, &i)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
+                    return Err(format!(
+                        "primitive {p}: index {k} is {i}, but POSITION has only {n} vertices"
+                    ));
+                }
+                indices
+            }
+            None => {
+                if n > u32::MAX as usize {
+                    return Err(format!("primitive {p}: too many vertices ({n})"));
+                }
+                (0..n as u32).collect()
+            }
+        };
+        let base = positions.len();
+        if base + n > u32::MAX as usize {
+            return Err(format!("too many vertices ({})", base + n));
+        }
+        let base = base as u32;
+        triangles.extend(
+            indices
+                .chunks_exact(3)
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+        positions.extend(prim_positions);
+    }
+    Ok(if triangles.is_empty() {
+        None
+    } else {
+        Some((positions, triangles))
+    })
+}
+
+/// The bytes of a buffer view, checked against its buffer.
+fn view_bytes<'b>(view: &View, buffers: &[&'b [u8]]) -> Result<&'b [u8], String> {
+    let buffer = buffers
+        .get(view.buffer().index())
+        .ok_or_else(|| format!("buffer {} does not exist", view.buffer().index()))?;
+    let start = view.offset();
+    view.offset()
+        .checked_add(view.length())
+        .and_then(|end| buffer.get(start..end))
+        .ok_or_else(|| {
+            format!(
+                "buffer view {} (offset {}, length {}) runs past the end of buffer {} ({} bytes)",
+                view.index(),
+                view.offset(),
+                view.length(),
+                view.buffer().index(),
+                buffer.len()
+            )
+        })
+}
+
+/// `count` elements of `size` bytes, `stride` apart, starting at `offset` in `data`.
+fn elements<'b>(
+    data: &'b [u8],
+    offset: usize,
+    count: usize,
+    size: usize,
+    stride: usize,
+) -> Result<impl Iterator<Item = &'b [u8]> + 'b, String> {
+    if count > 0 {
+        let end = (count - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(offset))
+            .and_then(|x| x.checked_add(size));
+        if end.is_none_or(|end| end > data.len()) {
+            return Err(format!(
+                "{count} elements of {size} bytes (stride {stride}) from offset {offset} do not fit in {} bytes",
+                data.len()
+            ));
+        }
+    }
+    Ok((0..count).map(move |i| &data[offset + i * stride..offset + i * stride + size]))
+}
+
+/// Reads every element of an accessor (sparse substitution included) with `decode`,
+/// which gets exactly `accessor.size()` bytes.
+fn read_accessor<T: Copy + Default>(
+    accessor: &Accessor,
+    buffers: &[&[u8]],
+    max_count: usize,
+    decode: impl Fn(&[u8]) -> T,
+) -> Result<Vec<T>, String> {
+    let count = accessor.count();
+    if count > max_count {
+        return Err(format!(
+            "count {count} is larger than all buffer data together ({max_count} bytes)"
+        ));
+    }
+    let size = accessor.size();
+    let mut out: Vec<T> = match accessor.view() {
+        Some(view) => {
+            let stride = view.stride().unwrap_or(size);
+            if stride < size {
+                return Err(format!(
+                    "buffer view {} stride {stride} is smaller than an element ({size} bytes)",
+                    view.index()
+                ));
+            }
+            let data = view_bytes(&view, buffers)?;
+            elements(data, accessor.offset(), count, size, stride)?
+                .map(&decode)
+                .collect()
+        }
+        None => vec![T::default(); count],
+    };
+    if let Some(sparse) = accessor.sparse() {
+        let n = sparse.count();
+        if n > count {
+            return Err(format!(
+                "sparse count {n} is larger than the accessor count {count}"
+            ));
+        }
+        let indices = sparse.indices();
+        let (index_size, index_decode): (usize, fn(&[u8]) -> usize) = match indices.index_type() {
+            IndexType::U8 => (1, |b| b[0] as usize),
+            IndexType::U16 => (2, |b| u16::from_le_bytes([b[0], b[1]]) as usize),
+            IndexType::U32 => (4, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize),
+        };
+        let index_data = view_bytes(&indices.view(), buffers)?;
+        let values = sparse.values();
+        let value_data = view_bytes(&values.view(), buffers)?;
+        let targets = elements(index_data, indices.offset(), n, index_size, index_size)?;
+        let values = elements(value_data, values.offset(), n, size, size)?;
+        for (target, value) in targets.zip(values) {
+            let target = index_decode(target);
+            let slot = out.get_mut(target).ok_or_else(|| {
+                format!("sparse index {target} is out of range (count {count})")
+            })?;
+            *slot = decode(value);
+        }
+    }
+    Ok(out)
 }

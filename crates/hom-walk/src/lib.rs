@@ -1,1 +1,50 @@
-//! placeholder
+//! # hom-walk — the walkthrough harness
+//!
+//! Runs a [`hom::cull::Culler`] along a camera path through a scene: per frame
+//! it culls, renders what the culler keeps with the reference renderer, times
+//! every stage, optionally runs the oracle (the item buffer of a full render),
+//! and computes the metrics every result in hom is measured with:
+//!
+//! - **false cull**: an object culled as occluded that owns at least one pixel.
+//! - **culling efficiency**: triangles culled as occluded ÷ triangles in the
+//!   frustum that the oracle finds invisible.
+//! - **speedup**: frame time with frustum culling only ÷ frame time with the
+//!   culler (culling included), same renderer, same path, same run.
+//! - **oracle speedup**: frame time with frustum culling only ÷ time to render
+//!   just the oracle's visible set.
+//!
+//! Results are [`report`] records, written as JSON lines; [`pictures`] draws
+//! false-colour frames and plots.
+
+pub mod cullers;
+pub mod pictures;
+pub mod report;
+mod walk;
+pub use walk::summarize;
+
+pub use walk::{walk, WalkError, WalkOptions, WalkResult};
+
+use hom::scene::Scene;
+use hom_scene::{CameraPath, LoadError};
+use std::path::Path;
+
+/// A scene and the camera path to walk it: a built-in scene name or a file.
+///
+/// Files get [`CameraPath::orbit`] around their bounds unless a path is given.
+pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath), LoadError> {
+    if hom_scene::BUILTIN_SCENES.iter().any(|(n, _)| *n == spec) {
+        let b = hom_scene::builtin(spec)?;
+        return Ok((b.scene, b.path));
+    }
+    let path = Path::new(spec);
+    if !path.exists() {
+        let known: Vec<&str> = hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| *n).collect();
+        return Err(LoadError::UnknownBuiltin {
+            name: spec.to_string(),
+            known: known.join(", "),
+        });
+    }
+    let scene = hom_scene::load(path)?;
+    let orbit = CameraPath::orbit(&scene.bounds(), 120);
+    Ok((scene, orbit))
+}

@@ -21,7 +21,9 @@
 //! - [`cull`]: the [`cull::Culler`] interface and the basic cullers.
 
 pub mod cull;
+pub mod depth;
 pub mod geom;
+pub mod map;
 pub mod scene;
 pub mod spatial;
 

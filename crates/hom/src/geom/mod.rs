@@ -12,4 +12,4 @@ pub use camera::{Camera, CameraError, MAX_VIEWPORT_SIDE};
 pub use frustum::{Containment, Frustum};
 pub use obb::Obb;
 pub use plane::Plane;
-pub use screen::{project_points, Footprint, ScreenRect};
+pub use screen::{project_box_clipped, project_points, Footprint, ScreenRect};

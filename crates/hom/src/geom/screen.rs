@@ -3,10 +3,11 @@
 //! Screen space: pixel (0, 0) is the top-left pixel; the renderer samples pixel
 //! centres at `(x + 0.5, y + 0.5)`. A [`ScreenRect`] holds every pixel whose
 //! centre the projected box may cover, so an image-space test over it is
-//! conservative. Depth is clip `z / w` in `[0, 1]` (0 at the near plane), the
-//! same value the renderer's z-buffer stores.
+//! conservative. Depth here is *view depth*: clip `w`, the distance along the
+//! view axis in metres. It is linear, so depth tests between boxes keep their
+//! precision far from the eye (clip `z / w` would not).
 
-use glam::{Mat4, Vec3, Vec4Swizzles};
+use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 
 /// Pixels of slack added on every side of a projected rectangle, so float
 /// rounding in the renderer can never put a covered sample outside it.
@@ -34,9 +35,9 @@ pub struct ScreenRect {
     pub x1: u32,
     /// One past the last row.
     pub y1: u32,
-    /// Nearest depth of the box (smallest clip z / w).
+    /// Nearest view depth of the box (smallest clip w), metres.
     pub z_near: f32,
-    /// Farthest depth of the box (largest clip z / w).
+    /// Farthest view depth of the box (largest clip w), metres.
     pub z_far: f32,
 }
 
@@ -63,14 +64,77 @@ impl ScreenRect {
 /// Conservative: any point of the convex hull of `points` that is in front of
 /// the near plane lands inside the returned rectangle and depth range.
 pub fn project_points(points: &[Vec3], view_proj: &Mat4, width: u32, height: u32) -> Footprint {
-    let (w, h) = (width as f32, height as f32);
-    let (mut sx0, mut sy0, mut sx1, mut sy1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-    let (mut z0, mut z1) = (f32::MAX, f32::MIN);
+    let mut clip = [Vec4::ZERO; 8];
+    let mut n = 0;
     for p in points {
         let c = *view_proj * p.extend(1.0);
         // `!(>=)` also catches NaN: never cull what we cannot project.
         if !(c.z >= 0.0 && c.w > 0.0) {
             return Footprint::Straddles;
+        }
+        if n == clip.len() {
+            // More than eight points: fold what we have into one rect first.
+            return rect_of_clip_points(points.iter().map(|p| *view_proj * p.extend(1.0)), width, height)
+                .map_or(Footprint::Straddles, Footprint::Rect);
+        }
+        clip[n] = c;
+        n += 1;
+    }
+    rect_of_clip_points(clip[..n].iter().copied(), width, height).map_or(Footprint::Straddles, Footprint::Rect)
+}
+
+/// The footprint of the part of a box (given by its eight corners, index bit
+/// `k` choosing the max along axis `k`, as [`super::Aabb::corners`] and
+/// [`super::Obb::corners`] order them) in front of the near plane: the box is
+/// clipped against the near plane before projecting. `None` when no part of it
+/// is in front of the near plane.
+///
+/// This is the footprint an *occluder* may use: its rasterized coverage is
+/// clipped the same way, so its depth range stays finite and tight even when
+/// the box extends behind the eye.
+pub fn project_box_clipped(corners: &[Vec3; 8], view_proj: &Mat4, width: u32, height: u32) -> Option<ScreenRect> {
+    let clip = corners.map(|p| *view_proj * p.extend(1.0));
+    if clip.iter().any(|c| !c.is_finite()) {
+        return None;
+    }
+    let mut points = [Vec4::ZERO; 8 + 12];
+    let mut n = 0;
+    for c in clip.iter().filter(|c| c.z >= 0.0) {
+        points[n] = *c;
+        n += 1;
+    }
+    for i in 0..8usize {
+        for bit in [1usize, 2, 4] {
+            let j = i | bit;
+            if j == i {
+                continue;
+            }
+            let (a, b) = (clip[i], clip[j]);
+            if (a.z >= 0.0) != (b.z >= 0.0) {
+                // The edge crosses the near plane (clip z = 0) here.
+                let t = a.z / (a.z - b.z);
+                let mut p = a + (b - a) * t;
+                p.z = 0.0;
+                points[n] = p;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    rect_of_clip_points(points[..n].iter().copied(), width, height)
+}
+
+/// The conservative pixel rectangle and view-depth range of clip-space points
+/// that are all in front of the near plane; `None` if a coordinate is not finite.
+fn rect_of_clip_points(points: impl Iterator<Item = Vec4>, width: u32, height: u32) -> Option<ScreenRect> {
+    let (w, h) = (width as f32, height as f32);
+    let (mut sx0, mut sy0, mut sx1, mut sy1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+    let (mut z0, mut z1) = (f32::MAX, f32::MIN);
+    for c in points {
+        if !(c.w > 0.0) {
+            return None;
         }
         let inv = 1.0 / c.w;
         let ndc = c.xyz() * inv;
@@ -80,16 +144,16 @@ pub fn project_points(points: &[Vec3], view_proj: &Mat4, width: u32, height: u32
         sx1 = sx1.max(sx);
         sy0 = sy0.min(sy);
         sy1 = sy1.max(sy);
-        z0 = z0.min(ndc.z);
-        z1 = z1.max(ndc.z);
+        z0 = z0.min(c.w);
+        z1 = z1.max(c.w);
     }
-    if !(sx0.is_finite() && sx1.is_finite() && sy0.is_finite() && sy1.is_finite()) {
-        return Footprint::Straddles;
+    if !(sx0.is_finite() && sx1.is_finite() && sy0.is_finite() && sy1.is_finite() && z0.is_finite() && z1.is_finite()) {
+        return None;
     }
     // Pixel x has its centre in [sx0, sx1] iff ceil(sx0 - 0.5) <= x <= floor(sx1 - 0.5).
     let first = |s: f32, limit: f32| (s - 0.5 - RECT_SLACK_PX).ceil().clamp(0.0, limit) as u32;
     let end = |s: f32, limit: f32| ((s - 0.5 + RECT_SLACK_PX).floor() + 1.0).clamp(0.0, limit) as u32;
-    Footprint::Rect(ScreenRect {
+    Some(ScreenRect {
         x0: first(sx0, w),
         y0: first(sy0, h),
         x1: end(sx1, w),
@@ -134,11 +198,13 @@ mod tests {
             for j in 0..=20 {
                 for k in 0..=20 {
                     let t = Vec3::new(i as f32, j as f32, k as f32) / 20.0;
-                    let q = vp.project_point3(b.min + (b.max - b.min) * t);
+                    let p = b.min + (b.max - b.min) * t;
+                    let q = vp.project_point3(p);
                     let s = glam::Vec2::new((q.x * 0.5 + 0.5) * 100.0, (0.5 - q.y * 0.5) * 50.0);
                     lo = lo.min(s);
                     hi = hi.max(s);
-                    assert!(q.z >= r.z_near - 1e-6 && q.z <= r.z_far + 1e-6);
+                    let depth = (c.view() * p.extend(1.0)).z * -1.0;
+                    assert!(depth >= r.z_near * (1.0 - 1e-6) && depth <= r.z_far * (1.0 + 1e-6));
                 }
             }
         }
@@ -152,5 +218,34 @@ mod tests {
         }
         // And the rect is not wildly larger than the sampled extent.
         assert!((r.x0 as f32) >= lo.x - 1.5 && (r.x1 as f32) <= hi.x + 1.5);
+    }
+
+    #[test]
+    fn clipped_box_footprint_is_finite_and_holds_the_front_part() {
+        let c = cam();
+        let vp = c.view_proj();
+        // Extends from behind the eye (z = 8) to in front of it (z = -3).
+        let b = Aabb::new(Vec3::new(1.0, -1.0, -3.0), Vec3::new(2.0, 1.0, 8.0));
+        assert_eq!(project_points(&b.corners(), &vp, 100, 50), Footprint::Straddles);
+        let r = project_box_clipped(&b.corners(), &vp, 100, 50).expect("part is in front");
+        assert!((r.z_near - 0.5).abs() < 1e-4, "nearest is the near plane: {}", r.z_near);
+        assert!((r.z_far - 8.0).abs() < 1e-4, "farthest corner at view depth 8: {}", r.z_far);
+        // Points of the box in front of the near plane project inside the rect.
+        for i in 0..=10 {
+            for k in 0..=40 {
+                let p = Vec3::new(1.0 + i as f32 / 10.0, 0.0, -3.0 + 11.0 * k as f32 / 40.0);
+                let q = vp * p.extend(1.0);
+                if q.z < 0.0 {
+                    continue;
+                }
+                let sx = (q.x / q.w * 0.5 + 0.5) * 100.0;
+                if !(0.0..100.0).contains(&sx) {
+                    continue; // off screen: the rect is clamped to the viewport
+                }
+                assert!(sx >= r.x0 as f32 - 0.5 && sx <= r.x1 as f32 + 0.5, "{sx} outside {r:?}");
+            }
+        }
+        let behind = Aabb::new(Vec3::new(-1.0, -1.0, 6.0), Vec3::new(1.0, 1.0, 7.0));
+        assert!(project_box_clipped(&behind.corners(), &vp, 100, 50).is_none());
     }
 }

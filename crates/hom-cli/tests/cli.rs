@@ -1,0 +1,98 @@
+//! The `hom` command as a user meets it: exit codes, messages, reports.
+
+use std::process::{Command, Output};
+
+fn hom(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hom"))
+        .args(args)
+        .output()
+        .expect("the hom binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Bad input: exit code 2, one line naming the problem, no panic or backtrace.
+fn assert_clean_failure(o: &Output, needle: &str) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(2), "stderr: {err}");
+    assert!(err.contains(needle), "expected '{needle}' in: {err}");
+    assert!(!err.contains("panicked") && !err.contains("RUST_BACKTRACE"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line expected: {err}");
+}
+
+#[test]
+fn unknown_scene_is_a_one_line_error() {
+    let o = hom(&["walk", "--scene", "no-such-scene", "--culler", "frustum"]);
+    assert_clean_failure(&o, "no-such-scene");
+}
+
+#[test]
+fn unknown_culler_names_the_choices() {
+    let o = hom(&["walk", "--scene", "spheres", "--culler", "magic", "--frames", "1"]);
+    assert_clean_failure(&o, "frustum");
+}
+
+#[test]
+fn absurd_viewport_and_frames_are_rejected() {
+    let o = hom(&["walk", "--scene", "spheres", "--width", "0"]);
+    assert_clean_failure(&o, "viewport");
+    let o = hom(&["walk", "--scene", "spheres", "--width", "100000"]);
+    assert_clean_failure(&o, "viewport");
+    let o = hom(&["walk", "--scene", "spheres", "--frames", "0"]);
+    assert_clean_failure(&o, "--frames");
+}
+
+#[test]
+fn malformed_camera_path_and_scene_files_are_rejected() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad_json = dir.join("path.json");
+    std::fs::write(&bad_json, "{\"frames\": [ {\"eye\": [0,0,0]} ]").unwrap();
+    let o = hom(&["walk", "--scene", "spheres", "--camera-path", bad_json.to_str().unwrap()]);
+    assert_clean_failure(&o, "path.json");
+    let nan_path = dir.join("nan.json");
+    std::fs::write(&nan_path, r#"{"frames":[{"eye":[0,0,0],"target":[0,0,0]}]}"#).unwrap();
+    let o = hom(&["walk", "--scene", "spheres", "--camera-path", nan_path.to_str().unwrap()]);
+    assert_clean_failure(&o, "frame 0");
+    let missing = dir.join("missing.obj");
+    let o = hom(&["scene", "info", "--scene", missing.to_str().unwrap()]);
+    assert_clean_failure(&o, "missing.obj");
+    let bad_obj = dir.join("bad.obj");
+    std::fs::write(&bad_obj, "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let o = hom(&["scene", "info", "--scene", bad_obj.to_str().unwrap()]);
+    assert_clean_failure(&o, "bad.obj");
+    let empty = dir.join("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let o = hom(&["scene", "info", "--scene", empty.to_str().unwrap()]);
+    assert_clean_failure(&o, "empty.obj");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn walk_report_has_header_frames_and_summary_with_no_false_culls() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-walk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = dir.join("r.jsonl");
+    let o = hom(&[
+        "walk", "--scene", "spheres", "--culler", "frustum", "--oracle", "--frames", "6", "--width", "160", "--height", "120",
+        "--report", report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&report).unwrap();
+    let lines: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 8);
+    assert_eq!(lines[0]["type"], "header");
+    assert_eq!(lines[0]["culler"], "frustum");
+    assert_eq!(lines[0]["width"], 160);
+    for f in &lines[1..7] {
+        assert_eq!(f["type"], "frame");
+        assert_eq!(f["false_culls"].as_array().unwrap().len(), 0);
+        assert_eq!(f["view_proj"].as_array().unwrap().len(), 16);
+        assert!(!f["oracle_visible"].as_array().unwrap().is_empty());
+    }
+    assert_eq!(lines[7]["type"], "summary");
+    assert_eq!(lines[7]["false_culls"], 0);
+    std::fs::remove_dir_all(&dir).ok();
+}

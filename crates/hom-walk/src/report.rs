@@ -1,0 +1,193 @@
+//! Walkthrough report records: one JSON object per line — a header, one line
+//! per frame, then a summary. Field names are a stable contract: add, never rename.
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::io::Write;
+
+/// First line: what was walked, with what.
+#[derive(Clone, Debug, Serialize)]
+pub struct Header {
+    /// Always `"header"`.
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    /// Scene name.
+    pub scene: String,
+    /// Number of objects.
+    pub objects: usize,
+    /// Number of triangles (all objects).
+    pub triangles: u64,
+    /// Number of dynamic objects.
+    pub dynamic_objects: usize,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Frames walked.
+    pub frames: usize,
+    /// Culler name.
+    pub culler: String,
+    /// Culler configuration.
+    pub config: BTreeMap<String, String>,
+    /// Renderer threads.
+    pub render_threads: usize,
+    /// Whether the oracle ran.
+    pub oracle: bool,
+}
+
+impl Header {
+    /// The header of a walk of `frames` frames of `path` through `scene` with `culler`.
+    pub fn new(
+        scene: &hom::scene::Scene,
+        path: &hom_scene::CameraPath,
+        culler: &dyn hom::cull::Culler,
+        render_threads: usize,
+        frames: usize,
+        oracle: bool,
+    ) -> Header {
+        Header {
+            kind: "header",
+            scene: scene.name().to_string(),
+            objects: scene.objects().len(),
+            triangles: scene.triangle_count(),
+            dynamic_objects: scene.dynamic_count(),
+            width: path.width,
+            height: path.height,
+            frames,
+            culler: culler.name().to_string(),
+            config: culler.config().into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+            render_threads,
+            oracle,
+        }
+    }
+}
+
+/// What the oracle found for one frame.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct OracleFrame {
+    /// Sorted ids of objects owning at least one pixel.
+    pub oracle_visible: Vec<u32>,
+    /// Sorted ids culled by the culler (either reason) that own at least one pixel.
+    pub false_culls: Vec<u32>,
+    /// Pixels owned by falsely culled objects (pixels wrong in the image).
+    pub false_cull_pixels: u64,
+    /// Triangles of objects in the view frustum that own no pixel.
+    pub triangles_in_frustum_invisible: u64,
+    /// Culling efficiency this frame (`None` when nothing in the frustum is invisible).
+    pub efficiency: Option<f64>,
+    /// Milliseconds to render only the oracle's visible set.
+    pub oracle_set_render_ms: f64,
+}
+
+/// One frame.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    /// Always `"frame"`.
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    /// Frame index along the path.
+    pub frame: usize,
+    /// Scene time, seconds (moves dynamic objects).
+    pub time_s: f32,
+    /// World-to-clip matrix, column-major.
+    pub view_proj: [f32; 16],
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Sorted ids sent to the renderer.
+    pub visible: Vec<u32>,
+    /// Ids of this frame's occluders.
+    pub occluders: Vec<u32>,
+    /// Triangles sent to the renderer.
+    pub triangles_drawn: u64,
+    /// Objects culled by the view frustum.
+    pub objects_frustum_culled: u64,
+    /// Triangles culled by the view frustum.
+    pub triangles_frustum_culled: u64,
+    /// Objects culled as occluded.
+    pub objects_occlusion_culled: u64,
+    /// Triangles culled as occluded.
+    pub triangles_occlusion_culled: u64,
+    /// Per-stage milliseconds of the culler, then `cull` (their sum) and `render`.
+    pub stages_ms: BTreeMap<String, f64>,
+    /// Culling plus rendering, milliseconds.
+    pub frame_ms: f64,
+    /// Frustum-only culling plus rendering of the same frame, milliseconds (the baseline).
+    pub baseline_frame_ms: Option<f64>,
+    /// The culler's counters.
+    pub counters: BTreeMap<String, u64>,
+    /// Present where the oracle ran.
+    #[serde(flatten)]
+    pub oracle: Option<OracleFrame>,
+}
+
+/// Last line: medians and ratios over the walk.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Summary {
+    /// Always `"summary"`.
+    #[serde(rename = "type")]
+    pub kind: &'static str,
+    /// Frames walked.
+    pub frames: usize,
+    /// Median milliseconds of each stage.
+    pub median_stage_ms: BTreeMap<String, f64>,
+    /// Median frame time (cull + render), milliseconds.
+    pub median_frame_ms: f64,
+    /// Median frustum-only frame time, milliseconds.
+    pub median_baseline_frame_ms: Option<f64>,
+    /// Median oracle-visible-set render time, milliseconds.
+    pub median_oracle_set_ms: Option<f64>,
+    /// Summed baseline frame time ÷ summed frame time.
+    pub speedup: Option<f64>,
+    /// Summed baseline frame time ÷ summed oracle-set render time.
+    pub oracle_speedup: Option<f64>,
+    /// Median percentage of all triangles culled (frustum or occlusion).
+    pub median_pct_triangles_culled: f64,
+    /// Median percentage of all triangles culled as occluded.
+    pub median_pct_occlusion_culled: f64,
+    /// Median triangles drawn per frame.
+    pub median_triangles_drawn: f64,
+    /// Falsely culled objects, summed over frames.
+    pub false_culls: Option<u64>,
+    /// Frames with at least one false cull.
+    pub frames_with_false_culls: Option<u64>,
+    /// Pixels owned by falsely culled objects, summed over frames.
+    pub false_cull_pixels: Option<u64>,
+    /// Summed occlusion-culled triangles ÷ summed in-frustum invisible triangles.
+    pub efficiency: Option<f64>,
+}
+
+/// Median of a list (mean of the middle two for an even count); 0 for none.
+pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) * 0.5
+    }
+}
+
+/// Writes one record as a JSON line.
+pub fn write_line(out: &mut impl Write, record: &impl Serialize) -> std::io::Result<()> {
+    serde_json::to_writer(&mut *out, record)?;
+    out.write_all(b"\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_even_and_empty() {
+        assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median([4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median([]), 0.0);
+        assert_eq!(median([f64::NAN, 5.0]), 5.0);
+    }
+}

@@ -1,0 +1,241 @@
+//! The walkthrough loop.
+
+use crate::report::{median, FrameRecord, Header, OracleFrame, Summary};
+use hom::cull::{CullError, CullOutput, Culler, FrustumCuller};
+use hom::geom::{Containment, Frustum};
+use hom::scene::Scene;
+use hom_render::{Framebuffer, RenderOptions, Renderer};
+use hom_scene::CameraPath;
+use std::collections::BTreeMap;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Why a walkthrough stopped.
+#[derive(Debug, Error)]
+pub enum WalkError {
+    /// The culler refused a frame.
+    #[error("frame {frame}: {source}")]
+    Cull {
+        /// Frame index.
+        frame: usize,
+        /// Cause.
+        source: CullError,
+    },
+    /// The path's frames do not make valid cameras.
+    #[error(transparent)]
+    Path(#[from] hom_scene::CameraPathError),
+}
+
+/// How to walk.
+#[derive(Clone, Debug)]
+pub struct WalkOptions {
+    /// Walk only the first `n` frames of the path (all when `None`).
+    pub frames: Option<usize>,
+    /// Run the oracle every frame (a full item-buffer render): false culls, efficiency.
+    pub oracle: bool,
+    /// Also time frustum-only culling and rendering of every frame, for the speedup.
+    pub baseline: bool,
+    /// Frames per second of scene time (moves dynamic objects).
+    pub frame_rate: f32,
+}
+
+impl Default for WalkOptions {
+    fn default() -> Self {
+        WalkOptions {
+            frames: None,
+            oracle: false,
+            baseline: true,
+            frame_rate: 30.0,
+        }
+    }
+}
+
+impl WalkOptions {
+    /// How many frames of `path` these options walk.
+    pub fn frame_count(&self, path: &CameraPath) -> usize {
+        self.frames.unwrap_or(usize::MAX).min(path.frames.len())
+    }
+}
+
+/// Everything a walk measured.
+#[derive(Clone, Debug)]
+pub struct WalkResult {
+    /// The report header.
+    pub header: Header,
+    /// One record per frame.
+    pub frames: Vec<FrameRecord>,
+    /// Medians and ratios.
+    pub summary: Summary,
+}
+
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// Walks `path` through `scene` with `culler`, rendering with `renderer`.
+/// `on_frame` sees each record as it is made (for progress and streaming reports).
+pub fn walk(
+    scene: &mut Scene,
+    path: &CameraPath,
+    culler: &mut dyn Culler,
+    renderer: &Renderer,
+    options: &WalkOptions,
+    mut on_frame: impl FnMut(&FrameRecord),
+) -> Result<WalkResult, WalkError> {
+    path.validate(scene.name())?;
+    let frame_count = options.frame_count(path);
+    let header = Header::new(scene, path, culler, renderer.threads(), frame_count, options.oracle);
+    // The frustum culler is its own baseline: time it once.
+    let mut baseline = (options.baseline && culler.name() != "frustum").then(|| FrustumCuller::new(scene));
+    let mut fb = Framebuffer::new(path.width, path.height);
+    let mut out = CullOutput::default();
+    let mut base_out = CullOutput::default();
+    let draw = RenderOptions::default();
+    let mut frames = Vec::with_capacity(frame_count);
+    for i in 0..frame_count {
+        let time_s = i as f32 / options.frame_rate;
+        scene.set_time(time_s);
+        let camera = path.camera(i);
+        culler
+            .cull(scene, &camera, &mut out)
+            .map_err(|source| WalkError::Cull { frame: i, source })?;
+        let cull_ms = out.total_ms();
+        let start = Instant::now();
+        renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
+        let render_ms = ms_since(start);
+        let frame_ms = cull_ms + render_ms;
+
+        let baseline_frame_ms = match baseline.as_mut() {
+            Some(b) => {
+                b.cull(scene, &camera, &mut base_out)
+                    .map_err(|source| WalkError::Cull { frame: i, source })?;
+                let start = Instant::now();
+                renderer.render(scene, &base_out.visible, &camera, &draw, &mut fb);
+                Some(base_out.total_ms() + ms_since(start))
+            }
+            None if options.baseline => Some(frame_ms),
+            None => None,
+        };
+
+        let objects = scene.objects();
+        let tris = |ids: &[u32]| ids.iter().map(|&id| objects[id as usize].triangles as u64).sum::<u64>();
+        let triangles_drawn = tris(&out.visible);
+        let triangles_occlusion_culled = tris(&out.occluded);
+        let objects_frustum_culled = (objects.len() - out.visible.len() - out.occluded.len()) as u64;
+        let triangles_frustum_culled = scene.triangle_count() - triangles_drawn - triangles_occlusion_culled;
+
+        let oracle = options.oracle.then(|| {
+            let counts = hom_render::oracle_pixel_counts(renderer, scene, &camera, &mut fb);
+            let oracle_visible: Vec<u32> = (0..objects.len() as u32).filter(|&id| counts[id as usize] > 0).collect();
+            let mut kept = vec![false; objects.len()];
+            for &id in &out.visible {
+                kept[id as usize] = true;
+            }
+            let false_culls: Vec<u32> = oracle_visible.iter().copied().filter(|&id| !kept[id as usize]).collect();
+            let false_cull_pixels = false_culls.iter().map(|&id| counts[id as usize] as u64).sum();
+            let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("validated camera");
+            let triangles_in_frustum_invisible = objects
+                .iter()
+                .zip(&counts)
+                .filter(|(o, &c)| c == 0 && frustum.test_aabb(&o.aabb) != Containment::Outside)
+                .map(|(o, _)| o.triangles as u64)
+                .sum();
+            let start = Instant::now();
+            renderer.render(scene, &oracle_visible, &camera, &draw, &mut fb);
+            let oracle_set_render_ms = ms_since(start);
+            OracleFrame {
+                efficiency: (triangles_in_frustum_invisible > 0)
+                    .then(|| triangles_occlusion_culled as f64 / triangles_in_frustum_invisible as f64),
+                oracle_visible,
+                false_culls,
+                false_cull_pixels,
+                triangles_in_frustum_invisible,
+                oracle_set_render_ms,
+            }
+        });
+
+        let mut stages_ms: BTreeMap<String, f64> = BTreeMap::new();
+        for (name, ms) in &out.stages {
+            *stages_ms.entry(name.to_string()).or_default() += ms;
+        }
+        stages_ms.insert("cull".into(), cull_ms);
+        stages_ms.insert("render".into(), render_ms);
+        let record = FrameRecord {
+            kind: "frame",
+            frame: i,
+            time_s,
+            view_proj: camera.view_proj().to_cols_array(),
+            width: camera.width,
+            height: camera.height,
+            visible: out.visible.clone(),
+            occluders: out.occluders.clone(),
+            triangles_drawn,
+            objects_frustum_culled,
+            triangles_frustum_culled,
+            objects_occlusion_culled: out.occluded.len() as u64,
+            triangles_occlusion_culled,
+            stages_ms,
+            frame_ms,
+            baseline_frame_ms,
+            counters: out.counters.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            oracle,
+        };
+        on_frame(&record);
+        frames.push(record);
+    }
+    let summary = summarize(&frames, scene.triangle_count());
+    Ok(WalkResult {
+        header,
+        frames,
+        summary,
+    })
+}
+
+/// Medians and ratios over a walk's frames.
+pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
+    let mut stage_names: Vec<&String> = frames.iter().flat_map(|f| f.stages_ms.keys()).collect();
+    stage_names.sort();
+    stage_names.dedup();
+    let median_stage_ms = stage_names
+        .into_iter()
+        .map(|name| (name.clone(), median(frames.iter().filter_map(|f| f.stages_ms.get(name).copied()))))
+        .collect();
+    let total = total_triangles.max(1) as f64;
+    let sum_frame: f64 = frames.iter().map(|f| f.frame_ms).sum();
+    let baselines: Option<Vec<f64>> = frames.iter().map(|f| f.baseline_frame_ms).collect();
+    let oracles: Option<Vec<&crate::report::OracleFrame>> = frames.iter().map(|f| f.oracle.as_ref()).collect();
+    let oracles = oracles.filter(|o| !o.is_empty());
+    let sum_baseline = baselines.as_ref().map(|b| b.iter().sum::<f64>());
+    let sum_oracle_set = oracles.as_ref().map(|o| o.iter().map(|f| f.oracle_set_render_ms).sum::<f64>());
+    let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
+    };
+    Summary {
+        kind: "summary",
+        frames: frames.len(),
+        median_stage_ms,
+        median_frame_ms: median(frames.iter().map(|f| f.frame_ms)),
+        median_baseline_frame_ms: baselines.as_ref().map(|b| median(b.iter().copied())),
+        median_oracle_set_ms: oracles.as_ref().map(|o| median(o.iter().map(|f| f.oracle_set_render_ms))),
+        speedup: ratio(sum_baseline, Some(sum_frame)),
+        oracle_speedup: ratio(sum_baseline, sum_oracle_set),
+        median_pct_triangles_culled: median(
+            frames
+                .iter()
+                .map(|f| 100.0 * (f.triangles_frustum_culled + f.triangles_occlusion_culled) as f64 / total),
+        ),
+        median_pct_occlusion_culled: median(frames.iter().map(|f| 100.0 * f.triangles_occlusion_culled as f64 / total)),
+        median_triangles_drawn: median(frames.iter().map(|f| f.triangles_drawn as f64)),
+        false_culls: oracles.as_ref().map(|o| o.iter().map(|f| f.false_culls.len() as u64).sum()),
+        frames_with_false_culls: oracles
+            .as_ref()
+            .map(|o| o.iter().filter(|f| !f.false_culls.is_empty()).count() as u64),
+        false_cull_pixels: oracles.as_ref().map(|o| o.iter().map(|f| f.false_cull_pixels).sum()),
+        efficiency: oracles.as_ref().and_then(|o| {
+            let invisible: u64 = o.iter().map(|f| f.triangles_in_frustum_invisible).sum();
+            let culled: u64 = frames.iter().map(|f| f.triangles_occlusion_culled).sum();
+            (invisible > 0).then(|| culled as f64 / invisible as f64)
+        }),
+    }
+}

@@ -1,0 +1,251 @@
+//! The hierarchy of occlusion maps (Zhang et al. 1997, sections 4.1–4.2).
+//!
+//! Each pixel of level 0 stands for a `block × block` square of output
+//! samples; each level above averages 2×2 pixels of the one below, down to a
+//! minimum size. Opacity is kept as an exact *count of covered output samples*
+//! (opacity = count / samples per pixel), not as a float: averaging floats can
+//! round 0.99999994 up to 1.0 and make a pixel with a hole "opaque", while an
+//! integer sum is opaque exactly when every sample below it is covered.
+//!
+//! Samples outside the viewport (the ragged right and bottom edges when the
+//! viewport is not a multiple of the block, and the padding of odd-sized
+//! levels) count as covered: nothing drawn there can ever be seen, so this
+//! never hides a visible pixel, and it keeps objects at the screen edge cullable.
+
+/// One level of the pyramid.
+#[derive(Clone, Debug, Default)]
+pub struct Level {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Output samples each pixel stands for (`block² · 4^level`).
+    pub samples_per_pixel: u32,
+    /// Covered output samples per pixel, row-major, row 0 at the top.
+    pub counts: Vec<u32>,
+}
+
+impl Level {
+    /// Covered samples of pixel `(x, y)`.
+    ///
+    /// # Panics
+    /// If `(x, y)` is outside the level.
+    #[inline]
+    pub fn count(&self, x: u32, y: u32) -> u32 {
+        self.counts[(y * self.width + x) as usize]
+    }
+
+    /// Opacity of pixel `(x, y)` in `[0, 1]`.
+    pub fn opacity(&self, x: u32, y: u32) -> f32 {
+        self.count(x, y) as f32 / self.samples_per_pixel as f32
+    }
+}
+
+/// The occlusion map hierarchy; level 0 has the highest resolution.
+#[derive(Clone, Debug, Default)]
+pub struct Pyramid {
+    block: u32,
+    viewport: (u32, u32),
+    levels: Vec<Level>,
+}
+
+impl Pyramid {
+    /// An empty (all transparent) pyramid for a `width` × `height` viewport,
+    /// with base pixels of `block` × `block` samples, reduced until both sides
+    /// are at most `min_side` (or one pixel).
+    ///
+    /// # Panics
+    /// If `block` is 0 or above 64, or the viewport is empty.
+    pub fn new(width: u32, height: u32, block: u32, min_side: u32) -> Pyramid {
+        assert!((1..=64).contains(&block), "block must be 1..=64, got {block}");
+        assert!(width > 0 && height > 0, "viewport must not be empty");
+        let mut levels = Vec::new();
+        let (mut w, mut h) = (width.div_ceil(block), height.div_ceil(block));
+        let mut spp = block * block;
+        loop {
+            levels.push(Level {
+                width: w,
+                height: h,
+                samples_per_pixel: spp,
+                counts: vec![0; (w * h) as usize],
+            });
+            if (w <= min_side.max(1) && h <= min_side.max(1)) || (w == 1 && h == 1) {
+                break;
+            }
+            w = w.div_ceil(2);
+            h = h.div_ceil(2);
+            spp *= 4;
+        }
+        Pyramid {
+            block,
+            viewport: (width, height),
+            levels,
+        }
+    }
+
+    /// Output samples per base pixel side.
+    pub fn block(&self) -> u32 {
+        self.block
+    }
+
+    /// The output viewport (width, height) this pyramid covers.
+    pub fn viewport(&self) -> (u32, u32) {
+        self.viewport
+    }
+
+    /// The levels, base (highest resolution) first.
+    pub fn levels(&self) -> &[Level] {
+        &self.levels
+    }
+
+    /// Fills level 0 from a coverage bitmap at output resolution: `rows[y]`
+    /// holds `words_per_row` 64-bit words, bit `x % 64` of word `x / 64` set
+    /// when sample `(x, y)` is covered. Then builds the levels above.
+    ///
+    /// # Panics
+    /// If `coverage` is shorter than `height * words_per_row`, or a row is too short for the width.
+    pub fn build_from_coverage(&mut self, coverage: &[u64], words_per_row: usize) {
+        let (width, height) = self.viewport;
+        assert!(words_per_row * 64 >= width as usize, "coverage rows too short");
+        assert!(coverage.len() >= height as usize * words_per_row, "coverage too short");
+        let b = self.block;
+        let base = &mut self.levels[0];
+        for my in 0..base.height {
+            let y0 = my * b;
+            for mx in 0..base.width {
+                let x0 = mx * b;
+                // Samples past the viewport edge count as covered (see module docs).
+                let inside_w = b.min(width - x0);
+                let inside_h = b.min(height.saturating_sub(y0));
+                let mut count = base.samples_per_pixel - inside_w * inside_h;
+                for y in y0..y0 + inside_h {
+                    let row = &coverage[y as usize * words_per_row..][..words_per_row];
+                    count += count_bits(row, x0, inside_w);
+                }
+                base.counts[(my * base.width + mx) as usize] = count;
+            }
+        }
+        self.build_levels();
+    }
+
+    /// Rebuilds every level above the base from the base counts.
+    pub fn build_levels(&mut self) {
+        for k in 1..self.levels.len() {
+            let (lower, upper) = self.levels.split_at_mut(k);
+            reduce(&lower[k - 1], &mut upper[0]);
+        }
+    }
+
+    /// Mutable base level, for callers that fill it themselves (then call [`Pyramid::build_levels`]).
+    pub fn base_mut(&mut self) -> &mut Level {
+        &mut self.levels[0]
+    }
+}
+
+/// Set bits among `n` bits starting at bit `x0` of a row of words.
+#[inline]
+fn count_bits(row: &[u64], x0: u32, n: u32) -> u32 {
+    let mut count = 0;
+    let (mut x, end) = (x0, x0 + n);
+    while x < end {
+        let word = row[(x / 64) as usize];
+        let lo = x % 64;
+        let take = (64 - lo).min(end - x);
+        let mask = if take == 64 { u64::MAX } else { ((1u64 << take) - 1) << lo };
+        count += (word & mask).count_ones();
+        x += take;
+    }
+    count
+}
+
+/// One 2×2 reduction; children beyond the lower level's edge count as fully covered.
+fn reduce(lower: &Level, upper: &mut Level) {
+    let full = lower.samples_per_pixel;
+    let (lw, lh) = (lower.width, lower.height);
+    // Fast path: interior pixels whose four children all exist.
+    let (inner_w, inner_h) = (lw / 2, lh / 2);
+    for y in 0..inner_h {
+        let r0 = &lower.counts[(2 * y * lw) as usize..][..lw as usize];
+        let r1 = &lower.counts[((2 * y + 1) * lw) as usize..][..lw as usize];
+        let out = &mut upper.counts[(y * upper.width) as usize..][..inner_w as usize];
+        for (x, o) in out.iter_mut().enumerate() {
+            *o = r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1];
+        }
+    }
+    // Ragged right column and bottom row.
+    let child = |x: u32, y: u32| if x < lw && y < lh { lower.counts[(y * lw + x) as usize] } else { full };
+    for y in 0..upper.height {
+        let xs = if y < inner_h { inner_w..upper.width } else { 0..upper.width };
+        for x in xs {
+            upper.counts[(y * upper.width + x) as usize] =
+                child(2 * x, 2 * y) + child(2 * x + 1, 2 * y) + child(2 * x, 2 * y + 1) + child(2 * x + 1, 2 * y + 1);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Brute force: a level-k pixel's count is the number of covered samples in
+    /// its square, with samples outside the viewport counted as covered.
+    fn brute_count(cov: &[Vec<bool>], width: u32, height: u32, size: u32, x: u32, y: u32) -> u32 {
+        let mut n = 0;
+        for sy in y * size..(y + 1) * size {
+            for sx in x * size..(x + 1) * size {
+                if sx >= width || sy >= height || cov[sy as usize][sx as usize] {
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+
+    proptest! {
+        #[test]
+        fn pyramid_equals_brute_force_averaging(
+            width in 1u32..70, height in 1u32..70, block in 1u32..6, min_side in 1u32..5, seed in any::<u64>(), density in 0.0f64..1.0
+        ) {
+            let mut state = seed | 1;
+            let mut rnd = || { state ^= state << 13; state ^= state >> 7; state ^= state << 17; (state >> 11) as f64 / (1u64 << 53) as f64 };
+            let cov: Vec<Vec<bool>> = (0..height).map(|_| (0..width).map(|_| rnd() < density).collect()).collect();
+            let wpr = (width as usize).div_ceil(64);
+            let mut bits = vec![0u64; wpr * height as usize];
+            for y in 0..height as usize {
+                for x in 0..width as usize {
+                    if cov[y][x] { bits[y * wpr + x / 64] |= 1 << (x % 64); }
+                }
+            }
+            let mut p = Pyramid::new(width, height, block, min_side);
+            p.build_from_coverage(&bits, wpr);
+            for (k, level) in p.levels().iter().enumerate() {
+                let size = block << k;
+                prop_assert_eq!(level.samples_per_pixel, size * size);
+                for y in 0..level.height {
+                    for x in 0..level.width {
+                        prop_assert_eq!(level.count(x, y), brute_count(&cov, width, height, size, x, y), "level {} pixel {},{}", k, x, y);
+                    }
+                }
+            }
+            let top = p.levels().last().unwrap();
+            prop_assert!((top.width <= min_side && top.height <= min_side) || (top.width == 1 && top.height == 1));
+        }
+    }
+
+    #[test]
+    fn one_hole_keeps_every_ancestor_below_full() {
+        let (w, h) = (256u32, 256u32);
+        let wpr = 4;
+        let mut bits = vec![u64::MAX; wpr * h as usize];
+        bits[100 * wpr + 1] &= !(1 << 7); // sample (71, 100) uncovered
+        let mut p = Pyramid::new(w, h, 4, 4);
+        p.build_from_coverage(&bits, wpr);
+        for (k, level) in p.levels().iter().enumerate() {
+            let size = 4 << k;
+            let (x, y) = (71 / size, 100 / size);
+            assert_eq!(level.count(x, y), level.samples_per_pixel - 1, "level {k}");
+        }
+        assert_eq!(p.levels().len(), 5, "64, 32, 16, 8, 4");
+    }
+}
