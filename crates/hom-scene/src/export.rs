@@ -55,11 +55,7 @@ pub fn write_obj_to(scene: &Scene, mut writer: impl Write) -> io::Result<()> {
     let mut base: u64 = 1;
     for (id, object) in scene.objects().iter().enumerate() {
         let mesh = scene.mesh_of(object);
-        writeln!(
-            writer,
-            "o {}",
-            sanitise(&object.name, &format!("object_{id}"))
-        )?;
+        writeln!(writer, "o {}", sanitise(&object.name, &format!("object_{id}")))?;
         for &p in mesh.positions() {
             let w = object.transform.transform_point3(p);
             if !w.is_finite() {

@@ -1,7 +1,8 @@
 //! glTF 2.0 loading (`.gltf` with external `.bin` buffers or `data:` URIs, and `.glb`).
 //!
 //! One object per node that has a mesh, in the order of a depth-first walk of the
-//! default scene's node tree (or of every scene, in order, when there is no default).
+//! default scene's node tree (or of every scene, in order, when there is no default; or
+//! of every root node when the file has no scenes at all).
 //! The object's transform is the node's world matrix (parent transforms accumulated);
 //! nodes instancing the same glTF mesh share one hom mesh. All primitives of a mesh with
 //! mode `TRIANGLES` are merged into that mesh; other modes are skipped, and a mesh with no
@@ -49,7 +50,11 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
     };
 
     check_glb_header(&bytes).map_err(&malformed)?;
-    let gltf = Gltf::from_slice(&bytes).map_err(|e| malformed(format!("invalid glTF: {e}")))?;
+    let gltf = Gltf::from_slice(&bytes).map_err(|e| match e {
+        // Already says "invalid glTF: path: problem; …".
+        ::gltf::Error::Validation(_) => malformed(e.to_string()),
+        _ => malformed(format!("invalid glTF: {e}")),
+    })?;
     drop(bytes);
     let Gltf { document, blob } = gltf;
     let buffers = ::gltf::import_buffers(&document, Some(base), blob)
@@ -78,12 +83,7 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
 }
 
 /// Builds the scene from a parsed document and its loaded buffers.
-fn convert(
-    document: &Document,
-    buffers: &[&[u8]],
-    label: &str,
-    stem: &str,
-) -> Result<Scene, LoadError> {
+fn convert(document: &Document, buffers: &[&[u8]], label: &str, stem: &str) -> Result<Scene, LoadError> {
     let scene_error = |source| LoadError::Scene {
         path: label.to_owned(),
         source,
@@ -102,21 +102,25 @@ fn convert(
     let mut mesh_ids: Vec<Option<Option<MeshId>>> = vec![None; document.meshes().len()];
     let roots: Vec<Vec<usize>> = match document.default_scene() {
         Some(scene) => vec![scene.nodes().map(|n| n.index()).collect()],
-        None => document
+        None if document.scenes().len() > 0 => document
             .scenes()
             .map(|s| s.nodes().map(|n| n.index()).collect())
             .collect(),
+        None => {
+            // No scenes at all: every node that is nobody's child is a root.
+            let mut is_child = vec![false; document.nodes().len()];
+            for child in document.nodes().flat_map(|n| n.children()) {
+                is_child[child.index()] = true;
+            }
+            vec![(0..is_child.len()).filter(|&i| !is_child[i]).collect()]
+        }
     };
     let nodes: Vec<::gltf::Node> = document.nodes().collect();
 
     for scene_roots in roots {
         let mut visited = vec![false; nodes.len()];
         // Depth-first, in document order, without recursion (deep trees cannot overflow).
-        let mut stack: Vec<(usize, Mat4)> = scene_roots
-            .iter()
-            .rev()
-            .map(|&n| (n, Mat4::IDENTITY))
-            .collect();
+        let mut stack: Vec<(usize, Mat4)> = scene_roots.iter().rev().map(|&n| (n, Mat4::IDENTITY)).collect();
         while let Some((index, parent)) = stack.pop() {
             let Some(node) = nodes.get(index) else {
                 return Err(malformed(format!("node {index} does not exist")));
@@ -141,8 +145,7 @@ fn convert(
                                     .name()
                                     .map(str::to_owned)
                                     .unwrap_or_else(|| format!("mesh {}", mesh.index()));
-                                let m =
-                                    Mesh::new(name, positions, triangles).map_err(scene_error)?;
+                                let m = Mesh::new(name, positions, triangles).map_err(scene_error)?;
                                 Some(builder.add_mesh(m))
                             }
                             None => None,
@@ -166,9 +169,7 @@ fn convert(
         }
     }
     if builder.object_count() == 0 {
-        return Err(scene_error(SceneError::EmptyScene {
-            scene: stem.to_owned(),
-        }));
+        return Err(scene_error(SceneError::EmptyScene { scene: stem.to_owned() }));
     }
     builder.build().map_err(scene_error)
 }
@@ -190,10 +191,7 @@ fn convert_mesh(
         let Some(accessor) = primitive.get(&Semantic::Positions) else {
             continue;
         };
-        if accessor.data_type() != DataType::F32
-            || accessor.dimensions() != Dimensions::Vec3
-            || accessor.normalized()
-        {
+        if accessor.data_type() != DataType::F32 || accessor.dimensions() != Dimensions::Vec3 || accessor.normalized() {
             return Err(format!(
                 "primitive {p}: POSITION accessor {} must be VEC3 of FLOAT",
                 accessor.index()
@@ -213,9 +211,7 @@ fn convert_mesh(
                 let decode: fn(&[u8]) -> u32 = match (acc.data_type(), acc.dimensions()) {
                     (DataType::U8, Dimensions::Scalar) => |b| u32::from(b[0]),
                     (DataType::U16, Dimensions::Scalar) => |b| u32::from(u16::from_le_bytes([b[0], b[1]])),
-                    (DataType::U32, Dimensions::Scalar) => {
-                        |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])
-                    }
+                    (DataType::U32, Dimensions::Scalar) => |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
                     _ => {
                         return Err(format!(
                             "primitive {p}: index accessor {} must be SCALAR of unsigned integers",
@@ -227,7 +223,7 @@ fn convert_mesh(
                     .map_err(|m| format!("primitive {p}: index accessor {}: {m}", acc.index()))?;
                 if let Some((k, &i)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
                     return Err(format!(
-                        "primitive {p}: index {k} is {i}, but POSITION has only {n} vertices"
+                        "primitive {p}: index {k} has value {i}, but POSITION has only {n} vertices"
                     ));
                 }
                 indices
@@ -244,11 +240,7 @@ fn convert_mesh(
             return Err(format!("too many vertices ({})", base + n));
         }
         let base = base as u32;
-        triangles.extend(
-            indices
-                .chunks_exact(3)
-                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
-        );
+        triangles.extend(indices.chunks_exact(3).map(|t| [t[0] + base, t[1] + base, t[2] + base]));
         positions.extend(prim_positions);
     }
     Ok(if triangles.is_empty() {
@@ -336,9 +328,7 @@ fn read_accessor<T: Copy + Default>(
     if let Some(sparse) = accessor.sparse() {
         let n = sparse.count();
         if n > count {
-            return Err(format!(
-                "sparse count {n} is larger than the accessor count {count}"
-            ));
+            return Err(format!("sparse count {n} is larger than the accessor count {count}"));
         }
         let indices = sparse.indices();
         let (index_size, index_decode): (usize, fn(&[u8]) -> usize) = match indices.index_type() {
@@ -353,9 +343,9 @@ fn read_accessor<T: Copy + Default>(
         let values = elements(value_data, values.offset(), n, size, size)?;
         for (target, value) in targets.zip(values) {
             let target = index_decode(target);
-            let slot = out.get_mut(target).ok_or_else(|| {
-                format!("sparse index {target} is out of range (count {count})")
-            })?;
+            let slot = out
+                .get_mut(target)
+                .ok_or_else(|| format!("sparse index {target} is out of range (count {count})"))?;
             *slot = decode(value);
         }
     }

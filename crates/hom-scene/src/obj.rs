@@ -74,8 +74,7 @@ fn malformed(label: &str, line: usize, message: impl Into<String>) -> LoadError 
 
 /// Tokens of a line, split on ASCII whitespace.
 fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(|b| b.is_ascii_whitespace())
-        .filter(|t| !t.is_empty())
+    line.split(|b| b.is_ascii_whitespace()).filter(|t| !t.is_empty())
 }
 
 /// A token for an error message (shortened, lossy UTF-8).
@@ -95,22 +94,13 @@ fn parse_f32(token: &[u8]) -> Option<f32> {
 
 /// The text after the keyword, trimmed, as a (lossy) UTF-8 name.
 fn rest_name(line: &[u8], keyword_len: usize) -> String {
-    let start = line
-        .iter()
-        .position(|b| !b.is_ascii_whitespace())
-        .unwrap_or(line.len());
+    let start = line.iter().position(|b| !b.is_ascii_whitespace()).unwrap_or(line.len());
     let rest = &line[(start + keyword_len).min(line.len())..];
     String::from_utf8_lossy(rest).trim().to_owned()
 }
 
 /// Resolves one OBJ index (1-based, or negative relative) against `count` declared items.
-fn resolve(
-    token: &[u8],
-    count: usize,
-    what: &str,
-    label: &str,
-    line: usize,
-) -> Result<u32, LoadError> {
+fn resolve(token: &[u8], count: usize, what: &str, label: &str, line: usize) -> Result<u32, LoadError> {
     let value = std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse::<i64>().ok())
@@ -176,11 +166,7 @@ fn scan(bytes: &[u8], label: &str, stem: &str) -> Result<Parsed, LoadError> {
     for (i, line) in lines().enumerate() {
         let n = i + 1;
         if line.contains(&0) {
-            return Err(malformed(
-                label,
-                n,
-                "contains a NUL byte; this is not an OBJ text file",
-            ));
+            return Err(malformed(label, n, "contains a NUL byte; this is not an OBJ text file"));
         }
         let mut words = tokens(line);
         let Some(keyword) = words.next() else {
@@ -193,9 +179,8 @@ fn scan(bytes: &[u8], label: &str, stem: &str) -> Result<Parsed, LoadError> {
                     let Some(t) = words.next() else {
                         return Err(malformed(label, n, "vertex needs 3 coordinates"));
                     };
-                    let v = parse_f32(t).ok_or_else(|| {
-                        malformed(label, n, format!("malformed number '{}'", show(t)))
-                    })?;
+                    let v =
+                        parse_f32(t).ok_or_else(|| malformed(label, n, format!("malformed number '{}'", show(t))))?;
                     if !v.is_finite() {
                         return Err(malformed(
                             label,
@@ -211,9 +196,8 @@ fn scan(bytes: &[u8], label: &str, stem: &str) -> Result<Parsed, LoadError> {
                 }
                 let mut extra_values = [0.0f32; 4];
                 for (slot, t) in extra_values.iter_mut().zip(&extra) {
-                    *slot = parse_f32(t).ok_or_else(|| {
-                        malformed(label, n, format!("malformed number '{}'", show(t)))
-                    })?;
+                    *slot =
+                        parse_f32(t).ok_or_else(|| malformed(label, n, format!("malformed number '{}'", show(t))))?;
                 }
                 let mut p = Vec3::from(xyz);
                 if extra.len() == 1 {
@@ -302,9 +286,7 @@ fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
     };
     let mut builder = SceneBuilder::new(stem);
     if parsed.groups.is_empty() {
-        return Err(scene_error(SceneError::EmptyScene {
-            scene: stem.to_owned(),
-        }));
+        return Err(scene_error(SceneError::EmptyScene { scene: stem.to_owned() }));
     }
 
     // A normalised OBJ: absolute indices, positions only, one `o` per group, so tobj's
@@ -329,6 +311,8 @@ fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
         }
     }
     drop(parsed.positions);
+    // The update keeps this compiling if tobj's optional features add fields.
+    #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
         single_index: false,
         triangulate: true,
@@ -369,20 +353,13 @@ fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
             .chunks_exact(3)
             .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect();
-        let triangles: Vec<[u32; 3]> = model
-            .mesh
-            .indices
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect();
+        let triangles: Vec<[u32; 3]> = model.mesh.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         if triangles.is_empty() {
             continue;
         }
         let mesh = Mesh::new(name.clone(), positions, triangles).map_err(scene_error)?;
         let mesh = builder.add_mesh(mesh);
-        builder
-            .add_object(name, mesh, Mat4::IDENTITY)
-            .map_err(scene_error)?;
+        builder.add_object(name, mesh, Mat4::IDENTITY).map_err(scene_error)?;
     }
     builder.build().map_err(scene_error)
 }

@@ -57,9 +57,8 @@ fn base64(bytes: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut s = String::new();
     for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
+        let n =
+            (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
         for k in 0..4 {
             if k <= c.len() {
                 s.push(A[(n >> (18 - 6 * k)) as usize & 63] as char);
@@ -102,11 +101,7 @@ fn arb_scene() -> impl Strategy<Value = Scene> {
                 t.into_iter().map(|(a, b, c)| [a, b, c]).collect::<Vec<_>>(),
             )
         });
-    let name = prop_oneof![
-        "[a-zA-Z0-9_.-]{1,8}",
-        "[a-z]{1,4} [a-z]{1,4}",
-        Just(String::new()),
-    ];
+    let name = prop_oneof!["[a-zA-Z0-9_.-]{1,8}", "[a-z]{1,4} [a-z]{1,4}", Just(String::new()),];
     let object = (
         name,
         0usize..4,
@@ -114,27 +109,22 @@ fn arb_scene() -> impl Strategy<Value = Scene> {
         (0.25f32..4.0, 0.25f32..4.0, 0.25f32..4.0),
         (-500.0f32..500.0, -500.0f32..500.0, -500.0f32..500.0),
     );
-    (
-        prop::collection::vec(mesh, 1..4),
-        prop::collection::vec(object, 1..7),
-    )
-        .prop_map(|(meshes, objects)| {
-            let mut b = SceneBuilder::new("random");
-            for (k, (p, t)) in meshes.iter().enumerate() {
-                b.add_mesh(Mesh::new(format!("m{k}"), p.clone(), t.clone()).unwrap());
-            }
-            for (name, mesh, (ax, ay, az, angle), (sx, sy, sz), (tx, ty, tz)) in objects {
-                let axis = Vec3::new(ax, ay, az).try_normalize().unwrap_or(Vec3::Y);
-                let transform = Mat4::from_scale_rotation_translation(
-                    Vec3::new(sx, sy, sz),
-                    Quat::from_axis_angle(axis, angle),
-                    Vec3::new(tx, ty, tz),
-                );
-                b.add_object(name, (mesh % meshes.len()) as u32, transform)
-                    .unwrap();
-            }
-            b.build().unwrap()
-        })
+    (prop::collection::vec(mesh, 1..4), prop::collection::vec(object, 1..7)).prop_map(|(meshes, objects)| {
+        let mut b = SceneBuilder::new("random");
+        for (k, (p, t)) in meshes.iter().enumerate() {
+            b.add_mesh(Mesh::new(format!("m{k}"), p.clone(), t.clone()).unwrap());
+        }
+        for (name, mesh, (ax, ay, az, angle), (sx, sy, sz), (tx, ty, tz)) in objects {
+            let axis = Vec3::new(ax, ay, az).try_normalize().unwrap_or(Vec3::Y);
+            let transform = Mat4::from_scale_rotation_translation(
+                Vec3::new(sx, sy, sz),
+                Quat::from_axis_angle(axis, angle),
+                Vec3::new(tx, ty, tz),
+            );
+            b.add_object(name, (mesh % meshes.len()) as u32, transform).unwrap();
+        }
+        b.build().unwrap()
+    })
 }
 
 fn expected_name(name: &str, id: usize) -> String {
@@ -208,9 +198,7 @@ fn export_failure_keeps_existing_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "keep.obj", b"precious");
     let mut b = SceneBuilder::new("s");
-    let m = b.add_mesh(
-        Mesh::new("tri", vec![Vec3::ZERO, Vec3::X * 1e10, Vec3::Y], vec![[0, 1, 2]]).unwrap(),
-    );
+    let m = b.add_mesh(Mesh::new("tri", vec![Vec3::ZERO, Vec3::X * 1e10, Vec3::Y], vec![[0, 1, 2]]).unwrap());
     // Finite and invertible, but a vertex overflows to infinity in world space.
     b.add_object("huge", m, Mat4::from_scale(Vec3::new(1e30, 1e-30, 1.0)))
         .unwrap();
@@ -218,7 +206,11 @@ fn export_failure_keeps_existing_file() {
     let err = export::write_obj(&scene, &path).unwrap_err();
     assert!(matches!(err, LoadError::Io { .. }), "{err}");
     assert_eq!(std::fs::read(&path).unwrap(), b"precious");
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "temporary file left behind");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "temporary file left behind"
+    );
     // A directory that does not exist: an I/O error naming the file.
     let missing = dir.path().join("no such dir").join("x.obj");
     let err = export::write_obj(&scene, &missing).unwrap_err();
@@ -294,7 +286,8 @@ fn obj_polygons_are_fan_triangulated_and_degenerate_faces_ignored() {
 
 #[test]
 fn obj_crlf_comments_and_non_utf8_names() {
-    let mut bytes = b"# \xff\xfe comment\r\nv 0 0 0 # trailing\r\nv 1 0 0\r\nv 0 1 0\r\no caf\xe9\r\nf 1 2 3\r\n".to_vec();
+    let mut bytes =
+        b"# \xff\xfe comment\r\nv 0 0 0 # trailing\r\nv 1 0 0\r\nv 0 1 0\r\no caf\xe9\r\nf 1 2 3\r\n".to_vec();
     bytes.extend_from_slice(b"\t\n");
     let s = obj::parse(&bytes, Path::new("x.obj")).unwrap();
     assert_eq!(names(&s), ["caf\u{fffd}"]);
@@ -339,7 +332,6 @@ fn obj_index_out_of_range_is_an_error_naming_the_line() {
     for (text, line) in cases {
         let err = load_obj_text(text).unwrap_err();
         assert_eq!(malformed_line(&err), Some(line), "{text:?}: {err}");
-        eprintln!("DBG {err}");
     }
     let err = load_obj_text(cases[0].0).unwrap_err().to_string();
     assert!(err.contains("vertex 4") && err.contains("only 3"), "{err}");
@@ -359,7 +351,6 @@ fn obj_malformed_numbers_are_errors_naming_the_line() {
     for (text, line) in cases {
         let err = load_obj_text(text).unwrap_err();
         assert_eq!(malformed_line(&err), Some(line), "{text:?}: {err}");
-        eprintln!("DBG {err}");
     }
 }
 
@@ -368,7 +359,13 @@ fn obj_empty_inputs_are_errors() {
     for text in ["", "\n\n", "# only a comment\n", "v 0 0 0\nv 1 0 0\n", "o a\ng b\n"] {
         let err = load_obj_text(text).unwrap_err();
         assert!(
-            matches!(err, LoadError::Scene { source: SceneError::EmptyScene { .. }, .. }),
+            matches!(
+                err,
+                LoadError::Scene {
+                    source: SceneError::EmptyScene { .. },
+                    ..
+                }
+            ),
             "{text:?}: {err}"
         );
     }
@@ -599,6 +596,10 @@ fn gltf_without_default_scene_walks_all_scenes_and_names_fall_back() {
     let s = load_gltf_doc(dir.path(), "all.gltf", &doc).unwrap();
     assert_eq!(names(&s), ["left", "node 2", "node 4"]);
     assert_eq!(s.meshes().len(), 1);
+    // No scenes at all: every root node is walked.
+    doc.as_object_mut().unwrap().remove("scenes");
+    let s = load_gltf_doc(dir.path(), "none.gltf", &doc).unwrap();
+    assert_eq!(names(&s), ["left", "node 2", "node 4"]);
 }
 
 #[test]
@@ -662,25 +663,51 @@ fn gltf_bad_indices_and_ranges_are_typed_errors() {
         let err = load_gltf_doc(dir.path(), "bad.gltf", &doc).unwrap_err();
         assert!(matches!(err, LoadError::Malformed { .. }), "{what}: {err}");
         assert!(err.to_string().contains("bad.gltf"), "{what}: {err}");
-        eprintln!("DBG {what}: {err}");
     }
 
     // Degenerate transform and NaN position: the scene validation, wrapped.
     let mut d = good();
     d["nodes"][2]["scale"] = json!([0.0, 1.0, 1.0]);
     let err = load_gltf_doc(dir.path(), "t.gltf", &d).unwrap_err();
-    assert!(matches!(err, LoadError::Scene { source: SceneError::BadTransform { .. }, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            LoadError::Scene {
+                source: SceneError::BadTransform { .. },
+                ..
+            }
+        ),
+        "{err}"
+    );
     let mut nan = buf.clone();
     nan[4..8].copy_from_slice(&f32::NAN.to_le_bytes());
     let doc = quad_document(Some(data_uri(&nan)), nan.len());
     let err = load_gltf_doc(dir.path(), "n.gltf", &doc).unwrap_err();
-    assert!(matches!(err, LoadError::Scene { source: SceneError::NonFiniteVertex { .. }, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            LoadError::Scene {
+                source: SceneError::NonFiniteVertex { .. },
+                ..
+            }
+        ),
+        "{err}"
+    );
 
     // Nothing with triangles: empty.
     let mut d = good();
     d["scenes"][0]["nodes"] = json!([3]);
     let err = load_gltf_doc(dir.path(), "e.gltf", &d).unwrap_err();
-    assert!(matches!(err, LoadError::Scene { source: SceneError::EmptyScene { .. }, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            LoadError::Scene {
+                source: SceneError::EmptyScene { .. },
+                ..
+            }
+        ),
+        "{err}"
+    );
 
     // Not JSON at all.
     let p = write(dir.path(), "junk.gltf", b"{\"asset\": ");
@@ -698,8 +725,14 @@ fn gltf_sparse_accessor_substitutes_values() {
         buf.extend_from_slice(&c.to_le_bytes());
     }
     let mut d = quad_document(Some(data_uri(&buf)), buf.len());
-    d["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": 0, "byteOffset": 60, "byteLength": 2 }));
-    d["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": 0, "byteOffset": 64, "byteLength": 12 }));
+    d["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "buffer": 0, "byteOffset": 60, "byteLength": 2 }));
+    d["bufferViews"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({ "buffer": 0, "byteOffset": 64, "byteLength": 12 }));
     d["accessors"][0]["sparse"] = json!({
         "count": 1,
         "indices": { "bufferView": 2, "componentType": 5123 },

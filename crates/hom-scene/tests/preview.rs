@@ -164,6 +164,16 @@ fn preview_builtin_scenes() {
             scene.triangle_count(),
             scene.meshes().len()
         );
+        let mut kinds: std::collections::BTreeMap<String, (usize, u64)> = Default::default();
+        for o in scene.objects() {
+            let kind = o.name.split(|c: char| c.is_ascii_digit()).next().unwrap_or("").trim().to_string();
+            let e = kinds.entry(kind).or_default();
+            e.0 += 1;
+            e.1 += o.triangles as u64;
+        }
+        for (k, (n, t)) in &kinds {
+            println!("    {k:24} {n:6} objects {t:9} triangles");
+        }
         let frames: Vec<usize> = match &frames_env {
             Some(f) => f.split(',').filter_map(|s| s.parse().ok()).filter(|&i| i < n).collect(),
             None => vec![0, n / 2, n - 1],

@@ -1,22 +1,24 @@
 //! The cullers `hom walk --culler NAME` can run, by name.
 
-use hom::cull::{Culler, FrustumCuller, NoCuller};
+use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, NoCuller};
 use hom::scene::Scene;
 
 /// Names and one-line descriptions of the available cullers.
 pub const CULLERS: &[(&str, &str)] = &[
     ("none", "draw every object"),
     ("frustum", "view-frustum culling over the BVH (the baseline)"),
+    ("hom", "hierarchical occlusion maps (Zhang et al. 1997), conservative"),
 ];
 
 /// The best culler hom has; `hom demo` uses it.
-pub const BEST: &str = "frustum";
+pub const BEST: &str = "hom";
 
 /// Builds the culler called `name` for `scene`; `None` for an unknown name.
 pub fn make(name: &str, scene: &Scene) -> Option<Box<dyn Culler>> {
     match name {
         "none" => Some(Box::new(NoCuller)),
         "frustum" => Some(Box::new(FrustumCuller::new(scene))),
+        "hom" => Some(Box::new(HomCuller::new(scene, HomConfig::default()))),
         _ => None,
     }
 }

@@ -104,6 +104,7 @@ pub fn walk(
         renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
         let render_ms = ms_since(start);
         let frame_ms = cull_ms + render_ms;
+        culler.frame_done(Some(frame_ms));
 
         let baseline_frame_ms = match baseline.as_mut() {
             Some(b) => {

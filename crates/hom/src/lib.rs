@@ -24,6 +24,8 @@ pub mod cull;
 pub mod depth;
 pub mod geom;
 pub mod map;
+pub mod occluders;
+pub mod raster;
 pub mod scene;
 pub mod spatial;
 

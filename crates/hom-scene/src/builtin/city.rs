@@ -12,8 +12,8 @@ use glam::{Mat4, Quat, Vec3};
 use hom::scene::{MeshId, SceneBuilder, SceneError};
 
 /// Blocks along x and along z.
-const BLOCKS_X: usize = 8;
-const BLOCKS_Z: usize = 7;
+const BLOCKS_X: usize = 7;
+const BLOCKS_Z: usize = 6;
 /// Half width of the roadway (curb to curb / 2).
 const ROAD_HALF: f32 = 6.0;
 /// Sidewalk width.
@@ -36,8 +36,8 @@ struct Props {
 
 fn props(b: &mut SceneBuilder) -> Props {
     let mut lamp = MeshBuilder::new();
-    lamp.add_cone(Vec3::ZERO, Vec3::new(0.0, 0.4, 0.0), 0.18, 0.14, 8, true);
-    lamp.add_cone(Vec3::new(0.0, 0.4, 0.0), Vec3::new(0.0, 6.5, 0.0), 0.09, 0.06, 8, false);
+    lamp.add_cone(Vec3::ZERO, Vec3::new(0.0, 0.4, 0.0), 0.18, 0.14, 6, false);
+    lamp.add_cone(Vec3::new(0.0, 0.4, 0.0), Vec3::new(0.0, 6.5, 0.0), 0.09, 0.06, 6, false);
     lamp.add_beam(Vec3::new(0.0, 6.3, 0.0), Vec3::new(0.0, 6.6, 1.6), 0.08, 0.08);
     lamp.add_box(Vec3::new(-0.22, 6.45, 1.4), Vec3::new(0.22, 6.65, 2.1));
     let lamp = b.add_mesh(lamp.build("street lamp"));
@@ -46,8 +46,8 @@ fn props(b: &mut SceneBuilder) -> Props {
         let mut m = MeshBuilder::new();
         m.add_cone(Vec3::ZERO, Vec3::new(0.0, 2.6, 0.0), 0.2, 0.14, 7, false);
         if k == 0 {
-            m.add_ellipsoid(Vec3::new(0.0, 4.4, 0.0), Vec3::new(2.2, 2.4, 2.2), 12, 7);
-            m.add_ellipsoid(Vec3::new(0.6, 5.6, 0.3), Vec3::new(1.4, 1.3, 1.4), 9, 5);
+            m.add_ellipsoid(Vec3::new(0.0, 4.4, 0.0), Vec3::new(2.2, 2.4, 2.2), 10, 6);
+            m.add_ellipsoid(Vec3::new(0.6, 5.6, 0.3), Vec3::new(1.4, 1.3, 1.4), 8, 4);
         } else {
             m.add_cone(Vec3::new(0.0, 2.0, 0.0), Vec3::new(0.0, 5.0, 0.0), 1.9, 1.2, 10, true);
             m.add_cone(Vec3::new(0.0, 5.0, 0.0), Vec3::new(0.0, 7.5, 0.0), 1.5, 0.0, 10, false);
@@ -59,7 +59,6 @@ fn props(b: &mut SceneBuilder) -> Props {
     bench.add_box(Vec3::new(-0.9, 0.55, 0.18), Vec3::new(0.9, 0.9, 0.24));
     for x in [-0.75, 0.75] {
         bench.add_box(Vec3::new(x - 0.04, 0.0, -0.2), Vec3::new(x + 0.04, 0.42, 0.2));
-        bench.add_box(Vec3::new(x - 0.03, 0.42, 0.19), Vec3::new(x + 0.03, 0.9, 0.23));
     }
     let bench = b.add_mesh(bench.build("bench"));
     let mut bin = MeshBuilder::new();
@@ -68,7 +67,7 @@ fn props(b: &mut SceneBuilder) -> Props {
     let bin = b.add_mesh(bin.build("litter bin"));
     let mut hyd = MeshBuilder::new();
     hyd.add_cylinder(Vec3::ZERO, Vec3::new(0.0, 0.6, 0.0), 0.13, 8, false);
-    hyd.add_sphere(Vec3::new(0.0, 0.6, 0.0), 0.14, 8, 4);
+    hyd.add_cone(Vec3::new(0.0, 0.6, 0.0), Vec3::new(0.0, 0.75, 0.0), 0.14, 0.04, 8, true);
     hyd.add_cylinder(Vec3::new(-0.22, 0.42, 0.0), Vec3::new(0.22, 0.42, 0.0), 0.05, 6, true);
     let hydrant = b.add_mesh(hyd.build("hydrant"));
     // Cars along +X: length, width, body height, cabin (start, end, height).
@@ -104,7 +103,7 @@ fn props(b: &mut SceneBuilder) -> Props {
         for x in [-hl + 0.8, hl - 0.8] {
             for z in [-hw + 0.05, hw - 0.05] {
                 let dz = if z < 0.0 { -0.22 } else { 0.22 };
-                m.add_cylinder(Vec3::new(x, 0.33, z), Vec3::new(x, 0.33, z + dz), 0.33, 10, true);
+                m.add_cylinder(Vec3::new(x, 0.33, z), Vec3::new(x, 0.33, z + dz), 0.33, 6, true);
             }
         }
         cars[k] = b.add_mesh(m.build(name));
@@ -153,7 +152,7 @@ fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
         f += every;
     }
     // Piers: full-height vertical strips along every facade at bay spacing.
-    let bay = rng.range(3.5, 6.0);
+    let bay = rng.range(5.0, 8.0);
     let pier = rng.range(0.35, 0.7);
     for (len, along_x) in [(w, true), (d, false)] {
         let n = (len / bay).round().max(1.0) as i32;
@@ -280,7 +279,7 @@ pub(super) fn generate(seed: u64) -> Generated {
             tile(&mut b, format!("block {i},{j}"), block_slab, bx0, bz0, bx1, bz1, CURB)?;
             let park = rng.chance(0.08);
             let mut lots = Vec::new();
-            let limit = rng.range(24.0, 36.0);
+            let limit = rng.range(26.0, 40.0);
             split_lots(&mut rng, (bx0 + WALK, bz0 + WALK), (bx1 - WALK, bz1 - WALK), limit, &mut lots);
             // Taller towards the centre.
             let mid = Vec3::new((bx0 + bx1) * 0.5, 0.0, (bz0 + bz1) * 0.5);
@@ -320,8 +319,8 @@ pub(super) fn generate(seed: u64) -> Generated {
         let yaw_out = |side: f32| if along_x { if side > 0.0 { 0.0 } else { std::f32::consts::PI } } else if side > 0.0 { -std::f32::consts::FRAC_PI_2 } else { std::f32::consts::FRAC_PI_2 };
         for side in [-1.0f32, 1.0] {
             let (s0, s1) = (a + 3.0, bnd - 3.0);
-            // Lamps every ~25 m.
-            let n = ((s1 - s0) / 25.0).ceil() as usize;
+            // Lamps every ~30 m.
+            let n = ((s1 - s0) / 30.0).ceil() as usize;
             for k in 0..=n {
                 let s = s0 + (s1 - s0) * k as f32 / n as f32;
                 add(b, "street lamp", props.lamp, at(s, side * curb_line, CURB), yaw_out(-side))?;
@@ -349,7 +348,7 @@ pub(super) fn generate(seed: u64) -> Generated {
             // Parked cars in the curb lane, with gaps.
             let mut s = s0 + rng.range(0.0, 6.0);
             while s < s1 - 3.0 {
-                if rng.chance(0.6) {
+                if rng.chance(0.3) {
                     let heading = if side > 0.0 { 0.0 } else { std::f32::consts::PI };
                     let yaw = if along_x { heading } else { heading - std::f32::consts::FRAC_PI_2 };
                     add(b, "parked car", props.cars[rng.index(4)], at(s + 2.6, side * (ROAD_HALF - 1.3), 0.0), yaw + rng.range(-0.04, 0.04))?;
@@ -380,7 +379,7 @@ pub(super) fn generate(seed: u64) -> Generated {
     let last = pts.len() - 1;
     pts[last].z -= ROAD_HALF + 4.0;
     let smooth = round_corners(&pts, 4.5, 1.0);
-    let path = CameraPath::along(&smooth, 3.0, 12.0);
+    let path = CameraPath::along(&smooth, 3.4, 12.0);
     Ok(Builtin {
         scene: b.build()?,
         path,

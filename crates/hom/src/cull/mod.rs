@@ -5,8 +5,10 @@
 //! took, so the walkthrough harness can compare cullers on equal terms.
 
 mod frustum;
+pub mod hom;
 
 pub use frustum::{FrustumCuller, NoCuller};
+pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 
 use crate::geom::{Camera, CameraError};
 use crate::scene::Scene;
@@ -94,4 +96,9 @@ pub trait Culler {
     /// Decides this frame's visible set. `scene` is the scene the culler was
     /// built for, with dynamic objects already moved to this frame's time.
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError>;
+
+    /// Feedback after the frame was drawn: its total time (culling plus
+    /// rendering) when the caller measured it. Cullers that adapt (HOM's
+    /// polygon budget, hole filling) learn from it; the default ignores it.
+    fn frame_done(&mut self, _frame_ms: Option<f64>) {}
 }

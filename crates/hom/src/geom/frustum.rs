@@ -37,6 +37,23 @@ impl Frustum {
         Some(Frustum { planes: out })
     }
 
+    /// The sub-frustum through the normalized-device rectangle `x = (left, right)`,
+    /// `y = (bottom, top)` of a view-projection matrix (same near and far planes).
+    /// Returns `None` for an empty or non-finite rectangle or a degenerate matrix.
+    pub fn from_view_proj_ndc_rect(m: &Mat4, x: (f32, f32), y: (f32, f32)) -> Option<Frustum> {
+        if !(x.0 < x.1 && y.0 < y.1) {
+            return None;
+        }
+        let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
+        // x/w >= left  <=>  x - left * w >= 0 (w > 0 inside the frustum), and so on.
+        let planes = [r0 - r3 * x.0, r3 * x.1 - r0, r1 - r3 * y.0, r3 * y.1 - r1, r2, r3 - r2];
+        let mut out = [Plane::from_point_normal(Vec3::ZERO, Vec3::X); 6];
+        for (o, p) in out.iter_mut().zip(planes) {
+            *o = Plane::from_coefficients(p)?;
+        }
+        Some(Frustum { planes: out })
+    }
+
     /// Three-way test of an axis-aligned box.
     pub fn test_aabb(&self, b: &Aabb) -> Containment {
         let mut result = Containment::Inside;
@@ -88,5 +105,14 @@ mod tests {
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, 0.0))), Containment::Intersecting);
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -200.0))), Containment::Outside);
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -100.0))), Containment::Intersecting);
+        // The whole NDC square gives the same frustum; its right half excludes the left.
+        let vp = cam.view_proj();
+        let whole = Frustum::from_view_proj_ndc_rect(&vp, (-1.0, 1.0), (-1.0, 1.0)).unwrap();
+        for (a, b) in whole.planes.iter().zip(&f.planes) {
+            assert!((a.normal - b.normal).length() < 1e-5 && (a.d - b.d).abs() < 1e-4);
+        }
+        let right = Frustum::from_view_proj_ndc_rect(&vp, (0.0, 1.0), (-1.0, 1.0)).unwrap();
+        assert_eq!(right.test_aabb(&unit(Vec3::new(-8.0, 0.0, -10.0))), Containment::Outside);
+        assert_ne!(right.test_aabb(&unit(Vec3::new(3.0, 0.0, -10.0))), Containment::Outside);
     }
 }

@@ -20,7 +20,7 @@ const MAX_DEPTH: usize = 128;
 /// never exceeds [`MAX_DEPTH`] however skewed the input.
 const COUNT_SPLIT_DEPTH: usize = MAX_DEPTH - 32;
 
-/// More bins buy almost nothing (Wald 2007 finds 16 ample) and cost stack-free scratch.
+/// More bins buy almost nothing (Wald 2007 finds 16 ample); the cap bounds a build's scratch.
 const MAX_BINS: usize = 256;
 
 /// Cost of an inner node, in item tests: a visited inner node tests both children.
@@ -95,6 +95,7 @@ fn add(acc: Aabb, b: &Aabb) -> Aabb {
 /// index `boxes`, keeps every pass over a node's items sequential in memory.
 #[derive(Clone, Copy)]
 struct Record {
+    /// [`Aabb::EMPTY`] for boxes that hold no point, so plain unions skip them.
     bounds: Aabb,
     /// NaN for boxes that hold no point or have no finite centre: they then fall
     /// in bin 0 instead of poisoning the centroid bounds.
@@ -106,8 +107,12 @@ impl Record {
     fn new(id: usize, b: &Aabb) -> Record {
         let c = b.center();
         Record {
-            bounds: *b,
-            centroid: if !b.is_empty() && c.is_finite() { c } else { Vec3::NAN },
+            bounds: if b.is_empty() { Aabb::EMPTY } else { *b },
+            centroid: if !b.is_empty() && c.is_finite() {
+                c
+            } else {
+                Vec3::NAN
+            },
             id: id as u32,
         }
     }
@@ -120,15 +125,23 @@ fn bin_of(c: Vec3, axis: usize, lo: f32, scale: f32, bins: usize) -> usize {
 }
 
 /// Reorders `v` so every element satisfying `left` comes first; returns how many do.
+/// Hoare-style from both ends: only misplaced records (40 bytes each) are swapped.
 fn partition<T>(v: &mut [T], mut left: impl FnMut(&T) -> bool) -> usize {
-    let mut mid = 0;
-    for i in 0..v.len() {
-        if left(&v[i]) {
-            v.swap(i, mid);
-            mid += 1;
+    let (mut i, mut j) = (0, v.len());
+    loop {
+        while i < j && left(&v[i]) {
+            i += 1;
         }
+        while i < j && !left(&v[j - 1]) {
+            j -= 1;
+        }
+        if i == j {
+            return i;
+        }
+        v.swap(i, j - 1);
+        i += 1;
+        j -= 1;
     }
-    mid
 }
 
 /// A pending node of the top-down build.
@@ -142,6 +155,7 @@ struct Task {
 /// Scratch reused for every node of one build.
 struct Binner {
     max_leaf: usize,
+    /// Bins of axis `a` are `a * bins..(a + 1) * bins`.
     bin_bounds: Vec<Aabb>,
     bin_counts: Vec<u32>,
     /// Area and count of bins `plane..`, for each split plane.
@@ -164,7 +178,13 @@ impl Binner {
     /// Partitions one node's records for a split and returns the size of the
     /// left part, or `None` to make the node a leaf. `bounds` and `cbounds` are
     /// the node's bounds and the bounds of its finite centroids.
-    fn split(&mut self, recs: &mut [Record], bounds: &Aabb, cbounds: &Aabb, depth: usize) -> Option<usize> {
+    fn split(
+        &mut self,
+        recs: &mut [Record],
+        bounds: &Aabb,
+        cbounds: &Aabb,
+        depth: usize,
+    ) -> Option<usize> {
         let n = recs.len();
         if n <= 1 || (n <= self.max_leaf && depth >= COUNT_SPLIT_DEPTH) {
             return None;
@@ -173,32 +193,35 @@ impl Binner {
             return Some(median_split(recs, cbounds));
         }
         let extent = cbounds.extent();
-        let bins = self.bin_counts.len();
-        let mut best: Option<Split> = None;
-        for axis in 0..3 {
-            let lo = cbounds.min[axis];
-            let scale = bins as f32 / extent[axis];
-            // Identical (or no finite) centroids along this axis: nothing to separate.
-            if !(extent[axis] > 0.0 && scale.is_finite()) {
-                continue;
-            }
-            self.bin_bounds.fill(Aabb::EMPTY);
-            self.bin_counts.fill(0);
-            for r in recs.iter() {
-                let b = bin_of(r.centroid, axis, lo, scale, bins);
+        let bins = self.right.len();
+        let scale = Vec3::splat(bins as f32) / extent;
+        // Identical (or no finite) centroids along an axis: nothing to separate there.
+        let active: [bool; 3] = std::array::from_fn(|a| extent[a] > 0.0 && scale[a].is_finite());
+        self.bin_bounds.fill(Aabb::EMPTY);
+        self.bin_counts.fill(0);
+        // One pass bins all three axes: the records are read once, not three times.
+        for r in recs.iter() {
+            for axis in (0..3).filter(|&a| active[a]) {
+                let b =
+                    axis * bins + bin_of(r.centroid, axis, cbounds.min[axis], scale[axis], bins);
                 self.bin_counts[b] += 1;
-                self.bin_bounds[b] = add(self.bin_bounds[b], &r.bounds);
+                self.bin_bounds[b] = self.bin_bounds[b].union(r.bounds);
             }
+        }
+        let mut best: Option<Split> = None;
+        for axis in (0..3).filter(|&a| active[a]) {
+            let bin_bounds = &self.bin_bounds[axis * bins..(axis + 1) * bins];
+            let bin_counts = &self.bin_counts[axis * bins..(axis + 1) * bins];
             let (mut acc, mut count) = (Aabb::EMPTY, 0);
             for plane in (1..bins).rev() {
-                acc = acc.union(self.bin_bounds[plane]);
-                count += self.bin_counts[plane];
+                acc = acc.union(bin_bounds[plane]);
+                count += bin_counts[plane];
                 self.right[plane] = (acc.surface_area(), count);
             }
             let (mut acc, mut count) = (Aabb::EMPTY, 0);
             for plane in 1..bins {
-                acc = acc.union(self.bin_bounds[plane - 1]);
-                count += self.bin_counts[plane - 1];
+                acc = acc.union(bin_bounds[plane - 1]);
+                count += bin_counts[plane - 1];
                 let (right_area, right_count) = self.right[plane];
                 if count == 0 || right_count == 0 {
                     continue;
@@ -233,9 +256,10 @@ impl Binner {
         }
         match best {
             Some(b) => {
-                let lo = cbounds.min[b.axis];
-                let scale = bins as f32 / extent[b.axis];
-                let mid = partition(recs, |r| bin_of(r.centroid, b.axis, lo, scale, bins) < b.plane);
+                let (lo, scale) = (cbounds.min[b.axis], scale[b.axis]);
+                let mid = partition(recs, |r| {
+                    bin_of(r.centroid, b.axis, lo, scale, bins) < b.plane
+                });
                 debug_assert!(mid > 0 && mid < n, "SAH split left a side empty");
                 Some(mid)
             }
@@ -287,11 +311,15 @@ impl Bvh {
         let bins = config.bins.clamp(2, MAX_BINS);
         let mut binner = Binner {
             max_leaf,
-            bin_bounds: vec![Aabb::EMPTY; bins],
-            bin_counts: vec![0; bins],
+            bin_bounds: vec![Aabb::EMPTY; 3 * bins],
+            bin_counts: vec![0; 3 * bins],
             right: vec![(0.0, 0); bins],
         };
-        let mut recs: Vec<Record> = boxes.iter().enumerate().map(|(i, b)| Record::new(i, b)).collect();
+        let mut recs: Vec<Record> = boxes
+            .iter()
+            .enumerate()
+            .map(|(i, b)| Record::new(i, b))
+            .collect();
         let placeholder = BvhNode {
             bounds: Aabb::EMPTY,
             first: 0,
@@ -312,7 +340,7 @@ impl Bvh {
             let range = &mut recs[t.start..t.end];
             let (mut bounds, mut cbounds) = (Aabb::EMPTY, Aabb::EMPTY);
             for r in range.iter() {
-                bounds = add(bounds, &r.bounds);
+                bounds = bounds.union(r.bounds);
                 if r.centroid.is_finite() {
                     cbounds = cbounds.grow(r.centroid);
                 }
@@ -477,6 +505,32 @@ impl Bvh {
         tests
     }
 
+    /// Appends the items of every leaf whose bounds intersect `query`: a
+    /// superset of the items whose own boxes intersect it (the hierarchy keeps
+    /// no per-item boxes), so callers filter the candidates with their boxes.
+    /// Order follows the tree.
+    pub fn overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
+        if self.nodes.is_empty() || query.is_empty() {
+            return;
+        }
+        let mut stack = [0u32; MAX_DEPTH];
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let node = &self.nodes[stack[len] as usize];
+            if !node.bounds.intersects(query) {
+                continue;
+            }
+            if node.is_leaf() {
+                out.extend_from_slice(self.leaf_items(node));
+            } else {
+                stack[len] = node.first + 1;
+                stack[len + 1] = node.first;
+                len += 2;
+            }
+        }
+    }
+
     /// Depth-first walk, nearer child first: `visit(index, node)` is called on the
     /// root, and on both children of every visited inner node for which it
     /// returned `true`. Of two children, the one whose bounds are nearer to `eye`
@@ -500,7 +554,11 @@ impl Bvh {
                 continue;
             }
             let (a, b) = (node.first, node.first + 1);
-            let (near, far) = if nearer(eye, &self.nodes[b as usize].bounds, &self.nodes[a as usize].bounds) {
+            let (near, far) = if nearer(
+                eye,
+                &self.nodes[b as usize].bounds,
+                &self.nodes[a as usize].bounds,
+            ) {
                 (b, a)
             } else {
                 (a, b)
@@ -572,10 +630,12 @@ impl Bvh {
                     "leaf {i} covers item slots {}..{end}, but there are only {n_items}",
                     node.first
                 );
-                for slot in node.first as usize..end {
-                    assert!(!covered[slot], "item slot {slot} is in two leaves (second: {i})");
-                    covered[slot] = true;
-                    let id = self.items[slot];
+                let start = node.first as usize;
+                let slots = covered[start..end].iter_mut().zip(&self.items[start..end]);
+                for (k, (covered, &id)) in slots.enumerate() {
+                    let slot = start + k;
+                    assert!(!*covered, "item slot {slot} is in two leaves (second: {i})");
+                    *covered = true;
                     let b = &boxes[id as usize];
                     assert!(
                         node.bounds.contains(b),
@@ -623,7 +683,10 @@ impl Bvh {
             ranges[i] = if node.is_leaf() {
                 node.first as usize..(node.first + node.count) as usize
             } else {
-                let (l, r) = (&ranges[node.first as usize], &ranges[node.first as usize + 1]);
+                let (l, r) = (
+                    &ranges[node.first as usize],
+                    &ranges[node.first as usize + 1],
+                );
                 assert_eq!(
                     l.end, r.start,
                     "inner node {i}: items of its children are not contiguous ({l:?}, {r:?})"
@@ -690,9 +753,13 @@ mod tests {
             1u32..300,
             1u32..300,
         )
-            .prop_filter_map("invalid camera", |(eye, target, up, fov, near, depth, w, h)| {
-                Camera::new(eye, target, up, fov.to_radians(), near, near + depth, w, h).frustum()
-            })
+            .prop_filter_map(
+                "invalid camera",
+                |(eye, target, up, fov, near, depth, w, h)| {
+                    Camera::new(eye, target, up, fov.to_radians(), near, near + depth, w, h)
+                        .frustum()
+                },
+            )
     }
 
     fn linear_scan(boxes: &[Aabb], f: &Frustum) -> Vec<u32> {
@@ -721,7 +788,10 @@ mod tests {
         });
         assert_eq!(order.len(), bvh.nodes().len(), "every node visited once");
         seen_items.sort_unstable();
-        assert_eq!(seen_items, (0..bvh.items().len() as u32).collect::<Vec<_>>());
+        assert_eq!(
+            seen_items,
+            (0..bvh.items().len() as u32).collect::<Vec<_>>()
+        );
         let mut pos = vec![usize::MAX; bvh.nodes().len()];
         for (k, &i) in order.iter().enumerate() {
             pos[i as usize] = k;
@@ -742,14 +812,33 @@ mod tests {
             let (ba, bb) = (bvh.nodes()[a].bounds, bvh.nodes()[b].bounds);
             let (da, db) = (ba.distance_squared(eye), bb.distance_squared(eye));
             let b_first = db < da
-                || (db == da && (bb.center() - eye).length_squared() < (ba.center() - eye).length_squared());
+                || (db == da
+                    && (bb.center() - eye).length_squared() < (ba.center() - eye).length_squared());
             let (near, far) = if b_first { (b, a) } else { (a, b) };
-            assert_eq!(pos[near], pos[i] + 1, "node {i}: nearer child {near} not visited next");
-            assert_eq!(pos[far], pos[near] + size[near], "node {i}: far child {far} not right after the near subtree");
+            assert_eq!(
+                pos[near],
+                pos[i] + 1,
+                "node {i}: nearer child {near} not visited next"
+            );
+            assert_eq!(
+                pos[far],
+                pos[near] + size[near],
+                "node {i}: far child {far} not right after the near subtree"
+            );
         }
     }
 
     proptest! {
+        #[test]
+        fn partition_puts_matching_elements_first(mut v in prop::collection::vec(0u8..10, 0..100), k in 0u8..11) {
+            let mut sorted = v.clone();
+            sorted.sort_unstable();
+            let mid = partition(&mut v, |&x| x < k);
+            prop_assert!(v[..mid].iter().all(|&x| x < k) && v[mid..].iter().all(|&x| x >= k));
+            v.sort_unstable();
+            prop_assert_eq!(v, sorted);
+        }
+
         #[test]
         fn build_is_well_formed(boxes in prop::collection::vec(arb_box(), 0..300), config in arb_config()) {
             let bvh = Bvh::build(&boxes, &config);
@@ -800,6 +889,32 @@ mod tests {
                 prop_assert_eq!(root.bounds, all, "refit bounds are tight");
             }
             prop_assert_eq!(cull_sorted(&bvh, &moved, &frustum).0, linear_scan(&moved, &frustum));
+        }
+
+        #[test]
+        fn overlapping_returns_a_superset_of_the_exact_answer(
+            boxes in prop::collection::vec(arb_box(), 0..300),
+            config in arb_config(),
+            query in arb_box(),
+        ) {
+            let bvh = Bvh::build(&boxes, &config);
+            let mut got = Vec::new();
+            bvh.overlapping(&query, &mut got);
+            got.sort_unstable();
+            let n = got.len();
+            got.dedup();
+            prop_assert_eq!(got.len(), n, "no item reported twice");
+            for (i, b) in boxes.iter().enumerate() {
+                if b.intersects(&query) {
+                    prop_assert!(got.binary_search(&(i as u32)).is_ok(), "item {} missed", i);
+                }
+            }
+            // Candidates come from leaves that touch the query, nothing else.
+            for n in bvh.nodes().iter().filter(|n| n.is_leaf() && !n.bounds.intersects(&query)) {
+                for id in bvh.leaf_items(n) {
+                    prop_assert!(got.binary_search(id).is_err());
+                }
+            }
         }
 
         #[test]
@@ -860,10 +975,59 @@ mod tests {
         let bvh = Bvh::build(&boxes, &BvhConfig::default());
         bvh.assert_well_formed(&boxes);
         let bound = 2.0 * (boxes.len() as f32).log2() + 4.0;
-        assert!(bvh.depth() as f32 <= bound, "depth {} > {bound}", bvh.depth());
+        assert!(
+            bvh.depth() as f32 <= bound,
+            "depth {} > {bound}",
+            bvh.depth()
+        );
         // Separated unit boxes: SAH fills leaves rather than making a node per box.
         let leaves = bvh.nodes().iter().filter(|n| n.is_leaf()).count();
-        assert!(leaves <= boxes.len() / 2, "{leaves} leaves for {} boxes", boxes.len());
+        assert!(
+            leaves <= boxes.len() / 2,
+            "{leaves} leaves for {} boxes",
+            boxes.len()
+        );
+    }
+
+    #[test]
+    fn assert_well_formed_catches_corruption() {
+        let boxes = grid(4);
+        let good = Bvh::build(&boxes, &BvhConfig::default());
+        good.assert_well_formed(&boxes);
+        let inner = good.nodes().iter().position(|n| !n.is_leaf()).unwrap();
+        let leaf = good.nodes().iter().position(|n| n.is_leaf()).unwrap();
+        type Corrupt = Box<dyn Fn(&mut Bvh)>;
+        let corruptions: Vec<(&str, Corrupt)> = vec![
+            ("duplicate item", Box::new(|b| b.items[1] = b.items[0])),
+            (
+                "shrunk leaf",
+                Box::new(move |b| b.nodes[leaf].bounds.max -= 0.25),
+            ),
+            (
+                "shrunk inner",
+                Box::new(move |b| b.nodes[inner].bounds.max -= 0.25),
+            ),
+            (
+                "child before parent",
+                Box::new(move |b| b.nodes[inner + 1].first = 0),
+            ),
+            ("leaf too big", Box::new(|b| b.max_leaf_size = 1)),
+            ("wrong depth", Box::new(|b| b.depth += 1)),
+        ];
+        for (what, corrupt) in corruptions {
+            let mut bad = good.clone();
+            corrupt(&mut bad);
+            let caught = std::panic::catch_unwind(|| bad.assert_well_formed(&boxes));
+            assert!(caught.is_err(), "{what} not detected");
+        }
+        let moved: Vec<Aabb> = boxes
+            .iter()
+            .map(|b| Aabb::new(b.min + 1.0, b.max + 1.0))
+            .collect();
+        assert!(
+            std::panic::catch_unwind(|| good.assert_well_formed(&moved)).is_err(),
+            "stale bounds not detected"
+        );
     }
 
     #[test]
@@ -873,7 +1037,9 @@ mod tests {
         assert_eq!(bvh.depth(), 0);
         assert!(bvh.nodes().is_empty() && bvh.items().is_empty());
         bvh.assert_well_formed(&[]);
-        let f = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0, 0.1, 10.0, 8, 8).frustum().unwrap();
+        let f = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0, 0.1, 10.0, 8, 8)
+            .frustum()
+            .unwrap();
         let mut out = Vec::new();
         assert_eq!(bvh.frustum_cull(&[], &f, &mut out), 0);
         assert!(out.is_empty());
@@ -912,7 +1078,13 @@ mod tests {
                 Aabb::new(c - 0.01, c + 0.01)
             })
             .collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig { max_leaf_size: 1, bins: 4 });
+        let bvh = Bvh::build(
+            &boxes,
+            &BvhConfig {
+                max_leaf_size: 1,
+                bins: 4,
+            },
+        );
         bvh.assert_well_formed(&boxes);
         assert!(bvh.depth() <= Bvh::MAX_DEPTH);
         check_front_to_back(&bvh, Vec3::ZERO);
@@ -924,11 +1096,32 @@ mod tests {
         let boxes: Vec<Aabb> = (-120..127)
             .map(|i| Aabb::new(Vec3::X * 2f32.powi(i), Vec3::X * 2f32.powi(i)))
             .collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig { max_leaf_size: 1, bins: 2 });
+        let bvh = Bvh::build(
+            &boxes,
+            &BvhConfig {
+                max_leaf_size: 1,
+                bins: 2,
+            },
+        );
         bvh.assert_well_formed(&boxes);
-        assert!(bvh.depth() > COUNT_SPLIT_DEPTH && bvh.depth() <= COUNT_SPLIT_DEPTH + 6, "depth {}", bvh.depth());
+        assert!(
+            bvh.depth() > COUNT_SPLIT_DEPTH && bvh.depth() <= COUNT_SPLIT_DEPTH + 6,
+            "depth {}",
+            bvh.depth()
+        );
         check_front_to_back(&bvh, Vec3::ZERO);
-        let f = Camera::new(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 1e6, 64, 64).frustum().unwrap();
+        let f = Camera::new(
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            1.0,
+            0.1,
+            1e6,
+            64,
+            64,
+        )
+        .frustum()
+        .unwrap();
         assert_eq!(cull_sorted(&bvh, &boxes, &f).0, linear_scan(&boxes, &f));
     }
 
@@ -936,7 +1129,16 @@ mod tests {
     fn subtree_wholly_inside_is_emitted_with_one_test() {
         let boxes = grid(6);
         let bvh = Bvh::build(&boxes, &BvhConfig::default());
-        let cam = Camera::new(Vec3::new(7.5, 7.5, 200.0), Vec3::splat(7.5), Vec3::Y, 1.0, 1.0, 1000.0, 64, 64);
+        let cam = Camera::new(
+            Vec3::new(7.5, 7.5, 200.0),
+            Vec3::splat(7.5),
+            Vec3::Y,
+            1.0,
+            1.0,
+            1000.0,
+            64,
+            64,
+        );
         let f = cam.frustum().unwrap();
         let (got, tests) = cull_sorted(&bvh, &boxes, &f);
         assert_eq!(got, (0..boxes.len() as u32).collect::<Vec<_>>());
@@ -963,40 +1165,5 @@ mod tests {
             true
         });
         assert!(first_leaf.unwrap().contains(&0));
-    }
-}
-#[cfg(test)]
-mod tmp_stats {
-    use super::*;
-    #[test]
-    fn tmp_print_stats() {
-        let boxes: Vec<Aabb> = (0..400)
-            .map(|i| {
-                let c = Vec3::X * 1.1f32.powi(i);
-                Aabb::new(c - 0.01, c + 0.01)
-            })
-            .collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig { max_leaf_size: 1, bins: 4 });
-        eprintln!("skewed depth {}", bvh.depth());
-        let mut g = Vec::new();
-        for x in 0..10 { for y in 0..10 { for z in 0..10 { let c = Vec3::new(x as f32, y as f32, z as f32)*3.0; g.push(Aabb::new(c-0.5, c+0.5)); } } }
-        let bvh = Bvh::build(&g, &BvhConfig::default());
-        let leaves: Vec<u32> = bvh.nodes().iter().filter(|n| n.is_leaf()).map(|n| n.count).collect();
-        eprintln!("grid depth {} nodes {} leaves {} avg {}", bvh.depth(), bvh.nodes().len(), leaves.len(), 1000.0/leaves.len() as f32);
-        let n = 1_000_000;
-        let mut s = 12345u64;
-        let mut r = || { s ^= s << 13; s ^= s >> 7; s ^= s << 17; (s >> 40) as f32 / (1u64<<24) as f32 };
-        let big: Vec<Aabb> = (0..n).map(|_| { let c = Vec3::new(r(), r(), r())*1000.0; Aabb::new(c, c + Vec3::new(r(), r(), r())*3.0) }).collect();
-        let t = std::time::Instant::now();
-        let mut bvh = Bvh::build(&big, &BvhConfig::default());
-        eprintln!("1M build {:?} depth {} nodes {}", t.elapsed(), bvh.depth(), bvh.nodes().len());
-        let t = std::time::Instant::now();
-        bvh.refit(&big);
-        eprintln!("refit {:?}", t.elapsed());
-        let f = crate::geom::Camera::new(Vec3::new(500.0, 500.0, -100.0), Vec3::splat(500.0), Vec3::Y, 1.0, 0.1, 800.0, 64, 64).frustum().unwrap();
-        let mut out = Vec::new();
-        let t = std::time::Instant::now();
-        let tests = bvh.frustum_cull(&big, &f, &mut out);
-        eprintln!("cull {:?} tests {} visible {}", t.elapsed(), tests, out.len());
     }
 }

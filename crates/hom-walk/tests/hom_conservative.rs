@@ -1,0 +1,216 @@
+//! HOM in conservative mode never culls an object the oracle sees: random
+//! scenes and cameras, plus the adversarial cases named in the HOM issue.
+
+use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
+use hom::geom::Camera;
+use hom::glam::{Mat4, Quat, Vec3};
+use hom::occluders::{OccluderDb, OccluderDbConfig};
+use hom::raster::{CoverageBuffer, OccluderRasterizer};
+use hom::scene::{Mesh, Motion, Scene, SceneBuilder};
+use hom_render::{Framebuffer, Renderer, NO_OBJECT};
+use proptest::prelude::*;
+
+fn cube() -> Mesh {
+    let p: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+        .collect();
+    let faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+    let tris = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
+    Mesh::new("cube", p, tris).unwrap()
+}
+
+/// Every object may be an occluder: the strongest test of the depth and overlap logic.
+fn permissive() -> HomConfig {
+    let mut c = HomConfig {
+        occluder_db: OccluderDbConfig {
+            min_size: 0.0,
+            max_triangles: u32::MAX,
+            min_fill: 0.0,
+            redundancy_margin: -1.0,
+        },
+        ..HomConfig::default()
+    };
+    c.selection.budget = 60;
+    c
+}
+
+/// Culls with `culler` and checks every object the oracle sees is kept.
+fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut HomCuller) -> CullOutput {
+    let renderer = Renderer::new(1).unwrap();
+    let mut out = CullOutput::default();
+    culler.cull(scene, camera, &mut out).unwrap();
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
+    for (id, &n) in counts.iter().enumerate() {
+        if n > 0 {
+            assert!(
+                out.visible.binary_search(&(id as u32)).is_ok(),
+                "object {id} owns {n} pixels but was culled (occluded: {})",
+                out.occluded.contains(&(id as u32))
+            );
+        }
+    }
+    out
+}
+
+fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
+    let mut state = seed | 1;
+    let mut rnd = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut b = SceneBuilder::new("random");
+    let m = b.add_mesh(cube());
+    for i in 0..n {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let scale = Vec3::new(0.2 + rnd() * 5.0, 0.2 + rnd() * 4.0, 0.2 + rnd() * 5.0);
+        let rot = Quat::from_rotation_y(rnd() * 3.0);
+        let t = Mat4::from_scale_rotation_translation(scale, rot, pos);
+        if dynamic && i % 2 == 0 {
+            let motion = Motion {
+                velocity: Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 4.0,
+                region: hom::geom::Aabb::new(pos - 3.0, pos + 3.0),
+                spin_axis: Vec3::Y,
+                spin_rate: rnd() * 2.0,
+            };
+            b.add_dynamic_object(format!("o{i}"), m, t, motion).unwrap();
+        } else {
+            b.add_object(format!("o{i}"), m, t).unwrap();
+        }
+    }
+    b.build().unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #[test]
+    fn conservative_hom_never_culls_what_the_oracle_sees(
+        seed in any::<u64>(), n in 1usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
+        look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), map_size in 8u32..48, plane in any::<bool>(),
+        dynamic in any::<bool>(), time in 0.0f32..5.0,
+    ) {
+        let mut scene = random_scene(seed, n, dynamic);
+        scene.set_time(time);
+        let eye = Vec3::new(eye.0, eye.1, eye.2);
+        let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        prop_assume!(camera.validate().is_ok());
+        let mut config = permissive();
+        config.map_size = map_size;
+        if plane { config.depth = DepthMode::SingleZPlane; }
+        let mut culler = HomCuller::new(&scene, config);
+        // Two frames, so the second uses the feedback (hole filling) of the first.
+        assert_no_false_culls(&scene, &camera, &mut culler);
+        culler.frame_done(Some(1.0));
+        assert_no_false_culls(&scene, &camera, &mut culler);
+    }
+}
+
+/// The occluder rasterizer covers exactly the samples the renderer draws for the same triangles.
+#[test]
+fn occluder_coverage_equals_the_renderers_item_buffer() {
+    for seed in 0..20u64 {
+        let scene = random_scene(seed * 7919 + 1, 25, false);
+        let camera = Camera::new(Vec3::new(0.5, 1.0, 15.0), Vec3::ZERO, Vec3::Y, 1.1, 0.1, 100.0, 97, 61);
+        let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 3 != 0).collect();
+        let db = OccluderDb::all(&scene);
+        let mut cov = CoverageBuffer::default();
+        OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera);
+        let renderer = Renderer::new(2).unwrap();
+        let mut fb = Framebuffer::new(camera.width, camera.height);
+        renderer.render(&scene, &ids, &camera, &hom_render::RenderOptions::default(), &mut fb);
+        for y in 0..camera.height {
+            for x in 0..camera.width {
+                let drawn = fb.items()[(y * camera.width + x) as usize] != NO_OBJECT;
+                assert_eq!(cov.is_covered(x, y), drawn, "seed {seed} sample {x},{y}");
+            }
+        }
+    }
+}
+
+fn wall_scene(gap: f32) -> Scene {
+    // Two wall halves at z = 0 with a gap between them, a box behind.
+    let mut b = SceneBuilder::new("walls");
+    let m = b.add_mesh(cube());
+    let half = 5.0 - gap * 0.5;
+    b.add_object("left", m, Mat4::from_scale_rotation_translation(Vec3::new(half, 6.0, 0.2), Quat::IDENTITY, Vec3::new(-gap * 0.5 - half * 0.5, 0.0, 0.0))).unwrap();
+    b.add_object("right", m, Mat4::from_scale_rotation_translation(Vec3::new(half, 6.0, 0.2), Quat::IDENTITY, Vec3::new(gap * 0.5 + half * 0.5, 0.0, 0.0))).unwrap();
+    b.add_object("behind", m, Mat4::from_scale_rotation_translation(Vec3::new(1.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, -4.0))).unwrap();
+    b.build().unwrap()
+}
+
+#[test]
+fn occluders_with_a_one_pixel_gap_do_not_hide_what_shows_through() {
+    // At 10 m with a 1 m wide view per 100 px, 0.02 m is a fraction of a pixel; 0.15 m is about a pixel.
+    for gap in [0.0, 0.01, 0.03, 0.06, 0.12, 0.2] {
+        let scene = wall_scene(gap);
+        let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
+        let mut culler = HomCuller::new(&scene, permissive());
+        let out = assert_no_false_culls(&scene, &camera, &mut culler);
+        if gap == 0.0 {
+            assert_eq!(out.occluded, vec![2], "a closed wall hides the box");
+        }
+    }
+}
+
+#[test]
+fn occludee_exactly_at_the_occluder_depth_is_kept() {
+    let mut b = SceneBuilder::new("coplanar");
+    let m = b.add_mesh(cube());
+    b.add_object("wall", m, Mat4::from_scale(Vec3::new(8.0, 8.0, 0.0001))).unwrap();
+    // A thin plate in the same plane, drawn after the wall.
+    b.add_object("plate", m, Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0001))).unwrap();
+    let scene = b.build().unwrap();
+    let camera = Camera::new(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 120, 90);
+    let mut culler = HomCuller::new(&scene, permissive());
+    let out = assert_no_false_culls(&scene, &camera, &mut culler);
+    assert!(out.visible.contains(&1));
+}
+
+#[test]
+fn boxes_crossing_the_near_plane_and_camera_inside_a_box_are_kept() {
+    let scene = wall_scene(0.0);
+    // Eye inside the left wall's box, and touching the near plane of the right one.
+    for eye in [Vec3::new(-2.5, 0.0, 0.05), Vec3::new(2.5, 0.0, 0.15), Vec3::new(0.0, 0.0, 0.11)] {
+        let camera = Camera::new(eye, eye - Vec3::Z, Vec3::Y, 1.2, 0.1, 100.0, 64, 48);
+        let mut culler = HomCuller::new(&scene, permissive());
+        assert_no_false_culls(&scene, &camera, &mut culler);
+    }
+}
+
+#[test]
+fn odd_viewport_zero_occluders_and_zero_budget() {
+    let scene = random_scene(42, 30, false);
+    let camera = Camera::new(Vec3::new(0.0, 1.0, 14.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 1000, 750);
+    let mut culler = HomCuller::new(&scene, permissive());
+    assert_no_false_culls(&scene, &camera, &mut culler);
+    let mut zero = permissive();
+    zero.selection.budget = 0;
+    zero.selection.hole_filling = false;
+    let mut culler = HomCuller::new(&scene, zero);
+    let out = assert_no_false_culls(&scene, &camera, &mut culler);
+    assert!(out.occluders.is_empty() && out.occluded.is_empty(), "no occluders, nothing occluded");
+}
+
+#[test]
+fn nan_camera_is_an_error_not_a_cull() {
+    let scene = random_scene(7, 10, false);
+    let mut culler = HomCuller::new(&scene, permissive());
+    let camera = Camera::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 64, 64);
+    let mut out = CullOutput::default();
+    assert!(culler.cull(&scene, &camera, &mut out).is_err());
+}
+
+#[test]
+fn approximate_mode_culls_at_least_as_much() {
+    let scene = wall_scene(0.03);
+    let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
+    let mut exact = HomCuller::new(&scene, permissive());
+    let mut approx = HomCuller::new(&scene, HomConfig { opacity: Opacity::NegligibleHole(4), ..permissive() });
+    let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
+    exact.cull(&scene, &camera, &mut a).unwrap();
+    approx.cull(&scene, &camera, &mut b).unwrap();
+    assert!(b.occluded.len() >= a.occluded.len());
+    assert_eq!(b.occluded, vec![2], "the thin gap is a negligible hole");
+}

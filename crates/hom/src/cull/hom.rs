@@ -1,0 +1,434 @@
+//! The hierarchical occlusion map culler (Zhang et al. 1997): per frame,
+//! select occluders → rasterize their coverage → build the opacity pyramid and
+//! the depth estimation buffer (or single Z plane) → traverse the BVH front to
+//! back with frustum, depth and overlap tests.
+//!
+//! # Conservative by default
+//! With opacity threshold 1.0 (the default) a map pixel is opaque only when
+//! every output-resolution sample under it is covered by occluder triangles,
+//! rasterized with the reference renderer's exact sampling rule (pixel
+//! centres, top-left fill, the same fixed-point snapping). An object is culled
+//! only when every map pixel under its screen rectangle is opaque *and* its
+//! nearest depth lies beyond the farthest occluder depth over that rectangle;
+//! then every sample it could cover is covered by a nearer occluder triangle,
+//! so it owns no pixel of the final image.
+//!
+//! What breaks the guarantee: an opacity threshold below 1.0 (approximate
+//! culling: it hides objects seen through small holes, on purpose); rendering
+//! the final image at another resolution or with another sampling rule than
+//! the camera the culler was given; occluder stand-in meshes that are not
+//! contained in the object they stand for; and transparent occluders.
+
+use super::frustum::refit_if_dynamic;
+use super::{CullError, CullOutput, Culler};
+use crate::depth::{DepthEstimationBuffer, SingleZPlane};
+use crate::geom::{project_box_clipped, project_points, Aabb, Camera, Containment, Footprint, Frustum, ScreenRect};
+use crate::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
+use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
+use crate::raster::{CoverageBuffer, OccluderRasterizer};
+use crate::scene::Scene;
+use crate::spatial::{Bvh, BvhConfig};
+
+/// How opaque a map pixel must be to hide what lies behind it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Opacity {
+    /// Threshold 1.0 at every level: never hides a visible pixel.
+    Conservative,
+    /// Base-level opacity threshold in `(0, 1]`, raised per level as O(k+1) = (3 + O(k)) / 4.
+    Threshold(f32),
+    /// Ignore holes of up to this many output samples per base map pixel.
+    NegligibleHole(u32),
+}
+
+/// How the depth test is done.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthMode {
+    /// The depth estimation buffer with this many cells (columns, rows).
+    EstimationBuffer(u32, u32),
+    /// One plane at the farthest occluder depth.
+    SingleZPlane,
+}
+
+/// Settings of the HOM culler.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HomConfig {
+    /// Base occlusion map resolution for the larger viewport side (default 256):
+    /// each map pixel covers `ceil(side / map_size)` output samples a side.
+    pub map_size: u32,
+    /// The pyramid is reduced until both sides are at most this (default 4).
+    pub min_level_side: u32,
+    /// Opacity thresholds.
+    pub opacity: Opacity,
+    /// Transparency threshold in `[0, 1)`: the overlap test stops at a pixel this transparent or more.
+    pub transparency: f32,
+    /// Depth test.
+    pub depth: DepthMode,
+    /// Occluder selection.
+    pub selection: SelectionConfig,
+    /// Occluder database preprocessing.
+    pub occluder_db: OccluderDbConfig,
+}
+
+impl Default for HomConfig {
+    fn default() -> Self {
+        HomConfig {
+            map_size: 256,
+            min_level_side: 4,
+            opacity: Opacity::Conservative,
+            transparency: 0.0,
+            depth: DepthMode::EstimationBuffer(64, 64),
+            selection: SelectionConfig::default(),
+            occluder_db: OccluderDbConfig::default(),
+        }
+    }
+}
+
+enum Depth {
+    Buffer(DepthEstimationBuffer),
+    Plane(SingleZPlane),
+}
+
+impl Depth {
+    fn is_behind(&self, r: &ScreenRect) -> bool {
+        match self {
+            Depth::Buffer(b) => b.is_behind(r),
+            Depth::Plane(p) => p.is_behind(r),
+        }
+    }
+}
+
+/// The HOM culler; see the module docs for its guarantee.
+pub struct HomCuller {
+    config: HomConfig,
+    bvh: Bvh,
+    boxes: Vec<Aabb>,
+    db: OccluderDb,
+    selector: OccluderSelector,
+    raster: OccluderRasterizer,
+    coverage: CoverageBuffer,
+    pyramid: Option<Pyramid>,
+    thresholds: Option<Thresholds>,
+    depth: Option<Depth>,
+    is_occluder: Vec<bool>,
+    culled_pct: f32,
+}
+
+impl HomCuller {
+    /// Builds the model database (BVH) and the occluder database for `scene`.
+    pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
+        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
+        let bvh = Bvh::build(&boxes, &BvhConfig::default());
+        let db = OccluderDb::build(scene, &config.occluder_db);
+        HomCuller {
+            selector: OccluderSelector::new(config.selection.clone()),
+            config,
+            bvh,
+            boxes,
+            db,
+            raster: OccluderRasterizer::default(),
+            coverage: CoverageBuffer::default(),
+            pyramid: None,
+            thresholds: None,
+            depth: None,
+            is_occluder: vec![false; scene.objects().len()],
+            culled_pct: 0.0,
+        }
+    }
+
+    /// The occluder database (with its report of what was kept and why).
+    pub fn occluder_db(&self) -> &OccluderDb {
+        &self.db
+    }
+
+    /// Mutable occluder database, to give occluders stand-in meshes.
+    pub fn occluder_db_mut(&mut self) -> &mut OccluderDb {
+        &mut self.db
+    }
+
+    /// The last frame's occlusion pyramid (for pictures).
+    pub fn pyramid(&self) -> Option<&Pyramid> {
+        self.pyramid.as_ref()
+    }
+
+    /// The last frame's depth estimation buffer, when that depth mode is used.
+    pub fn depth_buffer(&self) -> Option<&DepthEstimationBuffer> {
+        match &self.depth {
+            Some(Depth::Buffer(b)) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// The current settings.
+    pub fn config(&self) -> &HomConfig {
+        &self.config
+    }
+
+    /// The worst hole of the last frame's coarsest map, as an NDC rectangle.
+    fn worst_hole(&self) -> Option<Hole> {
+        let p = self.pyramid.as_ref()?;
+        find_worst_hole(p, self.config.selection.hole_opacity)
+    }
+
+    fn ensure_buffers(&mut self, camera: &Camera) {
+        let (w, h) = (camera.width, camera.height);
+        let block = w.max(h).div_ceil(self.config.map_size.max(1)).clamp(1, 64);
+        let fits = self
+            .pyramid
+            .as_ref()
+            .is_some_and(|p| p.viewport() == (w, h) && p.block() == block);
+        if !fits {
+            let p = Pyramid::new(w, h, block, self.config.min_level_side);
+            self.thresholds = Some(match self.config.opacity {
+                Opacity::Conservative => Thresholds::conservative(&p, self.config.transparency),
+                Opacity::Threshold(o) => Thresholds::approximate(&p, o, self.config.transparency),
+                Opacity::NegligibleHole(n) => Thresholds::negligible_hole(&p, n, self.config.transparency),
+            });
+            self.pyramid = Some(p);
+        }
+        let depth_fits = match (&self.depth, self.config.depth) {
+            (Some(Depth::Buffer(_)), DepthMode::EstimationBuffer(..)) => fits,
+            (Some(Depth::Plane(_)), DepthMode::SingleZPlane) => true,
+            _ => false,
+        };
+        if !depth_fits {
+            self.depth = Some(match self.config.depth {
+                DepthMode::EstimationBuffer(c, r) => Depth::Buffer(DepthEstimationBuffer::new(w, h, c.max(1), r.max(1))),
+                DepthMode::SingleZPlane => Depth::Plane(SingleZPlane::default()),
+            });
+        }
+    }
+}
+
+/// The coarsest-level region of lowest opacity below `hole_opacity`, grown
+/// greedily over neighbouring hole pixels, as an NDC rectangle.
+pub fn find_worst_hole(p: &Pyramid, hole_opacity: f32) -> Option<Hole> {
+    let top = p.levels().last()?;
+    let hole = |x: u32, y: u32| top.opacity(x, y) < hole_opacity;
+    let (mut sx, mut sy, mut worst) = (0, 0, f32::MAX);
+    for y in 0..top.height {
+        for x in 0..top.width {
+            let o = top.opacity(x, y);
+            if hole(x, y) && o < worst {
+                (sx, sy, worst) = (x, y, o);
+            }
+        }
+    }
+    if worst == f32::MAX {
+        return None;
+    }
+    // Grow right, then down while every pixel of the new row is a hole.
+    let mut x1 = sx + 1;
+    while x1 < top.width && hole(x1, sy) {
+        x1 += 1;
+    }
+    let mut x0 = sx;
+    while x0 > 0 && hole(x0 - 1, sy) {
+        x0 -= 1;
+    }
+    let mut y1 = sy + 1;
+    while y1 < top.height && (x0..x1).all(|x| hole(x, y1)) {
+        y1 += 1;
+    }
+    let mut y0 = sy;
+    while y0 > 0 && (x0..x1).all(|x| hole(x, y0 - 1)) {
+        y0 -= 1;
+    }
+    let mut sum = 0.0;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            sum += top.opacity(x, y);
+        }
+    }
+    let n = ((x1 - x0) * (y1 - y0)) as f32;
+    let size = (p.block() << (p.levels().len() - 1)) as f32;
+    let (w, h) = (p.viewport().0 as f32, p.viewport().1 as f32);
+    let ndc_x = |px: f32| (px * size / w).min(1.0) * 2.0 - 1.0;
+    let ndc_y = |py: f32| 1.0 - (py * size / h).min(1.0) * 2.0;
+    Some(Hole {
+        x: (ndc_x(x0 as f32), ndc_x(x1 as f32)),
+        y: (ndc_y(y1 as f32), ndc_y(y0 as f32)),
+        opacity: sum / n,
+    })
+}
+
+impl Culler for HomCuller {
+    fn name(&self) -> &'static str {
+        "hom"
+    }
+
+    fn config(&self) -> Vec<(&'static str, String)> {
+        let c = &self.config;
+        vec![
+            ("map_size", c.map_size.to_string()),
+            ("min_level_side", c.min_level_side.to_string()),
+            ("opacity", format!("{:?}", c.opacity)),
+            ("transparency", c.transparency.to_string()),
+            ("depth", format!("{:?}", c.depth)),
+            ("selection", format!("{:?}", c.selection.mode)),
+            ("budget", c.selection.budget.to_string()),
+            ("adaptive_budget", c.selection.adaptive.to_string()),
+            ("hole_filling", c.selection.hole_filling.to_string()),
+            ("occluders", self.db.report()),
+        ]
+    }
+
+    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
+        camera.validate()?;
+        out.clear();
+        {
+            let Self { bvh, boxes, .. } = self;
+            out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
+        }
+        self.ensure_buffers(camera);
+        let view_proj = camera.view_proj();
+        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
+        let (w, h) = (camera.width, camera.height);
+
+        // 1. Occluder selection (with last frame's worst hole when culling was poor).
+        let hole = if self.selector.wants_hole() { self.worst_hole() } else { None };
+        let mut occluders = std::mem::take(&mut out.occluders);
+        let sel = out.time("selection", || {
+            self.selector
+                .select(&self.db, scene, camera, &frustum, hole.as_ref(), &mut occluders)
+        });
+
+        // 2. Occluder coverage at output resolution.
+        let Self {
+            raster,
+            coverage,
+            db,
+            pyramid,
+            depth,
+            thresholds,
+            bvh,
+            is_occluder,
+            ..
+        } = self;
+        let drawn = out.time("raster", || raster.rasterize(coverage, scene, db, &occluders, camera));
+
+        // 3. The pyramid.
+        let pyramid = pyramid.as_mut().expect("ensured");
+        out.time("pyramid", || pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row()));
+
+        // 4. Depth of the occluders.
+        let depth = depth.as_mut().expect("ensured");
+        out.time("depth", || {
+            match depth {
+                Depth::Buffer(b) => b.clear(),
+                Depth::Plane(p) => *p = SingleZPlane::default(),
+            }
+            for &id in &occluders {
+                let o = scene.object(id);
+                let corners = if o.is_dynamic() { o.obb.corners() } else { o.aabb.corners() };
+                if let Some(r) = project_box_clipped(&corners, &view_proj, w, h) {
+                    match depth {
+                        Depth::Buffer(b) => b.insert_occluder(&r),
+                        Depth::Plane(p) => p.insert_occluder(&r),
+                    }
+                }
+            }
+        });
+
+        // 5. Traversal: frustum → depth → overlap, front to back.
+        let thresholds = thresholds.as_ref().expect("ensured");
+        is_occluder.fill(false);
+        for &id in &occluders {
+            is_occluder[id as usize] = true;
+        }
+        let mut visible = std::mem::take(&mut out.visible);
+        let mut occluded = std::mem::take(&mut out.occluded);
+        let mut overlap = OverlapStats::default();
+        let mut box_tests = 0u64;
+        let boxes = &self.boxes;
+        out.time("traversal", || {
+            let occluded_box = |r: &ScreenRect, overlap: &mut OverlapStats| {
+                depth.is_behind(r) && rect_covered(pyramid, thresholds, r, overlap)
+            };
+            let mut stack: Vec<(u32, bool)> = vec![(0, false)];
+            if bvh.is_empty() {
+                stack.clear();
+            }
+            while let Some((index, inside)) = stack.pop() {
+                let node = &bvh.nodes()[index as usize];
+                box_tests += 1;
+                let containment = if inside { Containment::Inside } else { frustum.test_aabb(&node.bounds) };
+                if containment == Containment::Outside {
+                    continue;
+                }
+                let inside = containment == Containment::Inside;
+                if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
+                    if occluded_box(&r, &mut overlap) {
+                        // Only objects in the frustum count as occlusion-culled.
+                        let items = bvh.subtree_items(node).iter().copied();
+                        occluded.extend(items.filter(|&id| {
+                            !is_occluder[id as usize]
+                                && (inside || frustum.test_aabb(&boxes[id as usize]) != Containment::Outside)
+                        }));
+                        continue;
+                    }
+                }
+                if node.is_leaf() {
+                    for &id in bvh.leaf_items(node) {
+                        let o = scene.object(id);
+                        box_tests += 1;
+                        if is_occluder[id as usize] {
+                            visible.push(id);
+                            continue;
+                        }
+                        let (c, corners) = if o.is_dynamic() {
+                            (frustum.test_obb(&o.obb), o.obb.corners())
+                        } else if inside {
+                            (Containment::Inside, o.aabb.corners())
+                        } else {
+                            (frustum.test_aabb(&boxes[id as usize]), o.aabb.corners())
+                        };
+                        if c == Containment::Outside {
+                            continue;
+                        }
+                        match project_points(&corners, &view_proj, w, h) {
+                            Footprint::Rect(r) if occluded_box(&r, &mut overlap) => occluded.push(id),
+                            _ => visible.push(id),
+                        }
+                    }
+                } else {
+                    // Push the farther child first so the nearer one is visited first.
+                    let (a, b) = (node.first, node.first + 1);
+                    let da = bvh.nodes()[a as usize].bounds.distance_squared(camera.eye);
+                    let db_ = bvh.nodes()[b as usize].bounds.distance_squared(camera.eye);
+                    let (near, far) = if da <= db_ { (a, b) } else { (b, a) };
+                    stack.push((far, inside));
+                    stack.push((near, inside));
+                }
+            }
+            visible.sort_unstable();
+            occluded.sort_unstable();
+        });
+        // Occluders in an occluded subtree were skipped there but are still drawn.
+        for &id in &occluders {
+            if visible.binary_search(&id).is_err() {
+                let pos = visible.partition_point(|&v| v < id);
+                visible.insert(pos, id);
+            }
+        }
+        let tris = |ids: &[u32]| ids.iter().map(|&i| scene.object(i).triangles as u64).sum::<u64>();
+        let (tv, to) = (tris(&visible), tris(&occluded));
+        self.culled_pct = if tv + to > 0 { 100.0 * to as f32 / (tv + to) as f32 } else { 0.0 };
+        out.visible = visible;
+        out.occluded = occluded;
+        out.occluders = occluders;
+        out.count("box_tests", box_tests);
+        out.count("overlap_pixels", overlap.pixels);
+        out.count("levels_visited", overlap.levels);
+        out.count("occluders", sel.selected as u64);
+        out.count("occluder_triangles", drawn);
+        out.count("hole_fillers", sel.hole_fillers as u64);
+        out.count("queued_occluders", sel.queued as u64);
+        out.count("budget", sel.budget as u64);
+        out.count("candidates", sel.candidates as u64);
+        Ok(())
+    }
+
+    fn frame_done(&mut self, frame_ms: Option<f64>) {
+        self.selector.feedback(self.culled_pct, frame_ms);
+    }
+}

@@ -1,0 +1,242 @@
+//! The occluder database (Zhang et al. 1997, section 5.3.1; RTR excerpt):
+//! preprocessing that keeps the objects likely to be good occluders from most
+//! viewpoints and drops the rest, saying why.
+//!
+//! For dynamic objects the occluder database is the model database (section
+//! 5.5): their boxes move, so only pose-independent criteria (size, cost,
+//! shape) apply to them, never redundancy.
+
+use crate::geom::Aabb;
+use crate::scene::{Mesh, Scene};
+use std::sync::Arc;
+
+/// Thresholds of the occluder database.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccluderDbConfig {
+    /// Drop an object whose box's second-largest side is below this (metres):
+    /// it covers too little of the screen unless the eye is right next to it.
+    pub min_size: f32,
+    /// Drop an object with more triangles than this: too costly to render as an occluder.
+    pub max_triangles: u32,
+    /// Drop an object whose surface fills less than this fraction of its box's
+    /// surface (a diagonal pipe, a sparse frame): its box badly overstates what it hides.
+    pub min_fill: f32,
+    /// Drop an object whose box lies inside a kept occluder's box grown by this
+    /// margin (metres) — a clock on a wall hides nothing the wall does not.
+    pub redundancy_margin: f32,
+}
+
+impl Default for OccluderDbConfig {
+    fn default() -> Self {
+        OccluderDbConfig {
+            min_size: 0.5,
+            max_triangles: 20_000,
+            min_fill: 0.2,
+            redundancy_margin: 0.05,
+        }
+    }
+}
+
+/// Why an object is, or is not, an occluder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Verdict {
+    /// Kept.
+    Kept,
+    /// Its box is too small.
+    TooSmall,
+    /// It has too many triangles.
+    TooCostly,
+    /// It fills too little of its box.
+    IllShaped,
+    /// A kept occluder's box already holds it.
+    Redundant,
+}
+
+/// An object kept as an occluder.
+#[derive(Clone, Debug)]
+pub struct Occluder {
+    /// The object's id.
+    pub object: u32,
+    /// A simpler stand-in mesh drawn instead of the object's own (in the
+    /// object's space, placed by its transform); `None` draws the object's mesh.
+    pub stand_in: Option<Arc<Mesh>>,
+    /// Triangles this occluder costs to draw.
+    pub triangles: u32,
+}
+
+/// The preprocessed occluder database.
+#[derive(Clone, Debug)]
+pub struct OccluderDb {
+    occluders: Vec<Occluder>,
+    verdicts: Vec<Verdict>,
+    config: OccluderDbConfig,
+}
+
+/// Surface area of a mesh in its own space.
+fn mesh_area(mesh: &Mesh) -> f32 {
+    let p = mesh.positions();
+    mesh.triangles()
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| p[i as usize]);
+            (b - a).cross(c - a).length() * 0.5
+        })
+        .sum()
+}
+
+fn second_largest(v: glam::Vec3) -> f32 {
+    let mut s = v.to_array();
+    s.sort_by(f32::total_cmp);
+    s[1]
+}
+
+impl OccluderDb {
+    /// Preprocesses `scene` with `config`.
+    pub fn build(scene: &Scene, config: &OccluderDbConfig) -> OccluderDb {
+        // Per-mesh fill ratio, computed once for meshes shared by many objects.
+        let fill: Vec<f32> = scene
+            .meshes()
+            .iter()
+            .map(|m| {
+                let box_area = m.bounds().surface_area();
+                if box_area > 0.0 {
+                    mesh_area(m) / box_area
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut verdicts: Vec<Verdict> = scene
+            .objects()
+            .iter()
+            .map(|o| {
+                // Scale the local box by the transform's axis lengths for the world size.
+                let scale = glam::Vec3::new(
+                    o.transform.x_axis.truncate().length(),
+                    o.transform.y_axis.truncate().length(),
+                    o.transform.z_axis.truncate().length(),
+                );
+                let size = scene.mesh_of(o).bounds().extent() * scale;
+                if second_largest(size) < config.min_size {
+                    Verdict::TooSmall
+                } else if o.triangles > config.max_triangles {
+                    Verdict::TooCostly
+                } else if fill[o.mesh as usize] < config.min_fill {
+                    Verdict::IllShaped
+                } else {
+                    Verdict::Kept
+                }
+            })
+            .collect();
+        mark_redundant(scene, config.redundancy_margin, &mut verdicts);
+        let occluders = verdicts
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v == Verdict::Kept)
+            .map(|(id, _)| Occluder {
+                object: id as u32,
+                stand_in: None,
+                triangles: scene.objects()[id].triangles,
+            })
+            .collect();
+        OccluderDb {
+            occluders,
+            verdicts,
+            config: config.clone(),
+        }
+    }
+
+    /// Every object as an occluder, no preprocessing (for tests and tiny scenes).
+    pub fn all(scene: &Scene) -> OccluderDb {
+        OccluderDb {
+            occluders: scene
+                .objects()
+                .iter()
+                .enumerate()
+                .map(|(id, o)| Occluder {
+                    object: id as u32,
+                    stand_in: None,
+                    triangles: o.triangles,
+                })
+                .collect(),
+            verdicts: vec![Verdict::Kept; scene.objects().len()],
+            config: OccluderDbConfig::default(),
+        }
+    }
+
+    /// The kept occluders, in object id order.
+    pub fn occluders(&self) -> &[Occluder] {
+        &self.occluders
+    }
+
+    /// The verdict for every object, indexed by id.
+    pub fn verdicts(&self) -> &[Verdict] {
+        &self.verdicts
+    }
+
+    /// The configuration it was built with.
+    pub fn config(&self) -> &OccluderDbConfig {
+        &self.config
+    }
+
+    /// Replaces an occluder's stand-in mesh (for example a simplified one).
+    /// Returns false when `object` is not an occluder.
+    pub fn set_stand_in(&mut self, object: u32, mesh: Arc<Mesh>) -> bool {
+        match self.occluders.binary_search_by_key(&object, |o| o.object) {
+            Ok(i) => {
+                self.occluders[i].triangles = mesh.triangle_count() as u32;
+                self.occluders[i].stand_in = Some(mesh);
+                true
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// A one-line account: how many kept, and how many dropped for each reason.
+    pub fn report(&self) -> String {
+        let count = |v: Verdict| self.verdicts.iter().filter(|&&x| x == v).count();
+        format!(
+            "{} of {} objects kept as occluders; dropped: {} too small (< {} m), {} too costly (> {} triangles), {} ill-shaped (fill < {}), {} redundant",
+            count(Verdict::Kept),
+            self.verdicts.len(),
+            count(Verdict::TooSmall),
+            self.config.min_size,
+            count(Verdict::TooCostly),
+            self.config.max_triangles,
+            count(Verdict::IllShaped),
+            self.config.min_fill,
+            count(Verdict::Redundant),
+        )
+    }
+}
+
+/// Marks static kept objects whose box sits inside a larger static kept box.
+fn mark_redundant(scene: &Scene, margin: f32, verdicts: &mut [Verdict]) {
+    let objects = scene.objects();
+    let mut kept: Vec<u32> = (0..objects.len() as u32)
+        .filter(|&i| verdicts[i as usize] == Verdict::Kept && !objects[i as usize].is_dynamic())
+        .collect();
+    // Largest first, so a box is only ever absorbed by a bigger, still-kept one.
+    kept.sort_by(|&a, &b| {
+        let va = objects[a as usize].aabb.surface_area();
+        let vb = objects[b as usize].aabb.surface_area();
+        vb.total_cmp(&va).then(a.cmp(&b))
+    });
+    let boxes: Vec<Aabb> = kept.iter().map(|&i| objects[i as usize].aabb).collect();
+    let bvh = crate::spatial::Bvh::build(&boxes, &crate::spatial::BvhConfig::default());
+    let mut absorbed = vec![false; kept.len()];
+    let mut hits = Vec::new();
+    for (k, &id) in kept.iter().enumerate() {
+        let b = boxes[k];
+        hits.clear();
+        bvh.overlapping(&Aabb::new(b.min - margin, b.max + margin), &mut hits);
+        let inside_bigger = hits.iter().any(|&j| {
+            let j = j as usize;
+            j < k && !absorbed[j] && Aabb::new(boxes[j].min - margin, boxes[j].max + margin).contains(&b)
+        });
+        if inside_bigger {
+            absorbed[k] = true;
+            verdicts[id as usize] = Verdict::Redundant;
+        }
+    }
+}

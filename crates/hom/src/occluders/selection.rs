@@ -1,0 +1,290 @@
+//! Dynamic occluder selection (Zhang et al. 1997, sections 5.3.2 and 6.2).
+//!
+//! Each frame: the occluders in the view frustum, nearest first (distance to
+//! the box centre divided by the box's radius, so a big building a little
+//! farther away beats a lamp post next to the eye), until the polygon budget
+//! L is spent. Or, as the alternative, the single Z plane: the occluders whose
+//! farthest depth is smallest, so a plane just beyond them separates them from
+//! the rest. Around that:
+//! - **adaptive L**: hill-climbing on frame time, nudged by the culled percentage;
+//! - **hole filling**: when the last frame culled too little, the worst hole of
+//!   the last frame's coarsest map defines a sub-frustum; occluders in it that
+//!   were not selected last frame are taken first (nearest first, up to a
+//!   fraction of L). If culling then rose markedly, they join a queue of
+//!   occluders that are always selected, bounded by a polygon limit, oldest
+//!   dropped first;
+//! - **temporal coherence**: last frame's occluders win ties.
+
+use super::database::OccluderDb;
+use crate::geom::{Camera, Containment, Frustum};
+use crate::scene::Scene;
+use std::collections::VecDeque;
+
+/// How occluders are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SelectionMode {
+    /// Nearest first, size taken into account, until the budget is spent.
+    Nearest,
+    /// Nearest farthest-depth first: a single Z plane separates occluders from occludees.
+    ZPlane,
+}
+
+/// Settings of the selector.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionConfig {
+    /// Ordering of candidates.
+    pub mode: SelectionMode,
+    /// Polygon budget L (triangles) at the start.
+    pub budget: u32,
+    /// Adapt L per frame from frame time and culled percentage.
+    pub adaptive: bool,
+    /// Bounds of the adaptive L.
+    pub budget_range: (u32, u32),
+    /// Use the hole-filling feedback.
+    pub hole_filling: bool,
+    /// A coarsest-map pixel below this opacity is a hole.
+    pub hole_opacity: f32,
+    /// Hole filling runs when the last frame culled less than this percentage of the triangles in the frustum.
+    pub hole_trigger_pct: f32,
+    /// Share of L hole-filling occluders may take.
+    pub hole_share: f32,
+    /// Polygon limit of the queue of proven hole fillers.
+    pub queue_limit: u32,
+    /// Rise in culled percentage (points) that proves hole fillers useful.
+    pub queue_gain_pct: f32,
+}
+
+impl Default for SelectionConfig {
+    fn default() -> Self {
+        SelectionConfig {
+            mode: SelectionMode::Nearest,
+            budget: 30_000,
+            adaptive: false,
+            budget_range: (2_000, 200_000),
+            hole_filling: true,
+            hole_opacity: 0.5,
+            hole_trigger_pct: 90.0,
+            hole_share: 0.25,
+            queue_limit: 10_000,
+            queue_gain_pct: 2.0,
+        }
+    }
+}
+
+/// A hole region of the coarsest map: normalized device rectangle and its mean opacity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hole {
+    /// NDC x range (left, right).
+    pub x: (f32, f32),
+    /// NDC y range (bottom, top).
+    pub y: (f32, f32),
+    /// Mean opacity over the region.
+    pub opacity: f32,
+}
+
+/// What selection did this frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SelectionStats {
+    /// Candidates in the frustum.
+    pub candidates: u32,
+    /// Occluders selected.
+    pub selected: u32,
+    /// Their triangles.
+    pub triangles: u64,
+    /// Of those, selected to fill a hole.
+    pub hole_fillers: u32,
+    /// Of those, from the queue.
+    pub queued: u32,
+    /// The budget L used.
+    pub budget: u32,
+}
+
+/// Per-frame occluder selection with feedback; keeps state across frames.
+#[derive(Clone, Debug)]
+pub struct OccluderSelector {
+    config: SelectionConfig,
+    budget: u32,
+    last_selected: Vec<bool>,
+    queue: VecDeque<(u32, u32)>,
+    queue_triangles: u64,
+    hole_fillers: Vec<u32>,
+    last_culled_pct: Option<f32>,
+    last_frame_ms: Option<f64>,
+    step: f32,
+    candidates: Vec<(f32, u32, u32)>,
+}
+
+impl OccluderSelector {
+    /// A selector with `config`.
+    pub fn new(config: SelectionConfig) -> OccluderSelector {
+        OccluderSelector {
+            budget: config.budget,
+            config,
+            last_selected: Vec::new(),
+            queue: VecDeque::new(),
+            queue_triangles: 0,
+            hole_fillers: Vec::new(),
+            last_culled_pct: None,
+            last_frame_ms: None,
+            step: 1.25,
+            candidates: Vec::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SelectionConfig {
+        &self.config
+    }
+
+    /// The current budget L.
+    pub fn budget(&self) -> u32 {
+        self.budget
+    }
+
+    /// Selects this frame's occluders into `out` (ids, ascending). `hole` is the
+    /// worst hole of the last frame's coarsest map, if the caller found one.
+    pub fn select(
+        &mut self,
+        db: &OccluderDb,
+        scene: &Scene,
+        camera: &Camera,
+        frustum: &Frustum,
+        hole: Option<&Hole>,
+        out: &mut Vec<u32>,
+    ) -> SelectionStats {
+        out.clear();
+        let objects = scene.objects();
+        self.last_selected.resize(objects.len(), false);
+        let mut stats = SelectionStats {
+            budget: self.budget,
+            ..SelectionStats::default()
+        };
+        let view = camera.view();
+        self.candidates.clear();
+        for occ in db.occluders() {
+            let o = &objects[occ.object as usize];
+            let inside = if o.is_dynamic() {
+                frustum.test_obb(&o.obb)
+            } else {
+                frustum.test_aabb(&o.aabb)
+            };
+            if inside == Containment::Outside {
+                continue;
+            }
+            let key = match self.config.mode {
+                SelectionMode::Nearest => {
+                    let radius = o.aabb.half_extent().length().max(1e-6);
+                    (o.aabb.center() - camera.eye).length() / radius
+                }
+                SelectionMode::ZPlane => o
+                    .aabb
+                    .corners()
+                    .iter()
+                    .map(|c| -(view.transform_point3(*c)).z)
+                    .fold(f32::MIN, f32::max),
+            };
+            // Temporal coherence: last frame's occluders win near-ties.
+            let key = if self.last_selected[occ.object as usize] { key * 0.98 } else { key };
+            self.candidates.push((key, occ.object, occ.triangles));
+        }
+        stats.candidates = self.candidates.len() as u32;
+        self.candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+
+        let mut chosen = vec![false; 0];
+        chosen.resize(objects.len(), false);
+        let mut spent: u64 = 0;
+        let budget = self.budget as u64;
+        let mut take = |id: u32, tris: u32, limit: u64, spent: &mut u64, out: &mut Vec<u32>| -> bool {
+            if chosen[id as usize] || *spent + tris as u64 > limit {
+                return false;
+            }
+            chosen[id as usize] = true;
+            *spent += tris as u64;
+            out.push(id);
+            true
+        };
+        // 1. The queue of proven hole fillers, if still in view.
+        for &(id, tris) in &self.queue {
+            if self.candidates.iter().any(|c| c.1 == id) && take(id, tris, budget, &mut spent, out) {
+                stats.queued += 1;
+            }
+        }
+        // 2. Hole fillers: in the hole's sub-frustum, not selected last frame.
+        self.hole_fillers.clear();
+        if let Some(h) = hole.filter(|_| self.config.hole_filling) {
+            if let Some(sub) = Frustum::from_view_proj_ndc_rect(&camera.view_proj(), h.x, h.y) {
+                let limit = spent + (budget as f32 * self.config.hole_share) as u64;
+                for &(_, id, tris) in &self.candidates {
+                    let o = &objects[id as usize];
+                    if self.last_selected[id as usize] || sub.test_aabb(&o.aabb) == Containment::Outside {
+                        continue;
+                    }
+                    if take(id, tris, limit, &mut spent, out) {
+                        self.hole_fillers.push(id);
+                    }
+                }
+            }
+        }
+        stats.hole_fillers = self.hole_fillers.len() as u32;
+        // 3. The standard criterion for the rest of the budget.
+        for &(_, id, tris) in &self.candidates {
+            take(id, tris, budget, &mut spent, out);
+        }
+        out.sort_unstable();
+        self.last_selected.fill(false);
+        for &id in out.iter() {
+            self.last_selected[id as usize] = true;
+        }
+        stats.selected = out.len() as u32;
+        stats.triangles = spent;
+        stats
+    }
+
+    /// True when the last frame culled too little: the caller should look for a hole.
+    pub fn wants_hole(&self) -> bool {
+        self.config.hole_filling && self.last_culled_pct.is_some_and(|p| p < self.config.hole_trigger_pct)
+    }
+
+    /// End-of-frame feedback: the percentage of in-frustum triangles culled as
+    /// occluded, and the frame time (culling plus rendering) if known.
+    pub fn feedback(&mut self, culled_pct: f32, frame_ms: Option<f64>) {
+        // Hole fillers that raised the culling rate join the queue.
+        if let Some(last) = self.last_culled_pct {
+            if !self.hole_fillers.is_empty() && culled_pct - last >= self.config.queue_gain_pct {
+                for &id in &self.hole_fillers {
+                    if self.queue.iter().any(|q| q.0 == id) {
+                        continue;
+                    }
+                    let tris = 1u32.max(self.candidates.iter().find(|c| c.1 == id).map_or(1, |c| c.2));
+                    self.queue.push_back((id, tris));
+                    self.queue_triangles += tris as u64;
+                    while self.queue_triangles > self.config.queue_limit as u64 {
+                        let Some((_, t)) = self.queue.pop_front() else { break };
+                        self.queue_triangles -= t as u64;
+                    }
+                }
+            }
+        }
+        if self.config.adaptive {
+            if let (Some(now), Some(before)) = (frame_ms, self.last_frame_ms) {
+                // Hill-climb: keep moving L while frames get faster, turn back when they slow.
+                if now > before * 1.02 {
+                    self.step = 1.0 / self.step;
+                }
+                // Much culled already: more occluders rarely pay; lean towards fewer.
+                let lean = if culled_pct > 95.0 { 0.97 } else { 1.0 };
+                let (lo, hi) = self.config.budget_range;
+                self.budget = ((self.budget as f32 * self.step * lean) as u32).clamp(lo, hi);
+            }
+        }
+        self.last_culled_pct = Some(culled_pct);
+        if frame_ms.is_some() {
+            self.last_frame_ms = frame_ms;
+        }
+    }
+
+    /// The queue of proven hole fillers (id, triangles), oldest first.
+    pub fn queue(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
+        self.queue.iter().copied()
+    }
+}

@@ -1,0 +1,513 @@
+//! Triangle setup (clip, project, snap) and the exact fixed-point rasterizer core.
+//!
+//! Everything here is deterministic: a triangle's setup depends only on its clip
+//! coordinates and the viewport, and the pixels it covers and the depth it
+//! writes at a pixel depend only on that setup and the pixel's position.
+
+use glam::{DVec4, Vec4};
+
+/// Sub-pixel bits of the snapped fixed-point screen coordinates.
+pub const SUBPIXEL_BITS: u32 = 8;
+/// One pixel in fixed point.
+pub const ONE: i64 = 1 << SUBPIXEL_BITS;
+/// Half a pixel in fixed point (pixel centres).
+const HALF: i64 = ONE / 2;
+
+/// Guard band: after clipping, screen coordinates stay within about
+/// `±GUARD_PX` pixels of the viewport centre, so snapped coordinates fit in
+/// 29 bits and every edge-function product fits in an `i64`.
+const GUARD_PX: f32 = (1u32 << 19) as f32;
+/// Hard limit on a snapped screen coordinate in pixels (checked after projection).
+const LIMIT_PX: f32 = (1u32 << 20) as f32;
+
+/// Rows of a bounding box narrower than this are scanned pixel by pixel;
+/// wider ones get their covered span from exact integer division.
+const SCAN_MAX: u32 = 6;
+
+/// A triangle ready to rasterize: exact edge functions, clamped pixel bounds,
+/// the depth plane, and what to write.
+#[derive(Clone, Copy, Debug)]
+pub struct Tri {
+    /// Edge functions `E_i(p) = a[i] * p.x + b[i] * p.y + c[i]` in fixed point
+    /// (fill-rule bias folded into `c`); a sample is covered iff all are `>= 0`.
+    pub a: [i64; 3],
+    /// See `a`.
+    pub b: [i64; 3],
+    /// See `a`.
+    pub c: [i64; 3],
+    /// First pixel column that may be covered.
+    pub x0: u16,
+    /// First pixel row that may be covered.
+    pub y0: u16,
+    /// One past the last column.
+    pub x1: u16,
+    /// One past the last row.
+    pub y1: u16,
+    /// Depth (clip z / w) at the centre of pixel `(x0, y0)`.
+    pub zref: f32,
+    /// Depth change per pixel step in x.
+    pub dzdx: f32,
+    /// Depth change per pixel step in y.
+    pub dzdy: f32,
+    /// Object id written to the item buffer.
+    pub item: u32,
+    /// Colour written in flat shading.
+    pub colour: [u8; 4],
+}
+
+impl Tri {
+    /// The half-open range of columns `lo..hi` covered in row `py`
+    /// (`py` within `y0..y1`); `None` when the row is empty.
+    #[inline]
+    pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
+        let n = u32::from(self.x1 - self.x0);
+        let sx = i64::from(self.x0) * ONE + HALF;
+        let sy = i64::from(py) * ONE + HALF;
+        let e = [
+            self.a[0] * sx + self.b[0] * sy + self.c[0],
+            self.a[1] * sx + self.b[1] * sy + self.c[1],
+            self.a[2] * sx + self.b[2] * sy + self.c[2],
+        ];
+        if n <= SCAN_MAX {
+            let step = [self.a[0] * ONE, self.a[1] * ONE, self.a[2] * ONE];
+            let mut e = e;
+            let mut lo = u32::MAX;
+            let mut hi = 0;
+            for k in 0..n {
+                if (e[0] | e[1] | e[2]) >= 0 {
+                    if lo == u32::MAX {
+                        lo = k;
+                    }
+                    hi = k + 1;
+                }
+                e[0] += step[0];
+                e[1] += step[1];
+                e[2] += step[2];
+            }
+            return (lo < hi).then(|| (u32::from(self.x0) + lo, u32::from(self.x0) + hi));
+        }
+        // E_i(k) = e[i] + s * k >= 0 for k in 0..n, solved exactly per edge.
+        let mut lo: i64 = 0;
+        let mut hi: i64 = i64::from(n) - 1;
+        for i in 0..3 {
+            let s = self.a[i] * ONE;
+            let e0 = e[i];
+            if s == 0 {
+                if e0 < 0 {
+                    return None;
+                }
+            } else if s > 0 {
+                if e0 < 0 {
+                    // ceil(-e0 / s)
+                    lo = lo.max((-e0 + s - 1) / s);
+                }
+            } else {
+                if e0 < 0 {
+                    return None;
+                }
+                hi = hi.min(e0 / -s);
+            }
+        }
+        (lo <= hi).then(|| {
+            (
+                u32::from(self.x0) + lo as u32,
+                u32::from(self.x0) + hi as u32 + 1,
+            )
+        })
+    }
+
+    /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
+    #[cfg(test)]
+    pub fn covers(&self, px: u32, py: u32) -> bool {
+        let sx = i64::from(px) * ONE + HALF;
+        let sy = i64::from(py) * ONE + HALF;
+        (0..3).all(|i| self.a[i] * sx + self.b[i] * sy + self.c[i] >= 0)
+    }
+
+    /// Depth at the centre of pixel `(px, py)` from the plane equation, clamped at 0.
+    #[inline]
+    pub fn depth_row(&self, py: u32) -> f32 {
+        self.zref + self.dzdy * (py - u32::from(self.y0)) as f32
+    }
+}
+
+/// The viewport a triangle is set up for.
+#[derive(Clone, Copy, Debug)]
+pub struct Viewport {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Guard-band limit on |x / w| (NDC).
+    gx: f32,
+    /// Guard-band limit on |y / w| (NDC).
+    gy: f32,
+}
+
+impl Viewport {
+    /// A viewport of `width` x `height` pixels (each 1..=16384).
+    pub fn new(width: u32, height: u32) -> Viewport {
+        Viewport {
+            width,
+            height,
+            gx: GUARD_PX / width as f32,
+            gy: GUARD_PX / height as f32,
+        }
+    }
+}
+
+/// A projected, snapped vertex.
+#[derive(Clone, Copy, Debug)]
+struct ScreenVertex {
+    x: i64,
+    y: i64,
+    z: f32,
+}
+
+/// Up to 3 + 5 vertices after clipping against the near plane and four guard planes.
+const MAX_POLY: usize = 8;
+
+/// A clipped polygon, in `f64` so that intersections of huge (but finite)
+/// coordinates neither overflow nor lose the vertices that were not clipped
+/// (`f32 -> f64 -> f32` is exact).
+#[derive(Clone, Copy)]
+struct Poly {
+    v: [DVec4; MAX_POLY],
+    n: usize,
+}
+
+/// Clips `inp` to `dist(v) >= 0` (Sutherland–Hodgman). Intersections are always
+/// computed from the inside vertex towards the outside one, so an edge shared
+/// by two triangles is cut at bit-identical points in both.
+fn clip_poly(inp: &Poly, out: &mut Poly, dist: impl Fn(DVec4) -> f64, exact: impl Fn(&mut DVec4)) {
+    out.n = 0;
+    for i in 0..inp.n {
+        let a = inp.v[i];
+        let b = inp.v[if i + 1 == inp.n { 0 } else { i + 1 }];
+        let (da, db) = (dist(a), dist(b));
+        let (ain, bin) = (da >= 0.0, db >= 0.0);
+        if ain {
+            out.v[out.n] = a;
+            out.n += 1;
+        }
+        if ain != bin {
+            let (p, q, dp, dq) = if ain { (a, b, da, db) } else { (b, a, db, da) };
+            let t = dp / (dp - dq);
+            let mut r = p + (q - p) * t;
+            exact(&mut r);
+            out.v[out.n] = r;
+            out.n += 1;
+        }
+    }
+}
+
+/// Outcode bits of a clip-space vertex: outside the frustum sides, near, far.
+#[inline]
+fn outcode(v: Vec4) -> u32 {
+    (u32::from(v.x < -v.w))
+        | (u32::from(v.x > v.w) << 1)
+        | (u32::from(v.y < -v.w) << 2)
+        | (u32::from(v.y > v.w) << 3)
+        | (u32::from(v.z < 0.0) << 4)
+        | (u32::from(v.z > v.w) << 5)
+}
+
+/// True when the vertex lies outside the guard band (needs x/y clipping).
+#[inline]
+fn outside_guard(v: Vec4, vp: &Viewport) -> bool {
+    !(v.x.abs() <= vp.gx * v.w && v.y.abs() <= vp.gy * v.w)
+}
+
+/// [`outside_guard`] for a clipped vertex.
+#[inline]
+fn outside_guard_f64(v: DVec4, vp: &Viewport) -> bool {
+    !(v.x.abs() <= f64::from(vp.gx) * v.w && v.y.abs() <= f64::from(vp.gy) * v.w)
+}
+
+/// Projects a clip-space vertex (w > 0, inside the guard band) to snapped screen
+/// coordinates; `None` if it is not representable (never for well-formed input).
+#[inline]
+fn project(v: Vec4, vp: &Viewport) -> Option<ScreenVertex> {
+    if !(v.w > 0.0) {
+        return None;
+    }
+    let iw = 1.0 / v.w;
+    let sx = (v.x * iw * 0.5 + 0.5) * vp.width as f32;
+    let sy = (0.5 - v.y * iw * 0.5) * vp.height as f32;
+    let z = v.z * iw;
+    if !(sx.abs() <= LIMIT_PX && sy.abs() <= LIMIT_PX && z.is_finite()) {
+        return None;
+    }
+    Some(ScreenVertex {
+        x: (sx * ONE as f32).round() as i64,
+        y: (sy * ONE as f32).round() as i64,
+        z,
+    })
+}
+
+/// Clips, projects and sets up the clip-space triangle `clip`, pushing 0 or
+/// more rasterizable triangles (a fan when clipped) onto `out`.
+/// Returns how many were pushed.
+pub fn setup_triangle(
+    clip: [Vec4; 3],
+    vp: &Viewport,
+    item: u32,
+    colour: [u8; 4],
+    out: &mut Vec<Tri>,
+) -> usize {
+    let [p0, p1, p2] = clip;
+    if !(p0.is_finite() && p1.is_finite() && p2.is_finite()) {
+        return 0;
+    }
+    let (c0, c1, c2) = (outcode(p0), outcode(p1), outcode(p2));
+    if c0 & c1 & c2 != 0 {
+        return 0; // wholly outside one frustum plane (behind near, beyond far, or off a side)
+    }
+    let near = (c0 | c1 | c2) & (1 << 4) != 0;
+    let guard = outside_guard(p0, vp) || outside_guard(p1, vp) || outside_guard(p2, vp);
+    if !near && !guard {
+        let (Some(s0), Some(s1), Some(s2)) = (project(p0, vp), project(p1, vp), project(p2, vp))
+        else {
+            return 0;
+        };
+        return usize::from(setup_screen([s0, s1, s2], vp, item, colour, out));
+    }
+    let mut a = Poly {
+        v: [DVec4::ZERO; MAX_POLY],
+        n: 3,
+    };
+    for (d, s) in a.v.iter_mut().zip(clip) {
+        *d = s.as_dvec4();
+    }
+    let mut b = a;
+    if near {
+        clip_poly(&a, &mut b, |v| v.z, |v| v.z = 0.0);
+        std::mem::swap(&mut a, &mut b);
+    }
+    if a.v[..a.n].iter().any(|&v| outside_guard_f64(v, vp)) {
+        let (gx, gy) = (f64::from(vp.gx), f64::from(vp.gy));
+        clip_poly(&a, &mut b, |v| gx * v.w - v.x, |_| ());
+        clip_poly(&b, &mut a, |v| gx * v.w + v.x, |_| ());
+        clip_poly(&a, &mut b, |v| gy * v.w - v.y, |_| ());
+        clip_poly(&b, &mut a, |v| gy * v.w + v.y, |_| ());
+    }
+    if a.n < 3 {
+        return 0;
+    }
+    let mut s = [ScreenVertex { x: 0, y: 0, z: 0.0 }; MAX_POLY];
+    for i in 0..a.n {
+        let v = a.v[i].as_vec4();
+        if !v.is_finite() {
+            return 0;
+        }
+        match project(v, vp) {
+            Some(p) => s[i] = p,
+            None => return 0,
+        }
+    }
+    let mut pushed = 0;
+    for i in 1..a.n - 1 {
+        pushed += usize::from(setup_screen([s[0], s[i], s[i + 1]], vp, item, colour, out));
+    }
+    pushed
+}
+
+/// Sets up one snapped screen triangle; false if it covers no pixel centre.
+fn setup_screen(
+    v: [ScreenVertex; 3],
+    vp: &Viewport,
+    item: u32,
+    colour: [u8; 4],
+    out: &mut Vec<Tri>,
+) -> bool {
+    let [v0, mut v1, mut v2] = v;
+    let area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
+    if area == 0 {
+        return false;
+    }
+    if area < 0 {
+        // Two-sided: reorder so the inside is where every edge function is positive.
+        std::mem::swap(&mut v1, &mut v2);
+    }
+    // Pixel bounds: px covered needs min_x <= px * ONE + HALF <= max_x.
+    let min_x = v0.x.min(v1.x).min(v2.x);
+    let max_x = v0.x.max(v1.x).max(v2.x);
+    let min_y = v0.y.min(v1.y).min(v2.y);
+    let max_y = v0.y.max(v1.y).max(v2.y);
+    let x0 = (min_x - HALF + ONE - 1).div_euclid(ONE).max(0);
+    let x1 = ((max_x - HALF).div_euclid(ONE) + 1).min(i64::from(vp.width));
+    let y0 = (min_y - HALF + ONE - 1).div_euclid(ONE).max(0);
+    let y1 = ((max_y - HALF).div_euclid(ONE) + 1).min(i64::from(vp.height));
+    if x0 >= x1 || y0 >= y1 {
+        return false;
+    }
+    let mut a = [0i64; 3];
+    let mut b = [0i64; 3];
+    let mut c = [0i64; 3];
+    for (i, (p, q)) in [(v0, v1), (v1, v2), (v2, v0)].into_iter().enumerate() {
+        // E(s) = (q.x - p.x) * (s.y - p.y) - (q.y - p.y) * (s.x - p.x), positive inside.
+        let ea = p.y - q.y;
+        let eb = q.x - p.x;
+        // Top-left rule (y down): a left edge has the inside to its right
+        // (ea > 0); a top edge is horizontal with the inside below (eb > 0).
+        let top_left = ea > 0 || (ea == 0 && eb > 0);
+        a[i] = ea;
+        b[i] = eb;
+        c[i] = -(ea * p.x + eb * p.y) - i64::from(!top_left);
+    }
+    // Depth plane through the snapped vertices (pixel units), evaluated at pixel
+    // centres relative to the first covered pixel for precision.
+    let to_px = |f: i64| f as f64 / ONE as f64;
+    let (x0f, y0f, z0) = (to_px(v0.x), to_px(v0.y), f64::from(v0.z));
+    let (dx1, dy1, dz1) = (to_px(v1.x) - x0f, to_px(v1.y) - y0f, f64::from(v1.z) - z0);
+    let (dx2, dy2, dz2) = (to_px(v2.x) - x0f, to_px(v2.y) - y0f, f64::from(v2.z) - z0);
+    let det = dx1 * dy2 - dx2 * dy1;
+    let dzdx = (dz1 * dy2 - dz2 * dy1) / det;
+    let dzdy = (dz2 * dx1 - dz1 * dx2) / det;
+    let zref = z0 + dzdx * (x0 as f64 + 0.5 - x0f) + dzdy * (y0 as f64 + 0.5 - y0f);
+    out.push(Tri {
+        a,
+        b,
+        c,
+        x0: x0 as u16,
+        y0: y0 as u16,
+        x1: x1 as u16,
+        y1: y1 as u16,
+        zref: zref as f32,
+        dzdx: dzdx as f32,
+        dzdy: dzdy as f32,
+        item,
+        colour,
+    });
+    true
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {
+        let mut out = Vec::new();
+        setup_triangle(clip, &Viewport::new(w, h), 7, [1, 2, 3, 255], &mut out);
+        out
+    }
+
+    /// Clip coordinates of a screen point at depth z (w = 1).
+    fn at(sx: f32, sy: f32, z: f32, w: u32, h: u32) -> Vec4 {
+        Vec4::new(sx / w as f32 * 2.0 - 1.0, 1.0 - sy / h as f32 * 2.0, z, 1.0)
+    }
+
+    #[test]
+    fn nan_and_infinite_vertices_are_skipped() {
+        let ok = Vec4::new(0.0, 0.0, 0.5, 1.0);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for k in 0..4 {
+                let mut v = Vec4::new(0.5, 0.5, 0.5, 1.0);
+                v[k] = bad;
+                assert!(setup([ok, v, Vec4::new(-0.5, 0.5, 0.5, 1.0)], 32, 32).is_empty());
+            }
+        }
+    }
+
+    #[test]
+    fn huge_coordinates_are_clipped_not_overflowed() {
+        let full = |big: f32| {
+            let tris = setup(
+                [
+                    Vec4::new(-big, -big, 0.5, 1.0),
+                    Vec4::new(big, -big, 0.5, 1.0),
+                    Vec4::new(0.0, big, 0.5, 1.0),
+                ],
+                64,
+                48,
+            );
+            for t in &tris {
+                assert!(t.x0 < t.x1 && t.x1 <= 64 && t.y0 < t.y1 && t.y1 <= 48);
+            }
+            (0..48u32)
+                .map(|y| (0..64).filter(|&x| tris.iter().any(|t| t.covers(x, y))).count())
+                .sum::<usize>()
+        };
+        // Far beyond the guard band (|x / w| up to 1e7): clipped to a polygon
+        // that still covers the whole screen.
+        assert_eq!(full(1.0e7), 64 * 48);
+        // Near f32::MAX the clip intersections lose all relative precision; the
+        // requirement is only that nothing overflows or panics.
+        let _ = full(3.0e38);
+        // Tiny w (a vertex very close to the eye plane but in front of near).
+        let tris = setup(
+            [
+                Vec4::new(1.0, 1.0, 1e-30, 1e-30),
+                Vec4::new(1.0, -1.0, 0.5, 1.0),
+                Vec4::new(-1.0, 0.0, 0.5, 1.0),
+            ],
+            64,
+            48,
+        );
+        for t in &tris {
+            for y in t.y0..t.y1 {
+                let _ = t.row_span(u32::from(y));
+            }
+        }
+    }
+
+    #[test]
+    fn span_matches_per_sample_test() {
+        // Triangles of many sizes, both windings; row_span (scan or divide) must
+        // agree with evaluating the edge functions at every sample.
+        let mut seed = 12345u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        for _ in 0..3000 {
+            let scale = [2.0, 5.0, 20.0, 80.0][(rnd() * 4.0) as usize % 4];
+            let cx = rnd() * 70.0 - 3.0;
+            let cy = rnd() * 50.0 - 3.0;
+            let v = [0, 1, 2].map(|_| {
+                at(
+                    cx + (rnd() - 0.5) * scale,
+                    cy + (rnd() - 0.5) * scale,
+                    rnd(),
+                    64,
+                    48,
+                )
+            });
+            for t in setup(v, 64, 48) {
+                for y in u32::from(t.y0)..u32::from(t.y1) {
+                    let expect: Vec<u32> = (u32::from(t.x0)..u32::from(t.x1))
+                        .filter(|&x| t.covers(x, y))
+                        .collect();
+                    let got: Vec<u32> = t.row_span(y).map_or(Vec::new(), |(a, b)| (a..b).collect());
+                    assert_eq!(got, expect, "row {y} of {t:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn shared_edge_through_pixel_centres_is_covered_once() {
+        // A quad split along its diagonal; corners on pixel centres, so the
+        // diagonal passes exactly through samples.
+        let (w, h) = (16, 16);
+        let p = |x: f32, y: f32| at(x, y, 0.5, w, h);
+        let quad = [p(0.5, 0.5), p(12.5, 0.5), p(12.5, 12.5), p(0.5, 12.5)];
+        for diag in [[0, 1, 2, 0, 2, 3], [0, 1, 3, 1, 2, 3]] {
+            let t1 = setup([quad[diag[0]], quad[diag[1]], quad[diag[2]]], w, h);
+            let t2 = setup([quad[diag[3]], quad[diag[4]], quad[diag[5]]], w, h);
+            let mut inside = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let n = t1.iter().chain(&t2).filter(|t| t.covers(x, y)).count();
+                    assert!(n <= 1, "pixel {x},{y} covered {n} times");
+                    inside += n;
+                }
+            }
+            // Top and left quad edges are covered, bottom and right are not: 12 x 12.
+            assert_eq!(inside, 144);
+        }
+    }
+}
