@@ -55,7 +55,7 @@ mod raster;
 
 use hom::geom::{Camera, MAX_VIEWPORT_SIDE};
 use hom::scene::Scene;
-use raster::{raster_tri, setup_triangle, Tri, Viewport};
+use raster::{raster_tri, setup_triangle, Tri, Vertex, Viewport};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -156,7 +156,12 @@ impl Framebuffer {
     /// # Panics
     /// If the pixel is outside the framebuffer.
     pub fn item_at(&self, x: u32, y: u32) -> u32 {
-        assert!(x < self.width && y < self.height, "pixel {x},{y} outside {}x{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel {x},{y} outside {}x{}",
+            self.width,
+            self.height
+        );
         self.item[y as usize * self.width as usize + x as usize]
     }
 
@@ -206,12 +211,12 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[[u8; 4]]) -> Resu
             len: rgba.len(),
         });
     }
-    image::save_buffer(path, rgba.as_flattened(), width, height, image::ColorType::Rgba8).map_err(
-        |source| RenderError::Png {
+    image::save_buffer(path, rgba.as_flattened(), width, height, image::ColorType::Rgba8).map_err(|source| {
+        RenderError::Png {
             path: path.to_path_buf(),
             source,
-        },
-    )
+        }
+    })
 }
 
 /// How pixels are coloured.
@@ -319,7 +324,8 @@ struct Chunk {
     offsets: Vec<u32>,
     bins: Vec<u32>,
     cursor: Vec<u32>,
-    clip: Vec<glam::Vec4>,
+    vertices: Vec<Vertex>,
+    world: Vec<glam::Vec3>,
     submitted: u64,
 }
 
@@ -393,11 +399,17 @@ impl Renderer {
         options: &RenderOptions,
         fb: &mut Framebuffer,
     ) -> RenderStats {
-        let (width, height) = (camera.width.min(MAX_VIEWPORT_SIDE), camera.height.min(MAX_VIEWPORT_SIDE));
+        let (width, height) = (
+            camera.width.min(MAX_VIEWPORT_SIDE),
+            camera.height.min(MAX_VIEWPORT_SIDE),
+        );
         fb.resize(width, height);
         let object_count = scene.objects().len();
         if let Some(&bad) = ids.iter().find(|&&id| id as usize >= object_count) {
-            panic!("render: object id {bad} is not in scene '{}' ({object_count} objects)", scene.name());
+            panic!(
+                "render: object id {bad} is not in scene '{}' ({object_count} objects)",
+                scene.name()
+            );
         }
         if camera.validate().is_err() {
             fb.clear(options.background);
@@ -498,23 +510,41 @@ impl Chunk {
             let positions = mesh.positions();
             let triangles = &mesh.triangles()[t0..t1];
             let base = if flat { f.options.colouring.colour(id) } else { [0; 3] };
-            // Transform every vertex once when this chunk uses a good share of
-            // the mesh; otherwise per triangle. Both use the same arithmetic,
-            // so a vertex gets bit-identical clip coordinates either way.
+            // Transform and classify every vertex once when this chunk uses a
+            // good share of the mesh; otherwise per triangle. Both use the same
+            // arithmetic, so a vertex is bit-identical either way.
+            let vertex = |p: glam::Vec3| Vertex::new(m * p.extend(1.0), &f.viewport);
             let cached = triangles.len() * 3 >= positions.len();
             if cached {
-                self.clip.clear();
-                self.clip.extend(positions.iter().map(|&p| m * p.extend(1.0)));
+                self.vertices.clear();
+                self.vertices.extend(positions.iter().map(|&p| vertex(p)));
+                self.world.clear();
+                if flat {
+                    self.world
+                        .extend(positions.iter().map(|&p| object.transform.transform_point3(p)));
+                }
             }
             for tri in triangles {
-                let clip = if cached {
-                    tri.map(|i| self.clip[i as usize])
+                let n = if cached {
+                    let v = &self.vertices;
+                    let [i0, i1, i2] = tri.map(|i| i as usize);
+                    setup_triangle(
+                        [&v[i0], &v[i1], &v[i2]],
+                        &f.viewport,
+                        id,
+                        [0, 0, 0, 255],
+                        &mut self.tris,
+                    )
                 } else {
-                    tri.map(|i| m * positions[i as usize].extend(1.0))
+                    let v = tri.map(|i| vertex(positions[i as usize]));
+                    setup_triangle([&v[0], &v[1], &v[2]], &f.viewport, id, [0, 0, 0, 255], &mut self.tris)
                 };
-                let n = setup_triangle(clip, &f.viewport, id, [0, 0, 0, 255], &mut self.tris);
                 if n > 0 && flat {
-                    let w = tri.map(|i| object.transform.transform_point3(positions[i as usize]));
+                    let w = if cached {
+                        tri.map(|i| self.world[i as usize])
+                    } else {
+                        tri.map(|i| object.transform.transform_point3(positions[i as usize]))
+                    };
                     let colour = shade(base, w, f.eye);
                     let len = self.tris.len();
                     for t in &mut self.tris[len - n..] {
@@ -558,20 +588,19 @@ impl Chunk {
 fn shade(base: [u8; 3], w: [glam::Vec3; 3], eye: glam::Vec3) -> [u8; 4] {
     let n = (w[1] - w[0]).cross(w[2] - w[0]);
     let v = eye - (w[0] + w[1] + w[2]) / 3.0;
-    let lambert = n.dot(v).abs() / (n.length() * v.length());
-    let k = if lambert.is_finite() { 0.25 + 0.75 * lambert.min(1.0) } else { 0.25 };
+    let lambert = n.dot(v).abs() / (n.length_squared() * v.length_squared()).sqrt();
+    let k = if lambert.is_finite() {
+        0.25 + 0.75 * lambert.min(1.0)
+    } else {
+        0.25
+    };
     let [r, g, b] = base.map(|c| (f32::from(c) * k + 0.5) as u8);
     [r, g, b, 255]
 }
 
 /// Renders every object of `scene` with [`Shading::ItemOnly`] and returns the
 /// pixels each object id owns (index = object id): the visibility oracle.
-pub fn oracle_pixel_counts(
-    renderer: &Renderer,
-    scene: &Scene,
-    camera: &Camera,
-    fb: &mut Framebuffer,
-) -> Vec<u32> {
+pub fn oracle_pixel_counts(renderer: &Renderer, scene: &Scene, camera: &Camera, fb: &mut Framebuffer) -> Vec<u32> {
     let n = scene.objects().len();
     let ids: Vec<u32> = (0..n as u32).collect();
     let options = RenderOptions {

@@ -20,9 +20,9 @@ const GUARD_PX: f32 = (1u32 << 19) as f32;
 /// Hard limit on a snapped screen coordinate in pixels (checked after projection).
 const LIMIT_PX: f32 = (1u32 << 20) as f32;
 
-/// Rows of a bounding box narrower than this are scanned pixel by pixel;
+/// Rows of a bounding box at most this wide are scanned pixel by pixel;
 /// wider ones get their covered span from exact integer division.
-const SCAN_MAX: u32 = 6;
+const SCAN_MAX: u32 = 16;
 
 /// A triangle ready to rasterize: exact edge functions, clamped pixel bounds,
 /// the depth plane, and what to write.
@@ -56,64 +56,27 @@ pub(crate) struct Tri {
 }
 
 impl Tri {
-    /// The half-open range of columns `lo..hi` covered in row `py`
-    /// (`py` within `y0..y1`); `None` when the row is empty.
+    /// Edge function values at the centre of pixel `(x0, py)`.
     #[inline]
-    pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
-        let n = u32::from(self.x1 - self.x0);
+    fn edges_at_row(&self, py: u32) -> [i64; 3] {
         let sx = i64::from(self.x0) * ONE + HALF;
         let sy = i64::from(py) * ONE + HALF;
-        let e = [
-            self.a[0] * sx + self.b[0] * sy + self.c[0],
-            self.a[1] * sx + self.b[1] * sy + self.c[1],
-            self.a[2] * sx + self.b[2] * sy + self.c[2],
-        ];
-        if n <= SCAN_MAX {
-            let step = [self.a[0] * ONE, self.a[1] * ONE, self.a[2] * ONE];
-            let mut e = e;
-            let mut lo = u32::MAX;
-            let mut hi = 0;
-            for k in 0..n {
-                if (e[0] | e[1] | e[2]) >= 0 {
-                    if lo == u32::MAX {
-                        lo = k;
-                    }
-                    hi = k + 1;
-                }
-                e[0] += step[0];
-                e[1] += step[1];
-                e[2] += step[2];
-            }
-            return (lo < hi).then(|| (u32::from(self.x0) + lo, u32::from(self.x0) + hi));
-        }
-        // E_i(k) = e[i] + s * k >= 0 for k in 0..n, solved exactly per edge.
-        let mut lo: i64 = 0;
-        let mut hi: i64 = i64::from(n) - 1;
-        for i in 0..3 {
-            let s = self.a[i] * ONE;
-            let e0 = e[i];
-            if s == 0 {
-                if e0 < 0 {
-                    return None;
-                }
-            } else if s > 0 {
-                if e0 < 0 {
-                    // ceil(-e0 / s)
-                    lo = lo.max((-e0 + s - 1) / s);
-                }
-            } else {
-                if e0 < 0 {
-                    return None;
-                }
-                hi = hi.min(e0 / -s);
-            }
-        }
-        (lo <= hi).then(|| {
-            (
-                u32::from(self.x0) + lo as u32,
-                u32::from(self.x0) + hi as u32 + 1,
-            )
-        })
+        [0, 1, 2].map(|i| self.a[i] * sx + self.b[i] * sy + self.c[i])
+    }
+
+    /// The half-open range of columns `lo..hi` covered in row `py`
+    /// (`py` within `y0..y1`); `None` when the row is empty.
+    #[cfg(test)]
+    pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
+        let n = u32::from(self.x1 - self.x0);
+        let e = self.edges_at_row(py);
+        let step = [0, 1, 2].map(|i| self.a[i] * ONE);
+        let span = if n <= SCAN_MAX {
+            scan_span(e, step, n)
+        } else {
+            divide_span(e, step, n)
+        };
+        span.map(|(lo, hi)| (u32::from(self.x0) + lo, u32::from(self.x0) + hi))
     }
 
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
@@ -129,6 +92,48 @@ impl Tri {
     pub fn depth_row(&self, py: u32) -> f32 {
         self.zref + self.dzdy * (py - u32::from(self.y0)) as f32
     }
+}
+
+/// Covered steps `lo..hi` of a row of `n` samples with edge values `e` at
+/// step 0 and increments `step`, by testing each sample (the reference for tests).
+#[cfg(test)]
+fn scan_span(mut e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
+    let mut lo = u32::MAX;
+    let mut hi = 0;
+    for k in 0..n {
+        if (e[0] | e[1] | e[2]) >= 0 {
+            if lo == u32::MAX {
+                lo = k;
+            }
+            hi = k + 1;
+        } else if lo != u32::MAX {
+            break; // the covered samples of a row are contiguous
+        }
+        e[0] += step[0];
+        e[1] += step[1];
+        e[2] += step[2];
+    }
+    (lo < hi).then_some((lo, hi))
+}
+
+/// As [`scan_span`], solving `e[i] + step[i] * k >= 0` exactly per edge.
+#[inline]
+fn divide_span(e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
+    let mut lo: i64 = 0;
+    let mut hi: i64 = i64::from(n) - 1;
+    for i in 0..3 {
+        let (s, e0) = (step[i], e[i]);
+        if s > 0 {
+            if e0 < 0 {
+                lo = lo.max((-e0 + s - 1) / s); // ceil(-e0 / s)
+            }
+        } else if e0 < 0 {
+            return None;
+        } else if s < 0 {
+            hi = hi.min(e0 / -s);
+        }
+    }
+    (lo <= hi).then(|| (lo as u32, hi as u32 + 1))
 }
 
 /// The viewport a triangle is set up for.
@@ -228,7 +233,8 @@ fn outside_guard_f64(v: DVec4, vp: &Viewport) -> bool {
 /// coordinates; `None` if it is not representable (never for well-formed input).
 #[inline]
 fn project(v: Vec4, vp: &Viewport) -> Option<ScreenVertex> {
-    if !(v.w > 0.0) {
+    // Also rejects NaN.
+    if v.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let iw = 1.0 / v.w;
@@ -239,45 +245,80 @@ fn project(v: Vec4, vp: &Viewport) -> Option<ScreenVertex> {
         return None;
     }
     Some(ScreenVertex {
-        x: (sx * ONE as f32).round() as i64,
-        y: (sy * ONE as f32).round() as i64,
+        x: snap(sx),
+        y: snap(sy),
         z,
     })
 }
 
-/// Clips, projects and sets up the clip-space triangle `clip`, pushing 0 or
+/// `floor(p * ONE + 0.5)`: the nearest fixed-point value (halves round up),
+/// for `|p| <= LIMIT_PX` (a cheap, exact replacement for a libm `round`).
+#[inline]
+fn snap(p: f32) -> i64 {
+    let f = p * ONE as f32 + 0.5;
+    let i = f as i64; // truncates towards zero; exact since |f| < 2^31
+    i - i64::from((i as f32) > f)
+}
+
+/// Outcode bit: in front of the near plane fails (clip z < 0).
+const NEAR_BIT: u32 = 1 << 4;
+/// Outcode bit: outside the guard band (needs x/y clipping).
+const GUARD_BIT: u32 = 1 << 6;
+/// Outcode bit: unusable (non-finite coordinates, or projection failed).
+const BAD_BIT: u32 = 1 << 7;
+
+/// A transformed vertex with everything setup needs, computed once per vertex.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Vertex {
+    clip: Vec4,
+    /// Frustum outcode bits 0..=5, plus `GUARD_BIT` and `BAD_BIT`.
+    code: u32,
+    /// Snapped screen position; valid when no near/guard/bad bit is set.
+    s: ScreenVertex,
+}
+
+impl Vertex {
+    /// Classifies and (when it needs no clipping) projects a clip-space vertex.
+    /// A pure function of `clip` and the viewport.
+    #[inline]
+    pub fn new(clip: Vec4, vp: &Viewport) -> Vertex {
+        let s = ScreenVertex { x: 0, y: 0, z: 0.0 };
+        if !clip.is_finite() {
+            return Vertex { clip, code: BAD_BIT, s };
+        }
+        let mut code = outcode(clip);
+        if outside_guard(clip, vp) {
+            code |= GUARD_BIT;
+        }
+        if code & (NEAR_BIT | GUARD_BIT) != 0 {
+            return Vertex { clip, code, s };
+        }
+        match project(clip, vp) {
+            Some(s) => Vertex { clip, code, s },
+            None => Vertex { clip, code: BAD_BIT, s },
+        }
+    }
+}
+
+/// Clips, projects and sets up a triangle of prepared vertices, pushing 0 or
 /// more rasterizable triangles (a fan when clipped) onto `out`.
 /// Returns how many were pushed.
-pub(crate) fn setup_triangle(
-    clip: [Vec4; 3],
-    vp: &Viewport,
-    item: u32,
-    colour: [u8; 4],
-    out: &mut Vec<Tri>,
-) -> usize {
-    let [p0, p1, p2] = clip;
-    if !(p0.is_finite() && p1.is_finite() && p2.is_finite()) {
+pub(crate) fn setup_triangle(v: [&Vertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> usize {
+    let (c0, c1, c2) = (v[0].code, v[1].code, v[2].code);
+    if (c0 | c1 | c2) & BAD_BIT != 0 || c0 & c1 & c2 & 0x3f != 0 {
+        // Unusable, or wholly outside one frustum plane (behind near, beyond far, off a side).
         return 0;
     }
-    let (c0, c1, c2) = (outcode(p0), outcode(p1), outcode(p2));
-    if c0 & c1 & c2 != 0 {
-        return 0; // wholly outside one frustum plane (behind near, beyond far, or off a side)
-    }
-    let near = (c0 | c1 | c2) & (1 << 4) != 0;
-    let guard = outside_guard(p0, vp) || outside_guard(p1, vp) || outside_guard(p2, vp);
-    if !near && !guard {
-        let (Some(s0), Some(s1), Some(s2)) = (project(p0, vp), project(p1, vp), project(p2, vp))
-        else {
-            return 0;
-        };
-        return usize::from(setup_screen([s0, s1, s2], vp, item, colour, out));
+    let near = (c0 | c1 | c2) & NEAR_BIT != 0;
+    if !near && (c0 | c1 | c2) & GUARD_BIT == 0 {
+        return usize::from(setup_screen([v[0].s, v[1].s, v[2].s], vp, item, colour, out));
     }
     let mut a = Poly {
         v: [DVec4::ZERO; MAX_POLY],
         n: 3,
     };
-    for (d, s) in a.v.iter_mut().zip(clip) {
-        *d = s.as_dvec4();
+    for (d, s) in a.v.iter_mut().zip(v) {
+        *d = s.clip.as_dvec4();
     }
     let mut b = a;
     if near {
@@ -295,13 +336,13 @@ pub(crate) fn setup_triangle(
         return 0;
     }
     let mut s = [ScreenVertex { x: 0, y: 0, z: 0.0 }; MAX_POLY];
-    for i in 0..a.n {
-        let v = a.v[i].as_vec4();
+    for (d, v) in s.iter_mut().zip(&a.v[..a.n]) {
+        let v = v.as_vec4();
         if !v.is_finite() {
             return 0;
         }
         match project(v, vp) {
-            Some(p) => s[i] = p,
+            Some(p) => *d = p,
             None => return 0,
         }
     }
@@ -313,13 +354,7 @@ pub(crate) fn setup_triangle(
 }
 
 /// Sets up one snapped screen triangle; false if it covers no pixel centre.
-fn setup_screen(
-    v: [ScreenVertex; 3],
-    vp: &Viewport,
-    item: u32,
-    colour: [u8; 4],
-    out: &mut Vec<Tri>,
-) -> bool {
+fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> bool {
     let [v0, mut v1, mut v2] = v;
     let area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
     if area == 0 {
@@ -361,9 +396,9 @@ fn setup_screen(
     let (x0f, y0f, z0) = (to_px(v0.x), to_px(v0.y), f64::from(v0.z));
     let (dx1, dy1, dz1) = (to_px(v1.x) - x0f, to_px(v1.y) - y0f, f64::from(v1.z) - z0);
     let (dx2, dy2, dz2) = (to_px(v2.x) - x0f, to_px(v2.y) - y0f, f64::from(v2.z) - z0);
-    let det = dx1 * dy2 - dx2 * dy1;
-    let dzdx = (dz1 * dy2 - dz2 * dy1) / det;
-    let dzdy = (dz2 * dx1 - dz1 * dx2) / det;
+    let inv_det = 1.0 / (dx1 * dy2 - dx2 * dy1);
+    let dzdx = (dz1 * dy2 - dz2 * dy1) * inv_det;
+    let dzdy = (dz2 * dx1 - dz1 * dx2) * inv_det;
     let zref = z0 + dzdx * (x0 as f64 + 0.5 - x0f) + dzdy * (y0 as f64 + 0.5 - y0f);
     out.push(Tri {
         a,
@@ -385,6 +420,9 @@ fn setup_screen(
 /// Draws the rows `band_y0..band_y1` of `t` into a band of the framebuffer
 /// (`depth`, `item`, `colour` hold those rows, `width` pixels each).
 /// Returns the number of fragments written.
+///
+/// Coverage is exactly that of [`Tri::covers`]; the depth at a pixel is
+/// `depth_row(py) + dzdx * (px - x0)`, independent of the band.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn raster_tri<const COLOUR: bool>(
@@ -398,28 +436,52 @@ pub(crate) fn raster_tri<const COLOUR: bool>(
 ) -> u64 {
     let ya = u32::from(t.y0).max(band_y0);
     let yb = u32::from(t.y1).min(band_y1);
+    if ya >= yb {
+        return 0;
+    }
+    let n = u32::from(t.x1 - t.x0);
+    let x0 = usize::from(t.x0);
+    let step_x = [t.a[0] * ONE, t.a[1] * ONE, t.a[2] * ONE];
+    let step_y = [t.b[0] * ONE, t.b[1] * ONE, t.b[2] * ONE];
+    let mut e = t.edges_at_row(ya);
     let mut written = 0u64;
+    let mut row = (ya - band_y0) as usize * width + x0;
+    let mut fragment = |idx: usize, z: f32| {
+        if z < depth[idx] {
+            depth[idx] = z;
+            item[idx] = t.item;
+            if COLOUR {
+                colour[idx] = t.colour;
+            }
+            written += 1;
+        }
+    };
     for py in ya..yb {
-        let Some((lo, hi)) = t.row_span(py) else {
-            continue;
-        };
-        let row = (py - band_y0) as usize * width;
         let zr = t.depth_row(py);
-        let (lo, hi) = (lo as usize, hi as usize);
-        let base = lo - usize::from(t.x0);
-        let d = &mut depth[row + lo..row + hi];
-        let it = &mut item[row + lo..row + hi];
-        for (k, (dz, iv)) in d.iter_mut().zip(it.iter_mut()).enumerate() {
-            let z = (zr + t.dzdx * (base + k) as f32).max(0.0);
-            if z < *dz {
-                *dz = z;
-                *iv = t.item;
-                if COLOUR {
-                    colour[row + lo + k] = t.colour;
+        if n <= SCAN_MAX {
+            // Coverage and depth in one pass over the bounding-box row.
+            let mut f = e;
+            let mut seen = false;
+            for k in 0..n {
+                if (f[0] | f[1] | f[2]) >= 0 {
+                    seen = true;
+                    fragment(row + k as usize, (zr + t.dzdx * k as f32).max(0.0));
+                } else if seen {
+                    break;
                 }
-                written += 1;
+                f[0] += step_x[0];
+                f[1] += step_x[1];
+                f[2] += step_x[2];
+            }
+        } else if let Some((lo, hi)) = divide_span(e, step_x, n) {
+            for k in lo..hi {
+                fragment(row + k as usize, (zr + t.dzdx * k as f32).max(0.0));
             }
         }
+        e[0] += step_y[0];
+        e[1] += step_y[1];
+        e[2] += step_y[2];
+        row += width;
     }
     written
 }
@@ -429,8 +491,10 @@ mod tests {
     use super::*;
 
     fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {
+        let vp = Viewport::new(w, h);
+        let v = clip.map(|c| Vertex::new(c, &vp));
         let mut out = Vec::new();
-        setup_triangle(clip, &Viewport::new(w, h), 7, [1, 2, 3, 255], &mut out);
+        setup_triangle([&v[0], &v[1], &v[2]], &vp, 7, [1, 2, 3, 255], &mut out);
         out
     }
 
@@ -508,22 +572,74 @@ mod tests {
             let scale = [2.0, 5.0, 20.0, 80.0][(rnd() * 4.0) as usize % 4];
             let cx = rnd() * 70.0 - 3.0;
             let cy = rnd() * 50.0 - 3.0;
-            let v = [0, 1, 2].map(|_| {
-                at(
-                    cx + (rnd() - 0.5) * scale,
-                    cy + (rnd() - 0.5) * scale,
-                    rnd(),
-                    64,
-                    48,
-                )
-            });
+            let v = [0, 1, 2].map(|_| at(cx + (rnd() - 0.5) * scale, cy + (rnd() - 0.5) * scale, rnd(), 64, 48));
             for t in setup(v, 64, 48) {
                 for y in u32::from(t.y0)..u32::from(t.y1) {
-                    let expect: Vec<u32> = (u32::from(t.x0)..u32::from(t.x1))
-                        .filter(|&x| t.covers(x, y))
-                        .collect();
+                    let expect: Vec<u32> = (u32::from(t.x0)..u32::from(t.x1)).filter(|&x| t.covers(x, y)).collect();
                     let got: Vec<u32> = t.row_span(y).map_or(Vec::new(), |(a, b)| (a..b).collect());
                     assert_eq!(got, expect, "row {y} of {t:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn raster_matches_coverage_and_plane_depth_in_any_band() {
+        // raster_tri (fused scan for narrow rows, exact division for wide ones)
+        // writes exactly the covered samples, with the plane depth, whatever
+        // band split is used.
+        let (w, h) = (70u32, 50u32);
+        let mut seed = 777u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        for _ in 0..2000 {
+            let scale = [3.0, 10.0, 30.0, 120.0][(rnd() * 4.0) as usize % 4];
+            let (cx, cy) = (rnd() * 80.0 - 5.0, rnd() * 60.0 - 5.0);
+            let v = [0, 1, 2].map(|_| at(cx + (rnd() - 0.5) * scale, cy + (rnd() - 0.5) * scale, rnd(), w, h));
+            for t in setup(v, w, h) {
+                for band in [1u32, 7, 16, 50] {
+                    let n = (w * h) as usize;
+                    let (mut depth, mut item, mut colour) = (vec![1.0f32; n], vec![u32::MAX; n], vec![[0u8; 4]; n]);
+                    let mut written = 0;
+                    for y0 in (0..h).step_by(band as usize) {
+                        let y1 = (y0 + band).min(h);
+                        let r = (y0 * w) as usize..(y1 * w) as usize;
+                        written += raster_tri::<true>(
+                            &t,
+                            y0,
+                            y1,
+                            w as usize,
+                            &mut depth[r.clone()],
+                            &mut item[r.clone()],
+                            &mut colour[r],
+                        );
+                    }
+                    let mut expect = 0;
+                    for y in 0..h {
+                        for x in 0..w {
+                            let i = (y * w + x) as usize;
+                            let inside = x >= u32::from(t.x0)
+                                && x < u32::from(t.x1)
+                                && y >= u32::from(t.y0)
+                                && y < u32::from(t.y1);
+                            let z = |t: &Tri| (t.depth_row(y) + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
+                            if inside && t.covers(x, y) && z(&t) < 1.0 {
+                                let z = z(&t);
+                                expect += 1;
+                                assert_eq!(
+                                    (item[i], depth[i].to_bits(), colour[i]),
+                                    (7, z.to_bits(), [1, 2, 3, 255])
+                                );
+                            } else {
+                                assert_eq!(item[i], u32::MAX, "pixel {x},{y} of {t:?}");
+                            }
+                        }
+                    }
+                    assert_eq!(written, expect);
                 }
             }
         }

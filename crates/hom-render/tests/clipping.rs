@@ -27,7 +27,11 @@ fn owned(fb: &Framebuffer, id: u32) -> usize {
 #[test]
 fn triangle_crossing_the_near_plane_draws_its_front_part() {
     // Two vertices well in front, one behind the eye (w < 0 there).
-    let tri = [Vec3::new(-2.0, -1.0, -6.0), Vec3::new(2.0, -1.0, -6.0), Vec3::new(0.0, -0.5, 4.0)];
+    let tri = [
+        Vec3::new(-2.0, -1.0, -6.0),
+        Vec3::new(2.0, -1.0, -6.0),
+        Vec3::new(0.0, -0.5, 4.0),
+    ];
     let scene = scene_of(&[(vec![tri], Mat4::IDENTITY)]);
     let camera = camera();
     let r = Renderer::new(2).unwrap();
@@ -49,11 +53,23 @@ fn triangle_crossing_the_near_plane_draws_its_front_part() {
 
 #[test]
 fn triangle_wholly_behind_the_near_plane_draws_nothing() {
-    let behind_eye = [Vec3::new(-2.0, -1.0, 3.0), Vec3::new(2.0, -1.0, 3.0), Vec3::new(0.0, 2.0, 3.0)];
+    let behind_eye = [
+        Vec3::new(-2.0, -1.0, 3.0),
+        Vec3::new(2.0, -1.0, 3.0),
+        Vec3::new(0.0, 2.0, 3.0),
+    ];
     // Between the eye and the near plane (view depth 0.5 < near 1).
-    let before_near = [Vec3::new(-0.2, -0.1, -0.5), Vec3::new(0.2, -0.1, -0.5), Vec3::new(0.0, 0.2, -0.5)];
+    let before_near = [
+        Vec3::new(-0.2, -0.1, -0.5),
+        Vec3::new(0.2, -0.1, -0.5),
+        Vec3::new(0.0, 0.2, -0.5),
+    ];
     // Beyond the far plane.
-    let beyond_far = [Vec3::new(-20.0, -10.0, -60.0), Vec3::new(20.0, -10.0, -60.0), Vec3::new(0.0, 20.0, -60.0)];
+    let beyond_far = [
+        Vec3::new(-20.0, -10.0, -60.0),
+        Vec3::new(20.0, -10.0, -60.0),
+        Vec3::new(0.0, 20.0, -60.0),
+    ];
     let scene = scene_of(&[
         (vec![behind_eye], Mat4::IDENTITY),
         (vec![before_near], Mat4::IDENTITY),
@@ -73,8 +89,16 @@ fn triangle_wholly_behind_the_near_plane_draws_nothing() {
 fn triangle_crossing_the_far_plane_draws_only_its_near_part() {
     // A floor strip from depth 10 to depth 90: the far part is cut per pixel.
     let tris = vec![
-        [Vec3::new(-5.0, -1.0, -10.0), Vec3::new(5.0, -1.0, -10.0), Vec3::new(5.0, -1.0, -90.0)],
-        [Vec3::new(-5.0, -1.0, -10.0), Vec3::new(5.0, -1.0, -90.0), Vec3::new(-5.0, -1.0, -90.0)],
+        [
+            Vec3::new(-5.0, -1.0, -10.0),
+            Vec3::new(5.0, -1.0, -10.0),
+            Vec3::new(5.0, -1.0, -90.0),
+        ],
+        [
+            Vec3::new(-5.0, -1.0, -10.0),
+            Vec3::new(5.0, -1.0, -90.0),
+            Vec3::new(-5.0, -1.0, -90.0),
+        ],
     ];
     let scene = scene_of(&[(tris, Mat4::IDENTITY)]);
     let camera = camera();
@@ -95,7 +119,11 @@ fn non_finite_clip_coordinates_are_skipped_without_panic() {
     let huge = b.add_mesh(
         Mesh::new(
             "huge",
-            vec![Vec3::new(1e10, 0.0, -5.0), Vec3::new(-1e10, 1.0, -5.0), Vec3::new(1e10, -1.0, -5.0)],
+            vec![
+                Vec3::new(1e10, 0.0, -5.0),
+                Vec3::new(-1e10, 1.0, -5.0),
+                Vec3::new(1e10, -1.0, -5.0),
+            ],
             vec![[0, 1, 2]],
         )
         .unwrap(),
@@ -103,7 +131,12 @@ fn non_finite_clip_coordinates_are_skipped_without_panic() {
     let quad = b.add_mesh(
         Mesh::new(
             "quad",
-            vec![Vec3::new(-1.0, -1.0, -5.0), Vec3::new(1.0, -1.0, -5.0), Vec3::new(1.0, 1.0, -5.0), Vec3::new(-1.0, 1.0, -5.0)],
+            vec![
+                Vec3::new(-1.0, -1.0, -5.0),
+                Vec3::new(1.0, -1.0, -5.0),
+                Vec3::new(1.0, 1.0, -5.0),
+                Vec3::new(-1.0, 1.0, -5.0),
+            ],
             vec![[0, 1, 2], [0, 2, 3]],
         )
         .unwrap(),
@@ -115,7 +148,10 @@ fn non_finite_clip_coordinates_are_skipped_without_panic() {
     let r = Renderer::new(2).unwrap();
     let mut fb = Framebuffer::new(1, 1);
     for shading in [Shading::Flat, Shading::ItemOnly] {
-        let o = RenderOptions { shading, ..RenderOptions::default() };
+        let o = RenderOptions {
+            shading,
+            ..RenderOptions::default()
+        };
         r.render(&scene, &[0, 1], &camera(), &o, &mut fb);
         assert_eq!(owned(&fb, 0), 0);
         assert!(owned(&fb, 1) > 0);
@@ -125,7 +161,11 @@ fn non_finite_clip_coordinates_are_skipped_without_panic() {
 #[test]
 fn huge_triangles_through_the_view_are_clipped_exactly() {
     // Vertices far outside the guard band in front of and behind the eye.
-    let tris = vec![[Vec3::new(-1e6, -2.0, -1e6), Vec3::new(1e6, -2.0, -1e6), Vec3::new(0.0, -2.0, 1e6)]];
+    let tris = vec![[
+        Vec3::new(-1e6, -2.0, -1e6),
+        Vec3::new(1e6, -2.0, -1e6),
+        Vec3::new(0.0, -2.0, 1e6),
+    ]];
     let scene = scene_of(&[(tris, Mat4::IDENTITY)]);
     let camera = Camera { far: 1e5, ..camera() };
     let r = Renderer::new(2).unwrap();

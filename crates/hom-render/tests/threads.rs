@@ -37,13 +37,17 @@ fn scene() -> Scene {
         b.add_object(format!("o{i}"), m, t).unwrap();
     }
     // Coplanar duplicates: equal depths everywhere, so draw order decides.
-    b.add_object("dup-a", meshes[2], Mat4::from_scale(Vec3::splat(4.0))).unwrap();
-    b.add_object("dup-b", meshes[2], Mat4::from_scale(Vec3::splat(4.0))).unwrap();
+    b.add_object("dup-a", meshes[2], Mat4::from_scale(Vec3::splat(4.0)))
+        .unwrap();
+    b.add_object("dup-b", meshes[2], Mat4::from_scale(Vec3::splat(4.0)))
+        .unwrap();
     b.build().unwrap()
 }
 
 fn frame(renderer: &Renderer, scene: &Scene, ids: &[u32], camera: &Camera, shading: Shading) -> Framebuffer {
-    let colours: Vec<[u8; 3]> = (0..scene.objects().len()).map(|i| [(i * 7) as u8, (i * 13) as u8, 200]).collect();
+    let colours: Vec<[u8; 3]> = (0..scene.objects().len())
+        .map(|i| [(i * 7) as u8, (i * 13) as u8, 200])
+        .collect();
     let options = RenderOptions {
         shading,
         colouring: Colouring::PerObject(&colours),
@@ -62,8 +66,26 @@ fn one_two_and_four_threads_give_identical_buffers() {
     let forward: Vec<u32> = (0..n).collect();
     let backward: Vec<u32> = (0..n).rev().collect();
     let cameras = [
-        Camera::new(Vec3::new(0.0, 2.0, 30.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 333, 257),
-        Camera::new(Vec3::new(1.0, 0.5, 2.0), Vec3::new(-5.0, 0.0, -5.0), Vec3::Y, 1.4, 0.05, 30.0, 640, 480),
+        Camera::new(
+            Vec3::new(0.0, 2.0, 30.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            1.0,
+            0.1,
+            100.0,
+            333,
+            257,
+        ),
+        Camera::new(
+            Vec3::new(1.0, 0.5, 2.0),
+            Vec3::new(-5.0, 0.0, -5.0),
+            Vec3::Y,
+            1.4,
+            0.05,
+            30.0,
+            640,
+            480,
+        ),
     ];
     let renderers: Vec<Renderer> = [1, 2, 4].into_iter().map(|t| Renderer::new(t).unwrap()).collect();
     assert_eq!(renderers[0].threads(), 1);
@@ -77,8 +99,16 @@ fn one_two_and_four_threads_give_identical_buffers() {
                     for _ in 0..2 {
                         let fb = frame(r, &scene, ids, camera, shading);
                         assert!(fb.items() == reference.items(), "{} threads: items differ", r.threads());
-                        assert!(fb.color() == reference.color(), "{} threads: colour differs", r.threads());
-                        let same_depth = fb.depth().iter().zip(reference.depth()).all(|(a, b)| a.to_bits() == b.to_bits());
+                        assert!(
+                            fb.color() == reference.color(),
+                            "{} threads: colour differs",
+                            r.threads()
+                        );
+                        let same_depth = fb
+                            .depth()
+                            .iter()
+                            .zip(reference.depth())
+                            .all(|(a, b)| a.to_bits() == b.to_bits());
                         assert!(same_depth, "{} threads: depth differs", r.threads());
                     }
                 }
@@ -92,11 +122,20 @@ fn equal_depth_ties_go_to_the_earlier_drawn_object() {
     let scene = scene();
     let n = scene.objects().len() as u32;
     let (a, b) = (n - 2, n - 1); // coplanar duplicates
-    let camera = Camera::new(Vec3::new(0.0, 0.0, 12.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 200, 150);
+    let camera = Camera::new(
+        Vec3::new(0.0, 0.0, 12.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        1.0,
+        0.1,
+        100.0,
+        200,
+        150,
+    );
     let r = Renderer::new(2).unwrap();
     let ab = frame(&r, &scene, &[a, b], &camera, Shading::ItemOnly);
     let ba = frame(&r, &scene, &[b, a], &camera, Shading::ItemOnly);
-    assert!(ab.items().iter().any(|&i| i == a));
+    assert!(ab.items().contains(&a));
     assert!(ab.items().iter().all(|&i| i != b), "later-drawn duplicate won a tie");
     assert!(ba.items().iter().all(|&i| i != a), "later-drawn duplicate won a tie");
 }

@@ -12,7 +12,16 @@ const W: u32 = 40;
 const H: u32 = 30;
 
 fn camera() -> Camera {
-    Camera::new(Vec3::new(0.3, 0.2, 4.0), Vec3::new(0.3, 0.2, 0.0), Vec3::Y, 0.9, 0.1, 50.0, W, H)
+    Camera::new(
+        Vec3::new(0.3, 0.2, 4.0),
+        Vec3::new(0.3, 0.2, 0.0),
+        Vec3::Y,
+        0.9,
+        0.1,
+        50.0,
+        W,
+        H,
+    )
 }
 
 /// Renders each triangle (one object each) alone and counts, per pixel, how
@@ -38,7 +47,10 @@ fn coverage(tris: &[[Vec3; 3]]) -> Vec<u32> {
     }
     let all: Vec<u32> = (0..tris.len() as u32).collect();
     renderer.render(&scene, &all, &camera, &options, &mut fb);
-    assert!(fb.items().iter().all(|&i| i != NO_OBJECT), "a pixel is empty with all triangles drawn");
+    assert!(
+        fb.items().iter().all(|&i| i != NO_OBJECT),
+        "a pixel is empty with all triangles drawn"
+    );
     counts
 }
 
@@ -56,8 +68,20 @@ fn grid(nx: usize, ny: usize, mut jitter: impl FnMut(usize, usize) -> (f64, f64)
             (0..=nx)
                 .map(|i| {
                     // Border vertices sit outside the screen; interior ones on pixel centres.
-                    let sx = if i == 0 { -2.0 } else if i == nx { f64::from(W) + 2.0 } else { (i * W as usize / nx) as f64 + 0.5 };
-                    let sy = if j == 0 { -2.0 } else if j == ny { f64::from(H) + 2.0 } else { (j * H as usize / ny) as f64 + 0.5 };
+                    let sx = if i == 0 {
+                        -2.0
+                    } else if i == nx {
+                        f64::from(W) + 2.0
+                    } else {
+                        (i * W as usize / nx) as f64 + 0.5
+                    };
+                    let sy = if j == 0 {
+                        -2.0
+                    } else if j == ny {
+                        f64::from(H) + 2.0
+                    } else {
+                        (j * H as usize / ny) as f64 + 0.5
+                    };
                     if i == 0 || j == 0 || i == nx || j == ny {
                         (sx, sy)
                     } else {
@@ -94,8 +118,10 @@ fn grid_through_pixel_centres_covers_every_pixel_once() {
     // exactly through samples; depth constant (plane facing the camera).
     let cam = camera();
     let g = grid(8, 6, |_, _| (0.0, 0.0));
-    let pts: Vec<Vec<Vec3>> =
-        g.iter().map(|row| row.iter().map(|&(x, y)| unproject(&cam, x, y, 3.0)).collect()).collect();
+    let pts: Vec<Vec<Vec3>> = g
+        .iter()
+        .map(|row| row.iter().map(|&(x, y)| unproject(&cam, x, y, 3.0)).collect())
+        .collect();
     assert_exactly_once(&coverage(&triangulate(&pts)));
 }
 
@@ -116,7 +142,11 @@ fn jittered_tilted_grid_covers_every_pixel_once() {
         });
         let pts: Vec<Vec<Vec3>> = g
             .iter()
-            .map(|row| row.iter().map(|&(x, y)| unproject(&cam, x, y, 2.0 + f64::from(rng.range(0.0, 1.5)))).collect())
+            .map(|row| {
+                row.iter()
+                    .map(|&(x, y)| unproject(&cam, x, y, 2.0 + f64::from(rng.range(0.0, 1.5))))
+                    .collect()
+            })
             .collect();
         assert_exactly_once(&coverage(&triangulate(&pts)));
     }
@@ -141,7 +171,16 @@ fn fan_around_a_pixel_centre_covers_every_pixel_once() {
 fn surface_crossing_the_near_plane_stays_watertight() {
     // A floor running from behind the camera to far ahead: clipped triangles
     // share clipped edges. Every pixel below the horizon is covered once.
-    let cam = Camera::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, -10.0), Vec3::Y, 1.2, 0.1, 100.0, W, H);
+    let cam = Camera::new(
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(0.0, 0.0, -10.0),
+        Vec3::Y,
+        1.2,
+        0.1,
+        100.0,
+        W,
+        H,
+    );
     let mut rng = Rng(7);
     let n = 12;
     let pts: Vec<Vec<Vec3>> = (0..=n)
@@ -149,7 +188,11 @@ fn surface_crossing_the_near_plane_stays_watertight() {
             (0..=n)
                 .map(|i| {
                     let inner = i > 0 && j > 0 && i < n && j < n;
-                    let jit = if inner { rng.vec3(-0.4, 0.4) * Vec3::new(1.0, 0.0, 1.0) } else { Vec3::ZERO };
+                    let jit = if inner {
+                        rng.vec3(-0.4, 0.4) * Vec3::new(1.0, 0.0, 1.0)
+                    } else {
+                        Vec3::ZERO
+                    };
                     Vec3::new(-30.0 + 5.0 * i as f32, 0.0, 5.0 - 5.0 * j as f32) + jit
                 })
                 .collect()

@@ -12,7 +12,7 @@ pub mod export;
 pub mod gltf;
 pub mod obj;
 
-pub use builtin::{builtin, Builtin, BUILTIN_SCENES};
+pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED};
 pub use camera_path::{CameraPath, CameraPathError, PathFrame};
 pub use error::LoadError;
 

@@ -48,9 +48,19 @@ impl Target {
     fn tri(&mut self, s: [Vec3; 3], c: [u8; 3]) {
         let (w, h) = (self.w as f32, self.h as f32);
         let minx = s.iter().map(|p| p.x).fold(f32::INFINITY, f32::min).max(0.0).floor() as i64;
-        let maxx = s.iter().map(|p| p.x).fold(f32::NEG_INFINITY, f32::max).min(w - 1.0).ceil() as i64;
+        let maxx = s
+            .iter()
+            .map(|p| p.x)
+            .fold(f32::NEG_INFINITY, f32::max)
+            .min(w - 1.0)
+            .ceil() as i64;
         let miny = s.iter().map(|p| p.y).fold(f32::INFINITY, f32::min).max(0.0).floor() as i64;
-        let maxy = s.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max).min(h - 1.0).ceil() as i64;
+        let maxy = s
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::NEG_INFINITY, f32::max)
+            .min(h - 1.0)
+            .ceil() as i64;
         if minx > maxx || miny > maxy {
             return;
         }
@@ -96,7 +106,11 @@ fn render(scene: &Scene, cam: &Camera) -> Target {
         }
         let mesh = scene.mesh_of(o);
         let base = tint(id);
-        let world: Vec<Vec3> = mesh.positions().iter().map(|p| o.transform.transform_point3(*p)).collect();
+        let world: Vec<Vec3> = mesh
+            .positions()
+            .iter()
+            .map(|p| o.transform.transform_point3(*p))
+            .collect();
         for tri in mesh.triangles() {
             let p = tri.map(|i| world[i as usize]);
             let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
@@ -166,7 +180,13 @@ fn preview_builtin_scenes() {
         );
         let mut kinds: std::collections::BTreeMap<String, (usize, u64)> = Default::default();
         for o in scene.objects() {
-            let kind = o.name.split(|c: char| c.is_ascii_digit()).next().unwrap_or("").trim().to_string();
+            let kind = o
+                .name
+                .split(|c: char| c.is_ascii_digit())
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_string();
             let e = kinds.entry(kind).or_default();
             e.0 += 1;
             e.1 += o.triangles as u64;

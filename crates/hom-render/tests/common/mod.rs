@@ -12,8 +12,7 @@ pub fn scene_of(objects: &[(Vec<[Vec3; 3]>, Mat4)]) -> Scene {
     let mut b = SceneBuilder::new("test");
     for (i, (tris, transform)) in objects.iter().enumerate() {
         let positions: Vec<Vec3> = tris.iter().flatten().copied().collect();
-        let triangles: Vec<[u32; 3]> =
-            (0..tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let triangles: Vec<[u32; 3]> = (0..tris.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
         let m = b.add_mesh(Mesh::new(format!("m{i}"), positions, triangles).unwrap());
         b.add_object(format!("o{i}"), m, *transform).unwrap();
     }
@@ -112,12 +111,74 @@ fn nearest(camera: &Camera, tris: &[(u32, [DVec3; 3])], sx: f64, sy: f64) -> (u3
     (id0, fragile)
 }
 
+/// Screen distance (pixels) within which a pixel centre counts as on a
+/// triangle's edge: covers vertex snapping (1/512 px) and float rounding.
+const EDGE_DIST: f64 = 0.02;
+
+/// Each triangle's screen-space outline (f64): the triangle clipped to view
+/// depth >= near, projected. Sub-pixel slivers are outlines too.
+pub fn outlines(camera: &Camera, tris: &[(u32, [DVec3; 3])]) -> Vec<Vec<(f64, f64)>> {
+    let eye = camera.eye.as_dvec3();
+    let f = (camera.target.as_dvec3() - eye).normalize();
+    let r = f.cross(camera.up.as_dvec3()).normalize();
+    let u = r.cross(f);
+    let th = (f64::from(camera.fov_y) * 0.5).tan();
+    let aspect = f64::from(camera.width) / f64::from(camera.height);
+    let near = f64::from(camera.near);
+    let (w, h) = (f64::from(camera.width), f64::from(camera.height));
+    tris.iter()
+        .map(|(_, t)| {
+            let v: Vec<DVec3> = t
+                .iter()
+                .map(|p| DVec3::new((*p - eye).dot(r), (*p - eye).dot(u), (*p - eye).dot(f)))
+                .collect();
+            let mut poly = Vec::new();
+            for i in 0..3 {
+                let (a, b) = (v[i], v[(i + 1) % 3]);
+                if a.z >= near {
+                    poly.push(a);
+                }
+                if (a.z >= near) != (b.z >= near) {
+                    poly.push(a + (b - a) * ((near - a.z) / (b.z - a.z)));
+                }
+            }
+            poly.iter()
+                .map(|p| {
+                    (
+                        (p.x / (p.z * th * aspect) * 0.5 + 0.5) * w,
+                        (0.5 - p.y / (p.z * th) * 0.5) * h,
+                    )
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// True when `(x, y)` is within `EDGE_DIST` of an edge of the outline.
+fn near_outline(outline: &[(f64, f64)], x: f64, y: f64) -> bool {
+    let n = outline.len();
+    (0..n).any(|i| {
+        let (a, b) = (outline[i], outline[(i + 1) % n]);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((x - a.0) * dx + (y - a.1) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (ex, ey) = (a.0 + t * dx - x, a.1 + t * dy - y);
+        ex * ex + ey * ey <= EDGE_DIST * EDGE_DIST
+    })
+}
+
 /// The ray-cast truth at pixel `(px, py)`: the nearest object through the
-/// pixel centre, unless the answer changes within `EDGE_EPS` pixels or is a
-/// near tie in depth or near a clip plane.
-pub fn truth(camera: &Camera, tris: &[(u32, [DVec3; 3])], px: u32, py: u32) -> Truth {
+/// pixel centre, unless the centre lies within `EDGE_DIST` of a triangle's
+/// outline, the answer changes within `EDGE_EPS` pixels, or it is a near tie
+/// in depth or near a clip plane.
+pub fn truth(camera: &Camera, tris: &[(u32, [DVec3; 3])], outlines: &[Vec<(f64, f64)>], px: u32, py: u32) -> Truth {
     let (cx, cy) = (f64::from(px) + 0.5, f64::from(py) + 0.5);
     let (id, mut fragile) = nearest(camera, tris, cx, cy);
+    fragile |= outlines.iter().any(|o| near_outline(o, cx, cy));
     for (dx, dy) in [(EDGE_EPS, 0.0), (-EDGE_EPS, 0.0), (0.0, EDGE_EPS), (0.0, -EDGE_EPS)] {
         let (other, f) = nearest(camera, tris, cx + dx, cy + dy);
         fragile |= f || other != id;
@@ -138,12 +199,13 @@ pub fn compare_with_ray_cast(
     items: &[u32],
 ) -> (usize, Vec<(u32, u32, u32, u32)>) {
     let tris = world_triangles(scene, ids);
+    let outlines = outlines(camera, &tris);
     let mut ambiguous = 0;
     let mut bad = Vec::new();
     for py in 0..camera.height {
         for px in 0..camera.width {
             let got = items[(py * camera.width + px) as usize];
-            match truth(camera, &tris, px, py) {
+            match truth(camera, &tris, &outlines, px, py) {
                 Truth::Ambiguous => ambiguous += 1,
                 Truth::Exactly(id) if id != got => bad.push((px, py, got, id)),
                 Truth::Exactly(_) => {}

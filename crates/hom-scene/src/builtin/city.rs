@@ -139,11 +139,20 @@ fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
     let h = floors as f32 * floor;
     let inset = 0.25;
     // Core (glass line), recessed behind piers and ledges.
-    m.add_box_open_bottom(Vec3::new(-hw + inset, 0.0, -hd + inset), Vec3::new(hw - inset, h, hd - inset));
+    m.add_box_open_bottom(
+        Vec3::new(-hw + inset, 0.0, -hd + inset),
+        Vec3::new(hw - inset, h, hd - inset),
+    );
     // Plinth (ground floor base).
     m.add_box_open_bottom(Vec3::new(-hw, 0.0, -hd), Vec3::new(hw, 0.9, hd));
     // Floor ledges: every `every` floors a band wrapping the building.
-    let every = if floors > 12 { 3 } else if floors > 5 { 2 } else { 1 };
+    let every = if floors > 12 {
+        3
+    } else if floors > 5 {
+        2
+    } else {
+        1
+    };
     let band = rng.range(0.3, 0.6);
     let mut f = every;
     while f < floors {
@@ -163,10 +172,16 @@ fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
             for side in [-1.0f32, 1.0] {
                 let (min, max) = if along_x {
                     let z = side * hd;
-                    (Vec3::new(c - pier * 0.5, 0.9, z - inset), Vec3::new(c + pier * 0.5, h, z + 0.02 * side))
+                    (
+                        Vec3::new(c - pier * 0.5, 0.9, z - inset),
+                        Vec3::new(c + pier * 0.5, h, z + 0.02 * side),
+                    )
                 } else {
                     let x = side * hw;
-                    (Vec3::new(x - inset, 0.9, c - pier * 0.5), Vec3::new(x + 0.02 * side, h, c + pier * 0.5))
+                    (
+                        Vec3::new(x - inset, 0.9, c - pier * 0.5),
+                        Vec3::new(x + 0.02 * side, h, c + pier * 0.5),
+                    )
                 };
                 m.add_box_open_bottom(min.min(max), min.max(max));
             }
@@ -184,18 +199,29 @@ fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
     let sz = (d * 0.25).min(4.0);
     let cx = rng.range(-hw + sx + 0.5, hw - sx - 0.5);
     let cz = rng.range(-hd + sz + 0.5, hd - sz - 0.5);
-    m.add_box_open_bottom(Vec3::new(cx - sx * 0.5, h, cz - sz * 0.5), Vec3::new(cx + sx * 0.5, h + 3.2, cz + sz * 0.5));
+    m.add_box_open_bottom(
+        Vec3::new(cx - sx * 0.5, h, cz - sz * 0.5),
+        Vec3::new(cx + sx * 0.5, h + 3.2, cz + sz * 0.5),
+    );
     for _ in 0..rng.int(1, 4) {
         let (ax, az) = (rng.range(0.8, 2.0), rng.range(0.8, 2.0));
         let x = rng.range(-hw + ax + 0.4, hw - ax - 0.4);
         let z = rng.range(-hd + az + 0.4, hd - az - 0.4);
-        m.add_box_open_bottom(Vec3::new(x - ax * 0.5, h, z - az * 0.5), Vec3::new(x + ax * 0.5, h + rng.range(0.8, 1.8), z + az * 0.5));
+        m.add_box_open_bottom(
+            Vec3::new(x - ax * 0.5, h, z - az * 0.5),
+            Vec3::new(x + ax * 0.5, h + rng.range(0.8, 1.8), z + az * 0.5),
+        );
     }
     if rng.chance(0.35) && w > 10.0 && d > 10.0 {
         let x = rng.range(-hw + 3.0, hw - 3.0);
         let z = rng.range(-hd + 3.0, hd - 3.0);
         for (dx, dz) in [(-0.9, -0.9), (0.9, -0.9), (0.9, 0.9), (-0.9, 0.9)] {
-            m.add_beam(Vec3::new(x + dx, h, z + dz), Vec3::new(x + dx * 0.8, h + 2.5, z + dz * 0.8), 0.15, 0.15);
+            m.add_beam(
+                Vec3::new(x + dx, h, z + dz),
+                Vec3::new(x + dx * 0.8, h + 2.5, z + dz * 0.8),
+                0.15,
+                0.15,
+            );
         }
         m.add_cylinder(Vec3::new(x, h + 2.5, z), Vec3::new(x, h + 5.0, z), 1.4, 12, false);
         m.add_cone(Vec3::new(x, h + 5.0, z), Vec3::new(x, h + 5.8, z), 1.45, 0.0, 12, false);
@@ -213,8 +239,11 @@ fn street_lines(rng: &mut Rng, blocks: usize) -> Vec<f32> {
     v
 }
 
+/// A lot: min and max corners in (x, z).
+type Lot = ((f32, f32), (f32, f32));
+
 /// Splits a lot into parcels no wider than `max` on either side (random guillotine cuts).
-fn split_lots(rng: &mut Rng, min: (f32, f32), max: (f32, f32), limit: f32, out: &mut Vec<((f32, f32), (f32, f32))>) {
+fn split_lots(rng: &mut Rng, min: (f32, f32), max: (f32, f32), limit: f32, out: &mut Vec<Lot>) {
     let (w, d) = (max.0 - min.0, max.1 - min.1);
     if w <= limit && d <= limit {
         out.push((min, max));
@@ -233,7 +262,11 @@ fn split_lots(rng: &mut Rng, min: (f32, f32), max: (f32, f32), limit: f32, out: 
 }
 
 fn add(b: &mut SceneBuilder, name: impl Into<String>, mesh: MeshId, at: Vec3, yaw: f32) -> Result<u32, SceneError> {
-    b.add_object(name, mesh, Mat4::from_rotation_translation(Quat::from_rotation_y(yaw), at))
+    b.add_object(
+        name,
+        mesh,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(yaw), at),
+    )
 }
 
 pub(super) fn generate(seed: u64) -> Generated {
@@ -257,17 +290,48 @@ pub(super) fn generate(seed: u64) -> Generated {
         b.add_object(
             name,
             mesh,
-            Mat4::from_scale_rotation_translation(Vec3::new(x1 - x0, h, z1 - z0), Quat::IDENTITY, Vec3::new(x0, 0.0, z0)),
+            Mat4::from_scale_rotation_translation(
+                Vec3::new(x1 - x0, h, z1 - z0),
+                Quat::IDENTITY,
+                Vec3::new(x0, 0.0, z0),
+            ),
         )
     };
     for (i, &x) in xs.iter().enumerate() {
         for (j, &z) in zs.iter().enumerate() {
-            tile(&mut b, format!("crossing {i},{j}"), ground, x - ROAD_HALF, z - ROAD_HALF, x + ROAD_HALF, z + ROAD_HALF, 1.0)?;
+            tile(
+                &mut b,
+                format!("crossing {i},{j}"),
+                ground,
+                x - ROAD_HALF,
+                z - ROAD_HALF,
+                x + ROAD_HALF,
+                z + ROAD_HALF,
+                1.0,
+            )?;
             if j + 1 < zs.len() {
-                tile(&mut b, format!("street x{i} {j}"), ground, x - ROAD_HALF, z + ROAD_HALF, x + ROAD_HALF, zs[j + 1] - ROAD_HALF, 1.0)?;
+                tile(
+                    &mut b,
+                    format!("street x{i} {j}"),
+                    ground,
+                    x - ROAD_HALF,
+                    z + ROAD_HALF,
+                    x + ROAD_HALF,
+                    zs[j + 1] - ROAD_HALF,
+                    1.0,
+                )?;
             }
             if i + 1 < xs.len() {
-                tile(&mut b, format!("street z{j} {i}"), ground, x + ROAD_HALF, z - ROAD_HALF, xs[i + 1] - ROAD_HALF, z + ROAD_HALF, 1.0)?;
+                tile(
+                    &mut b,
+                    format!("street z{j} {i}"),
+                    ground,
+                    x + ROAD_HALF,
+                    z - ROAD_HALF,
+                    xs[i + 1] - ROAD_HALF,
+                    z + ROAD_HALF,
+                    1.0,
+                )?;
             }
         }
     }
@@ -280,7 +344,13 @@ pub(super) fn generate(seed: u64) -> Generated {
             let park = rng.chance(0.08);
             let mut lots = Vec::new();
             let limit = rng.range(26.0, 40.0);
-            split_lots(&mut rng, (bx0 + WALK, bz0 + WALK), (bx1 - WALK, bz1 - WALK), limit, &mut lots);
+            split_lots(
+                &mut rng,
+                (bx0 + WALK, bz0 + WALK),
+                (bx1 - WALK, bz1 - WALK),
+                limit,
+                &mut lots,
+            );
             // Taller towards the centre.
             let mid = Vec3::new((bx0 + bx1) * 0.5, 0.0, (bz0 + bz1) * 0.5);
             let downtown = 1.0 - (mid - centre).length() / radius;
@@ -307,7 +377,14 @@ pub(super) fn generate(seed: u64) -> Generated {
 
     // Street furniture along both sidewalks of every street segment.
     let curb_line = ROAD_HALF + 0.6;
-    let mut furnish = |b: &mut SceneBuilder, rng: &mut Rng, a: f32, bnd: f32, fixed: f32, along_x: bool, avenue: bool| -> Result<(), SceneError> {
+    let furnish = |b: &mut SceneBuilder,
+                   rng: &mut Rng,
+                   a: f32,
+                   bnd: f32,
+                   fixed: f32,
+                   along_x: bool,
+                   avenue: bool|
+     -> Result<(), SceneError> {
         // `a..bnd` along the street, `fixed` the centre line across it.
         let at = |s: f32, off: f32, y: f32| {
             if along_x {
@@ -316,20 +393,44 @@ pub(super) fn generate(seed: u64) -> Generated {
                 Vec3::new(fixed + off, y, s)
             }
         };
-        let yaw_out = |side: f32| if along_x { if side > 0.0 { 0.0 } else { std::f32::consts::PI } } else if side > 0.0 { -std::f32::consts::FRAC_PI_2 } else { std::f32::consts::FRAC_PI_2 };
+        let yaw_out = |side: f32| {
+            if along_x {
+                if side > 0.0 {
+                    0.0
+                } else {
+                    std::f32::consts::PI
+                }
+            } else if side > 0.0 {
+                -std::f32::consts::FRAC_PI_2
+            } else {
+                std::f32::consts::FRAC_PI_2
+            }
+        };
         for side in [-1.0f32, 1.0] {
             let (s0, s1) = (a + 3.0, bnd - 3.0);
             // Lamps every ~30 m.
             let n = ((s1 - s0) / 30.0).ceil() as usize;
             for k in 0..=n {
                 let s = s0 + (s1 - s0) * k as f32 / n as f32;
-                add(b, "street lamp", props.lamp, at(s, side * curb_line, CURB), yaw_out(-side))?;
+                add(
+                    b,
+                    "street lamp",
+                    props.lamp,
+                    at(s, side * curb_line, CURB),
+                    yaw_out(-side),
+                )?;
             }
             // Trees between lamps on avenues.
             if avenue {
                 for k in 0..n {
                     let s = s0 + (s1 - s0) * (k as f32 + 0.5) / n as f32;
-                    add(b, "street tree", props.tree[rng.index(2)], at(s, side * (curb_line + 0.6), CURB), rng.range(0.0, 6.3))?;
+                    add(
+                        b,
+                        "street tree",
+                        props.tree[rng.index(2)],
+                        at(s, side * (curb_line + 0.6), CURB),
+                        rng.range(0.0, 6.3),
+                    )?;
                 }
             }
             // Benches, bins, hydrants at random spots near the building side.
@@ -338,10 +439,22 @@ pub(super) fn generate(seed: u64) -> Generated {
             while s < s1 - 2.0 {
                 let p = at(s, side * inner, CURB);
                 match rng.index(5) {
-                    0 | 1 => add(b, "bench", props.bench, p, yaw_out(-side) + std::f32::consts::FRAC_PI_2 * 0.0)?,
+                    0 | 1 => add(
+                        b,
+                        "bench",
+                        props.bench,
+                        p,
+                        yaw_out(-side) + std::f32::consts::FRAC_PI_2 * 0.0,
+                    )?,
                     2 => add(b, "litter bin", props.bin, p, 0.0)?,
                     3 => add(b, "hydrant", props.hydrant, at(s, side * (curb_line - 0.1), CURB), 0.0)?,
-                    _ => add(b, "bus shelter", props.bus_stop, at(s, side * (ROAD_HALF + 1.6), CURB), yaw_out(side) + std::f32::consts::FRAC_PI_2)?,
+                    _ => add(
+                        b,
+                        "bus shelter",
+                        props.bus_stop,
+                        at(s, side * (ROAD_HALF + 1.6), CURB),
+                        yaw_out(side) + std::f32::consts::FRAC_PI_2,
+                    )?,
                 };
                 s += rng.range(10.0, 26.0);
             }
@@ -350,8 +463,18 @@ pub(super) fn generate(seed: u64) -> Generated {
             while s < s1 - 3.0 {
                 if rng.chance(0.3) {
                     let heading = if side > 0.0 { 0.0 } else { std::f32::consts::PI };
-                    let yaw = if along_x { heading } else { heading - std::f32::consts::FRAC_PI_2 };
-                    add(b, "parked car", props.cars[rng.index(4)], at(s + 2.6, side * (ROAD_HALF - 1.3), 0.0), yaw + rng.range(-0.04, 0.04))?;
+                    let yaw = if along_x {
+                        heading
+                    } else {
+                        heading - std::f32::consts::FRAC_PI_2
+                    };
+                    add(
+                        b,
+                        "parked car",
+                        props.cars[rng.index(4)],
+                        at(s + 2.6, side * (ROAD_HALF - 1.3), 0.0),
+                        yaw + rng.range(-0.04, 0.04),
+                    )?;
                 }
                 s += rng.range(6.0, 7.5);
             }
@@ -361,25 +484,39 @@ pub(super) fn generate(seed: u64) -> Generated {
     for (i, &x) in xs.iter().enumerate() {
         let avenue = i % 3 == 1;
         for j in 0..BLOCKS_Z {
-            furnish(&mut b, &mut rng, zs[j] + ROAD_HALF, zs[j + 1] - ROAD_HALF, x, false, avenue)?;
+            furnish(
+                &mut b,
+                &mut rng,
+                zs[j] + ROAD_HALF,
+                zs[j + 1] - ROAD_HALF,
+                x,
+                false,
+                avenue,
+            )?;
         }
     }
     for (j, &z) in zs.iter().enumerate() {
         let avenue = j % 3 == 1;
         for i in 0..BLOCKS_X {
-            furnish(&mut b, &mut rng, xs[i] + ROAD_HALF, xs[i + 1] - ROAD_HALF, z, true, avenue)?;
+            furnish(
+                &mut b,
+                &mut rng,
+                xs[i] + ROAD_HALF,
+                xs[i + 1] - ROAD_HALF,
+                z,
+                true,
+                avenue,
+            )?;
         }
     }
 
     // The walk: down the middle of the streets through a fixed sequence of crossings.
-    let route: [(usize, usize); 6] = [(1, 0), (1, 2), (3, 2), (3, 4), (6, 4), (6, 6)];
+    let route: [(usize, usize); 7] = [(1, 0), (1, 2), (3, 2), (3, 4), (6, 4), (6, 5), (4, 5)];
     let pts: Vec<Vec3> = route.iter().map(|&(i, j)| Vec3::new(xs[i], EYE, zs[j])).collect();
     let mut pts = pts;
     pts[0].z += ROAD_HALF + 4.0;
-    let last = pts.len() - 1;
-    pts[last].z -= ROAD_HALF + 4.0;
     let smooth = round_corners(&pts, 4.5, 1.0);
-    let path = CameraPath::along(&smooth, 3.4, 12.0);
+    let path = CameraPath::along(&smooth, 3.6, 12.0);
     Ok(Builtin {
         scene: b.build()?,
         path,

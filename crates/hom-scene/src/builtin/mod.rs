@@ -8,11 +8,11 @@
 //! | name | what | triangles |
 //! |------|------|-----------|
 //! | `city` | street grid of detailed buildings and street furniture, eye-level walk | ≈300k |
-//! | `spheres` | ten spheres in a line seen along the line | ≈25k |
+//! | `spheres` | ten spheres in a line seen along the line | ≈22k |
 //! | `machine-room` | dense engine room: engines, pumps, tanks, pipe runs, bolts | ≈600k |
 //! | `dynamic` | moving Utah teapots, tori, spheres and boxes | ≈1M |
-//! | `office` | a building floor of rooms, corridors and furnished offices | ≈250k |
-//! | `terrain` | rolling height-field hills with villages and forests, low flight | ≈450k |
+//! | `office` | a building floor of rooms, corridors and furnished offices | ≈270k |
+//! | `terrain` | rolling height-field hills with villages and forests, low flight | ≈480k |
 
 mod city;
 mod dynamic;
@@ -86,11 +86,7 @@ pub fn builtin_with_seed(name: &str, seed: u64) -> Result<Builtin, LoadError> {
         _ => {
             return Err(LoadError::UnknownBuiltin {
                 name: name.to_string(),
-                known: BUILTIN_SCENES
-                    .iter()
-                    .map(|(n, _)| *n)
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                known: BUILTIN_SCENES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
             })
         }
     };
@@ -116,7 +112,7 @@ fn round_corners(pts: &[Vec3], radius: f32, step: f32) -> Vec<Vec3> {
         let (d0, d1) = ((p - a).normalize_or_zero(), (b - p).normalize_or_zero());
         let cos = d0.dot(d1).clamp(-1.0, 1.0);
         let theta = cos.acos();
-        if theta < 1e-3 || theta > std::f32::consts::PI - 1e-3 {
+        if !(1e-3..=std::f32::consts::PI - 1e-3).contains(&theta) {
             out.push(p);
             continue;
         }
@@ -146,11 +142,11 @@ mod tests {
     /// Triangle count the brief states for each scene (tests allow ±30%).
     const TARGETS: &[(&str, u64)] = &[
         ("city", 300_000),
-        ("spheres", 25_000),
+        ("spheres", 22_000),
         ("machine-room", 600_000),
         ("dynamic", 1_000_000),
-        ("office", 250_000),
-        ("terrain", 450_000),
+        ("office", 270_000),
+        ("terrain", 480_000),
     ];
 
     fn fingerprint(b: &Builtin) -> (usize, u64, u64) {
@@ -223,6 +219,24 @@ mod tests {
             let b = builtin(name).unwrap();
             let bad = eyes_inside(&b);
             assert!(bad.is_empty(), "{name}: eye inside {:?}", &bad[..bad.len().min(10)]);
+        }
+    }
+
+    #[test]
+    fn dynamic_objects_never_reach_the_camera_lanes() {
+        let mut b = builtin("dynamic").unwrap();
+        for t in [0.0, 1.7, 5.3, 9.9, 31.0] {
+            b.scene.set_time(t);
+            for (i, f) in b.path.frames.iter().enumerate().step_by(3) {
+                let eye = Vec3::from(f.eye);
+                for o in b.scene.objects() {
+                    assert!(
+                        o.aabb.distance_squared(eye) > 0.25,
+                        "t={t} frame {i}: eye in {}",
+                        o.name
+                    );
+                }
+            }
         }
     }
 

@@ -96,7 +96,13 @@ fn furniture(b: &mut SceneBuilder, rng: &mut Rng) -> Furniture {
         let a = k as f32 / 5.0 * 2.0 * PI;
         let tip = Vec3::new(a.cos() * 0.3, 0.08, a.sin() * 0.3);
         chair.add_beam(Vec3::new(0.0, 0.1, 0.0), tip, 0.04, 0.03);
-        chair.add_cylinder(tip - Vec3::new(0.0, 0.03, 0.02), tip - Vec3::new(0.0, 0.03, -0.02), 0.03, 6, true);
+        chair.add_cylinder(
+            tip - Vec3::new(0.0, 0.03, 0.02),
+            tip - Vec3::new(0.0, 0.03, -0.02),
+            0.03,
+            6,
+            true,
+        );
     }
     let chair = b.add_mesh(chair.build("office chair"));
     let mut pc = MeshBuilder::new();
@@ -149,7 +155,12 @@ fn furniture(b: &mut SceneBuilder, rng: &mut Rng) -> Furniture {
     for k in 0..7 {
         let a = k as f32 / 7.0 * 2.0 * PI;
         let tip = Vec3::new(a.cos() * 0.35, 0.9 + 0.1 * (k % 3) as f32, a.sin() * 0.35);
-        p.add_ellipsoid(Vec3::new(0.0, 0.4, 0.0).lerp(tip, 0.6), Vec3::new(0.12, 0.25, 0.12), 6, 4);
+        p.add_ellipsoid(
+            Vec3::new(0.0, 0.4, 0.0).lerp(tip, 0.6),
+            Vec3::new(0.12, 0.25, 0.12),
+            6,
+            4,
+        );
     }
     let plant = b.add_mesh(p.build("plant"));
     let mut c = MeshBuilder::new();
@@ -188,8 +199,15 @@ fn add_box(b: &mut SceneBuilder, cube: MeshId, name: String, min: Vec3, max: Vec
 }
 
 fn place(b: &mut SceneBuilder, name: &str, mesh: MeshId, at: Vec3, yaw: f32) -> Result<u32, SceneError> {
-    b.add_object(name, mesh, Mat4::from_rotation_translation(Quat::from_rotation_y(yaw), at))
+    b.add_object(
+        name,
+        mesh,
+        Mat4::from_rotation_translation(Quat::from_rotation_y(yaw), at),
+    )
 }
+
+/// A row of rooms: its letter, z range, and the x spans it is cut into.
+type Row = (char, f32, f32, Vec<(f32, f32)>);
 
 /// Splits `x0..x1` into room widths on a 1.2 m grid.
 fn cut_rooms(rng: &mut Rng, x0: f32, x1: f32) -> Vec<(f32, f32)> {
@@ -227,7 +245,13 @@ fn furnish(b: &mut SceneBuilder, f: &Furniture, rng: &mut Rng, r: &Room, name: &
         place(b, &format!("{name} desk"), f.desk, at(x, d - 0.45), desk_yaw)?;
         place(b, &format!("{name} computer"), f.computer, at(x, d - 0.45), desk_yaw)?;
         let jitter = rng.range(-0.4, 0.4);
-        place(b, &format!("{name} chair"), f.chair, at(x + rng.range(-0.15, 0.15), d - 1.3), desk_yaw + PI + jitter)?;
+        place(
+            b,
+            &format!("{name} chair"),
+            f.chair,
+            at(x + rng.range(-0.15, 0.15), d - 1.3),
+            desk_yaw + PI + jitter,
+        )?;
     }
     // Bookshelves and cabinets along both side walls, away from the door lane.
     for (wall_x, yaw) in [(r.x0 + 0.2, FRAC_PI_2), (r.x1 - 0.2, -FRAC_PI_2)] {
@@ -241,7 +265,11 @@ fn furnish(b: &mut SceneBuilder, f: &Furniture, rng: &mut Rng, r: &Room, name: &
             } else {
                 f.cabinet
             };
-            let kind = if mesh == f.cabinet { "filing cabinet" } else { "bookshelf" };
+            let kind = if mesh == f.cabinet {
+                "filing cabinet"
+            } else {
+                "bookshelf"
+            };
             place(b, &format!("{name} {kind}"), mesh, at(wall_x, depth + 0.5), yaw)?;
             depth += 1.05;
         }
@@ -253,45 +281,106 @@ fn furnish(b: &mut SceneBuilder, f: &Furniture, rng: &mut Rng, r: &Room, name: &
             place(b, &format!("{name} desk"), f.desk, at(x, depth), yaw)?;
             place(b, &format!("{name} computer"), f.computer, at(x, depth), yaw)?;
             let back = if yaw == face_door { -0.85 } else { 0.85 };
-            place(b, &format!("{name} chair"), f.chair, at(x + rng.range(-0.2, 0.2), depth + back), yaw + PI + rng.range(-0.4, 0.4))?;
+            place(
+                b,
+                &format!("{name} chair"),
+                f.chair,
+                at(x + rng.range(-0.2, 0.2), depth + back),
+                yaw + PI + rng.range(-0.4, 0.4),
+            )?;
         }
     }
     // A meeting table in the middle of wide rooms, chairs round it.
     if w >= 5.9 && d >= 8.0 {
-        let c = Vec3::new((r.x0 + r.x1) * 0.5 + if r.door_x < (r.x0 + r.x1) * 0.5 { 1.0 } else { -1.0 }, 0.0, near_z + inward * (d * 0.5 + 0.6));
+        let c = Vec3::new(
+            (r.x0 + r.x1) * 0.5 + if r.door_x < (r.x0 + r.x1) * 0.5 { 1.0 } else { -1.0 },
+            0.0,
+            near_z + inward * (d * 0.5 + 0.6),
+        );
         place(b, &format!("{name} meeting table"), f.table, c, 0.0)?;
         for (dx, dz, yaw) in [(-0.6, -0.95, 0.0), (0.6, -0.95, 0.0), (-0.6, 0.95, PI), (0.6, 0.95, PI)] {
-            place(b, &format!("{name} chair"), f.chair, c + Vec3::new(dx, 0.0, dz), yaw + rng.range(-0.3, 0.3))?;
+            place(
+                b,
+                &format!("{name} chair"),
+                f.chair,
+                c + Vec3::new(dx, 0.0, dz),
+                yaw + rng.range(-0.3, 0.3),
+            )?;
         }
-        place(b, &format!("{name} whiteboard"), f.whiteboard, Vec3::new(if r.door_x < (r.x0 + r.x1) * 0.5 { r.x1 } else { r.x0 }, 0.0, c.z), if r.door_x < (r.x0 + r.x1) * 0.5 { -FRAC_PI_2 } else { FRAC_PI_2 })?;
+        place(
+            b,
+            &format!("{name} whiteboard"),
+            f.whiteboard,
+            Vec3::new(if r.door_x < (r.x0 + r.x1) * 0.5 { r.x1 } else { r.x0 }, 0.0, c.z),
+            if r.door_x < (r.x0 + r.x1) * 0.5 {
+                -FRAC_PI_2
+            } else {
+                FRAC_PI_2
+            },
+        )?;
     }
     // A plant in a near corner away from the door.
-    let px = if r.door_x - r.x0 > r.x1 - r.door_x { r.x0 + 0.4 } else { r.x1 - 0.4 };
+    let px = if r.door_x - r.x0 > r.x1 - r.door_x {
+        r.x0 + 0.4
+    } else {
+        r.x1 - 0.4
+    };
     place(b, &format!("{name} plant"), f.plant, at(px, 0.4), 0.0)?;
     // Ceiling lights.
     let lights = ((d / 3.0).floor() as usize).max(1);
     for k in 0..lights {
         let z = near_z + inward * ((k as f32 + 0.5) * d / lights as f32);
-        place(b, &format!("{name} ceiling light"), f.light, Vec3::new((r.x0 + r.x1) * 0.5, STOREY, z), 0.0)?;
+        place(
+            b,
+            &format!("{name} ceiling light"),
+            f.light,
+            Vec3::new((r.x0 + r.x1) * 0.5, STOREY, z),
+            0.0,
+        )?;
     }
     Ok(())
 }
 
 /// A wall along x at `z0..z1` (thickness), from `x0` to `x1`, with door gaps (centre x).
-fn wall_x(b: &mut SceneBuilder, cube: MeshId, name: &str, x0: f32, x1: f32, z0: f32, z1: f32, doors: &[f32]) -> Result<(), SceneError> {
+fn wall_x(
+    b: &mut SceneBuilder,
+    cube: MeshId,
+    name: &str,
+    (x0, x1): (f32, f32),
+    (z0, z1): (f32, f32),
+    doors: &[f32],
+) -> Result<(), SceneError> {
     let mut doors = doors.to_vec();
     doors.sort_by(f32::total_cmp);
     let mut x = x0;
     for (k, &dx) in doors.iter().enumerate() {
         let (a, c) = (dx - DOOR_W * 0.5, dx + DOOR_W * 0.5);
         if a > x {
-            add_box(b, cube, format!("{name} wall {k}"), Vec3::new(x, 0.0, z0), Vec3::new(a, STOREY, z1))?;
+            add_box(
+                b,
+                cube,
+                format!("{name} wall {k}"),
+                Vec3::new(x, 0.0, z0),
+                Vec3::new(a, STOREY, z1),
+            )?;
         }
-        add_box(b, cube, format!("{name} lintel {k}"), Vec3::new(a, DOOR_H, z0), Vec3::new(c, STOREY, z1))?;
+        add_box(
+            b,
+            cube,
+            format!("{name} lintel {k}"),
+            Vec3::new(a, DOOR_H, z0),
+            Vec3::new(c, STOREY, z1),
+        )?;
         x = c;
     }
     if x1 > x {
-        add_box(b, cube, format!("{name} wall {}", doors.len()), Vec3::new(x, 0.0, z0), Vec3::new(x1, STOREY, z1))?;
+        add_box(
+            b,
+            cube,
+            format!("{name} wall {}", doors.len()),
+            Vec3::new(x, 0.0, z0),
+            Vec3::new(x1, STOREY, z1),
+        )?;
     }
     Ok(())
 }
@@ -310,7 +399,10 @@ fn facade_mesh(len: f32) -> MeshBuilder {
         m.add_box(Vec3::new(x, 0.9, 0.0), Vec3::new(x + pier, 2.4, EXT));
         if k < n {
             // Window frame mullion and sill.
-            m.add_box(Vec3::new(x + step * 0.5 - 0.03 + pier * 0.5, 0.9, EXT * 0.4), Vec3::new(x + step * 0.5 + 0.03 + pier * 0.5, 2.4, EXT * 0.6));
+            m.add_box(
+                Vec3::new(x + step * 0.5 - 0.03 + pier * 0.5, 0.9, EXT * 0.4),
+                Vec3::new(x + step * 0.5 + 0.03 + pier * 0.5, 2.4, EXT * 0.6),
+            );
             m.add_box(Vec3::new(x + pier, 0.86, -0.12), Vec3::new(x + step, 0.9, EXT));
         }
     }
@@ -329,9 +421,17 @@ pub(super) fn generate(seed: u64) -> Generated {
     // row B between the corridors, split by the cross corridors, door on either side.
     let mut rooms: Vec<(String, Room)> = Vec::new();
     let mut partitions: Vec<(f32, f32, f32)> = Vec::new(); // x centre, z0, z1
-    let rows: [(char, f32, f32, Vec<(f32, f32)>); 3] = [
+    let rows: [Row; 3] = [
         ('A', EXT, C1 - INT, vec![(EXT, LEN - EXT)]),
-        ('B', C1 + CORRIDOR + INT, C2 - INT, vec![(CROSS[0] + CORRIDOR + INT, CROSS[1] - INT), (CROSS[1] + CORRIDOR + INT, CROSS[2] - INT)]),
+        (
+            'B',
+            C1 + CORRIDOR + INT,
+            C2 - INT,
+            vec![
+                (CROSS[0] + CORRIDOR + INT, CROSS[1] - INT),
+                (CROSS[1] + CORRIDOR + INT, CROSS[2] - INT),
+            ],
+        ),
         ('C', C2 + CORRIDOR + INT, DEPTH - EXT, vec![(EXT, LEN - EXT)]),
     ];
     for (row, z0, z1, spans) in &rows {
@@ -358,7 +458,14 @@ pub(super) fn generate(seed: u64) -> Generated {
                 let door_x = rng.range(x0 + 0.5 + DOOR_W * 0.5, x1 - 0.5 - DOOR_W * 0.5);
                 rooms.push((
                     format!("room {row}{k}"),
-                    Room { x0, x1, z0: *z0, z1: *z1, door_side, door_x },
+                    Room {
+                        x0,
+                        x1,
+                        z0: *z0,
+                        z1: *z1,
+                        door_side,
+                        door_x,
+                    },
                 ));
                 k += 1;
             }
@@ -366,7 +473,12 @@ pub(super) fn generate(seed: u64) -> Generated {
     }
 
     // Exterior walls with windows, one object per ~7 m section.
-    for (along_x, fixed, len) in [(true, 0.0, LEN), (true, DEPTH - EXT, LEN), (false, 0.0, DEPTH), (false, LEN - EXT, DEPTH)] {
+    for (along_x, fixed, len) in [
+        (true, 0.0, LEN),
+        (true, DEPTH - EXT, LEN),
+        (false, 0.0, DEPTH),
+        (false, LEN - EXT, DEPTH),
+    ] {
         let n = (len / 7.2).round() as usize;
         let sec = len / n as f32;
         let mesh = b.add_mesh(facade_mesh(sec).build(format!("facade section {sec:.1} m")));
@@ -378,7 +490,11 @@ pub(super) fn generate(seed: u64) -> Generated {
                 // Local +x → world +z, local +z (thickness) → world -x: shift by EXT.
                 Mat4::from_rotation_translation(Quat::from_rotation_y(-FRAC_PI_2), Vec3::new(fixed + EXT, 0.0, s))
             };
-            b.add_object(format!("exterior wall {}{k}", if along_x { "x" } else { "z" }), mesh, xf)?;
+            b.add_object(
+                format!("exterior wall {}{k}", if along_x { "x" } else { "z" }),
+                mesh,
+                xf,
+            )?;
         }
     }
     // Corridor walls with doors.
@@ -389,25 +505,83 @@ pub(super) fn generate(seed: u64) -> Generated {
             .map(|(_, r)| r.door_x)
             .collect()
     };
-    wall_x(&mut b, cube, "corridor 1 north", EXT, LEN - EXT, C1 - INT, C1, &doors_on(1.0, 'A'))?;
-    wall_x(&mut b, cube, "corridor 2 south", EXT, LEN - EXT, C2 + CORRIDOR, C2 + CORRIDOR + INT, &doors_on(-1.0, 'C'))?;
+    wall_x(
+        &mut b,
+        cube,
+        "corridor 1 north",
+        (EXT, LEN - EXT),
+        (C1 - INT, C1),
+        &doors_on(1.0, 'A'),
+    )?;
+    wall_x(
+        &mut b,
+        cube,
+        "corridor 2 south",
+        (EXT, LEN - EXT),
+        (C2 + CORRIDOR, C2 + CORRIDOR + INT),
+        &doors_on(-1.0, 'C'),
+    )?;
     for (k, &(sx0, sx1)) in rows[1].3.iter().enumerate() {
-        let d1: Vec<f32> = doors_on(-1.0, 'B').into_iter().filter(|x| (sx0..sx1).contains(x)).collect();
-        let d2: Vec<f32> = doors_on(1.0, 'B').into_iter().filter(|x| (sx0..sx1).contains(x)).collect();
-        wall_x(&mut b, cube, &format!("corridor 1 south {k}"), sx0 - INT, sx1 + INT, C1 + CORRIDOR, C1 + CORRIDOR + INT, &d1)?;
-        wall_x(&mut b, cube, &format!("corridor 2 north {k}"), sx0 - INT, sx1 + INT, C2 - INT, C2, &d2)?;
+        let d1: Vec<f32> = doors_on(-1.0, 'B')
+            .into_iter()
+            .filter(|x| (sx0..sx1).contains(x))
+            .collect();
+        let d2: Vec<f32> = doors_on(1.0, 'B')
+            .into_iter()
+            .filter(|x| (sx0..sx1).contains(x))
+            .collect();
+        wall_x(
+            &mut b,
+            cube,
+            &format!("corridor 1 south {k}"),
+            (sx0 - INT, sx1 + INT),
+            (C1 + CORRIDOR, C1 + CORRIDOR + INT),
+            &d1,
+        )?;
+        wall_x(
+            &mut b,
+            cube,
+            &format!("corridor 2 north {k}"),
+            (sx0 - INT, sx1 + INT),
+            (C2 - INT, C2),
+            &d2,
+        )?;
         // Row B end walls along the cross corridors.
         for x in [sx0 - INT, sx1] {
-            add_box(&mut b, cube, format!("cross corridor wall {k}"), Vec3::new(x, 0.0, C1 + CORRIDOR + INT), Vec3::new(x + INT, STOREY, C2 - INT))?;
+            add_box(
+                &mut b,
+                cube,
+                format!("cross corridor wall {k}"),
+                Vec3::new(x, 0.0, C1 + CORRIDOR + INT),
+                Vec3::new(x + INT, STOREY, C2 - INT),
+            )?;
         }
     }
     for (k, &(x, z0, z1)) in partitions.iter().enumerate() {
-        add_box(&mut b, cube, format!("partition {k}"), Vec3::new(x - INT * 0.5, 0.0, z0), Vec3::new(x + INT * 0.5, STOREY, z1))?;
+        add_box(
+            &mut b,
+            cube,
+            format!("partition {k}"),
+            Vec3::new(x - INT * 0.5, 0.0, z0),
+            Vec3::new(x + INT * 0.5, STOREY, z1),
+        )?;
     }
     // Floors and ceilings: one slab each per room, corridor pieces of ≤ 12 m.
     for (name, r) in &rooms {
-        add_box(&mut b, cube, format!("{name} floor"), Vec3::new(r.x0, -0.2, r.z0), Vec3::new(r.x1, 0.0, r.z1))?;
-        add_box(&mut b, cube, format!("{name} ceiling"), Vec3::new(r.x0, STOREY, r.z0), Vec3::new(r.x1, STOREY + 0.2, r.z1))?;
+        add_box(
+            &mut b,
+            cube,
+            format!("{name} floor"),
+            Vec3::new(r.x0, -0.2, r.z0),
+            Vec3::new(r.x1, 0.0, r.z1),
+        )?;
+        add_box(
+            &mut b,
+            cube,
+            format!("{name} ceiling"),
+            Vec3::new(r.x0, STOREY, r.z0),
+            Vec3::new(r.x1, STOREY + 0.2, r.z1),
+        )?;
     }
     let mut corridor_rects = Vec::new();
     for z in [C1, C2] {
@@ -422,13 +596,35 @@ pub(super) fn generate(seed: u64) -> Generated {
         corridor_rects.push((x, C1 + CORRIDOR, x + CORRIDOR, C2));
     }
     for (k, &(x0, z0, x1, z1)) in corridor_rects.iter().enumerate() {
-        add_box(&mut b, cube, format!("corridor floor {k}"), Vec3::new(x0, -0.2, z0), Vec3::new(x1, 0.0, z1))?;
-        add_box(&mut b, cube, format!("corridor ceiling {k}"), Vec3::new(x0, STOREY, z0), Vec3::new(x1, STOREY + 0.2, z1))?;
+        add_box(
+            &mut b,
+            cube,
+            format!("corridor floor {k}"),
+            Vec3::new(x0, -0.2, z0),
+            Vec3::new(x1, 0.0, z1),
+        )?;
+        add_box(
+            &mut b,
+            cube,
+            format!("corridor ceiling {k}"),
+            Vec3::new(x0, STOREY, z0),
+            Vec3::new(x1, STOREY + 0.2, z1),
+        )?;
         let lights = ((x1 - x0).max(z1 - z0) / 4.0).floor() as usize;
         for i in 0..lights {
             let t = (i as f32 + 0.5) / lights as f32;
-            let c = Vec3::new(x0 + (x1 - x0) * if x1 - x0 > z1 - z0 { t } else { 0.5 }, STOREY, z0 + (z1 - z0) * if x1 - x0 > z1 - z0 { 0.5 } else { t });
-            place(&mut b, "corridor light", f.light, c, if x1 - x0 > z1 - z0 { 0.0 } else { FRAC_PI_2 })?;
+            let c = Vec3::new(
+                x0 + (x1 - x0) * if x1 - x0 > z1 - z0 { t } else { 0.5 },
+                STOREY,
+                z0 + (z1 - z0) * if x1 - x0 > z1 - z0 { 0.5 } else { t },
+            );
+            place(
+                &mut b,
+                "corridor light",
+                f.light,
+                c,
+                if x1 - x0 > z1 - z0 { 0.0 } else { FRAC_PI_2 },
+            )?;
         }
     }
 
@@ -441,7 +637,12 @@ pub(super) fn generate(seed: u64) -> Generated {
             .expect("row has rooms")
             .1
     };
-    let visits = [pick('A', 1.0, 18.0), pick('B', -1.0, 52.0), pick('C', -1.0, 62.0), pick('B', 1.0, 45.0)];
+    let visits = [
+        pick('A', 1.0, 18.0),
+        pick('B', -1.0, 52.0),
+        pick('C', -1.0, 62.0),
+        pick('B', 1.0, 45.0),
+    ];
     for (name, r) in &rooms {
         furnish(&mut b, &f, &mut rng, r, name)?;
     }
@@ -456,7 +657,11 @@ pub(super) fn generate(seed: u64) -> Generated {
     let visit = |r: &Room, corridor_z: f32, east: bool| -> Vec<Vec3> {
         let inward = -r.door_side;
         let dz = r.door_z();
-        let side = if (r.door_x - r.x0) > (r.x1 - r.door_x) { -1.0 } else { 1.0 };
+        let side = if (r.door_x - r.x0) > (r.x1 - r.door_x) {
+            -1.0
+        } else {
+            1.0
+        };
         let before = if east { -1.0 } else { 1.0 };
         vec![
             p(r.door_x + before * 1.0, corridor_z),
