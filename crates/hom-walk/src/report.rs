@@ -174,7 +174,7 @@ pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
 }
 
 /// Writes one record as a JSON line.
-pub fn write_line(out: &mut impl Write, record: &impl Serialize) -> std::io::Result<()> {
+pub fn write_line<W: Write + ?Sized>(out: &mut W, record: &impl Serialize) -> std::io::Result<()> {
     serde_json::to_writer(&mut *out, record)?;
     out.write_all(b"\n")
 }

@@ -8,7 +8,7 @@
 //! split into bands filled in parallel (bits are OR-ed, so the result does not
 //! depend on the thread count or order).
 
-use super::setup::{setup_triangle, Tri, Viewport};
+use super::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::geom::Camera;
 use crate::occluders::OccluderDb;
 use crate::scene::Scene;
@@ -122,10 +122,11 @@ impl OccluderRasterizer {
                 let o = scene.object(id);
                 let mesh = stand_in.unwrap_or_else(|| scene.mesh_of(o));
                 let mvp = view_proj * o.transform;
-                let clip: Vec<glam::Vec4> = mesh.positions().iter().map(|p| mvp * p.extend(1.0)).collect();
+                let verts: Vec<Vertex> = mesh.positions().iter().map(|p| Vertex::new(mvp * p.extend(1.0), &vp)).collect();
                 let mut out = Vec::with_capacity(mesh.triangle_count());
                 for t in mesh.triangles() {
-                    setup_triangle([clip[t[0] as usize], clip[t[1] as usize], clip[t[2] as usize]], &vp, 0, [0; 4], &mut out);
+                    let [a, b, c] = t.map(|i| &verts[i as usize]);
+                    setup_triangle([a, b, c], &vp, 0, [0; 4], &mut out);
                 }
                 out
             })

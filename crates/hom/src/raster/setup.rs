@@ -20,9 +20,9 @@ const GUARD_PX: f32 = (1u32 << 19) as f32;
 /// Hard limit on a snapped screen coordinate in pixels (checked after projection).
 const LIMIT_PX: f32 = (1u32 << 20) as f32;
 
-/// Rows of a bounding box narrower than this are scanned pixel by pixel;
+/// Rows of a bounding box at most this wide are scanned pixel by pixel;
 /// wider ones get their covered span from exact integer division.
-const SCAN_MAX: u32 = 6;
+pub const SCAN_MAX: u32 = 16;
 
 /// A triangle ready to rasterize: exact edge functions, clamped pixel bounds,
 /// the depth plane, and what to write.
@@ -56,69 +56,30 @@ pub struct Tri {
 }
 
 impl Tri {
-    /// The half-open range of columns `lo..hi` covered in row `py`
-    /// (`py` within `y0..y1`); `None` when the row is empty.
+    /// Edge function values at the centre of pixel `(x0, py)`.
     #[inline]
-    pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
-        let n = u32::from(self.x1 - self.x0);
+    pub fn edges_at_row(&self, py: u32) -> [i64; 3] {
         let sx = i64::from(self.x0) * ONE + HALF;
         let sy = i64::from(py) * ONE + HALF;
-        let e = [
-            self.a[0] * sx + self.b[0] * sy + self.c[0],
-            self.a[1] * sx + self.b[1] * sy + self.c[1],
-            self.a[2] * sx + self.b[2] * sy + self.c[2],
-        ];
-        if n <= SCAN_MAX {
-            let step = [self.a[0] * ONE, self.a[1] * ONE, self.a[2] * ONE];
-            let mut e = e;
-            let mut lo = u32::MAX;
-            let mut hi = 0;
-            for k in 0..n {
-                if (e[0] | e[1] | e[2]) >= 0 {
-                    if lo == u32::MAX {
-                        lo = k;
-                    }
-                    hi = k + 1;
-                }
-                e[0] += step[0];
-                e[1] += step[1];
-                e[2] += step[2];
-            }
-            return (lo < hi).then(|| (u32::from(self.x0) + lo, u32::from(self.x0) + hi));
-        }
-        // E_i(k) = e[i] + s * k >= 0 for k in 0..n, solved exactly per edge.
-        let mut lo: i64 = 0;
-        let mut hi: i64 = i64::from(n) - 1;
-        for i in 0..3 {
-            let s = self.a[i] * ONE;
-            let e0 = e[i];
-            if s == 0 {
-                if e0 < 0 {
-                    return None;
-                }
-            } else if s > 0 {
-                if e0 < 0 {
-                    // ceil(-e0 / s)
-                    lo = lo.max((-e0 + s - 1) / s);
-                }
-            } else {
-                if e0 < 0 {
-                    return None;
-                }
-                hi = hi.min(e0 / -s);
-            }
-        }
-        (lo <= hi).then(|| {
-            (
-                u32::from(self.x0) + lo as u32,
-                u32::from(self.x0) + hi as u32 + 1,
-            )
-        })
+        [0, 1, 2].map(|i| self.a[i] * sx + self.b[i] * sy + self.c[i])
+    }
+
+    /// The half-open range of columns `lo..hi` covered in row `py`
+    /// (`py` within `y0..y1`); `None` when the row is empty.
+    pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
+        let n = u32::from(self.x1 - self.x0);
+        let e = self.edges_at_row(py);
+        let step = [0, 1, 2].map(|i| self.a[i] * ONE);
+        let span = if n <= SCAN_MAX {
+            scan_span(e, step, n)
+        } else {
+            divide_span(e, step, n)
+        };
+        span.map(|(lo, hi)| (u32::from(self.x0) + lo, u32::from(self.x0) + hi))
     }
 
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
-    #[cfg(test)]
-    pub fn covers(&self, px: u32, py: u32) -> bool {
+        pub fn covers(&self, px: u32, py: u32) -> bool {
         let sx = i64::from(px) * ONE + HALF;
         let sy = i64::from(py) * ONE + HALF;
         (0..3).all(|i| self.a[i] * sx + self.b[i] * sy + self.c[i] >= 0)
@@ -129,6 +90,47 @@ impl Tri {
     pub fn depth_row(&self, py: u32) -> f32 {
         self.zref + self.dzdy * (py - u32::from(self.y0)) as f32
     }
+}
+
+/// Covered steps `lo..hi` of a row of `n` samples with edge values `e` at
+/// step 0 and increments `step`, by testing each sample (the reference for tests).
+fn scan_span(mut e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
+    let mut lo = u32::MAX;
+    let mut hi = 0;
+    for k in 0..n {
+        if (e[0] | e[1] | e[2]) >= 0 {
+            if lo == u32::MAX {
+                lo = k;
+            }
+            hi = k + 1;
+        } else if lo != u32::MAX {
+            break; // the covered samples of a row are contiguous
+        }
+        e[0] += step[0];
+        e[1] += step[1];
+        e[2] += step[2];
+    }
+    (lo < hi).then_some((lo, hi))
+}
+
+/// As [`scan_span`], solving `e[i] + step[i] * k >= 0` exactly per edge.
+#[inline]
+pub fn divide_span(e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
+    let mut lo: i64 = 0;
+    let mut hi: i64 = i64::from(n) - 1;
+    for i in 0..3 {
+        let (s, e0) = (step[i], e[i]);
+        if s > 0 {
+            if e0 < 0 {
+                lo = lo.max((-e0 + s - 1) / s); // ceil(-e0 / s)
+            }
+        } else if e0 < 0 {
+            return None;
+        } else if s < 0 {
+            hi = hi.min(e0 / -s);
+        }
+    }
+    (lo <= hi).then(|| (lo as u32, hi as u32 + 1))
 }
 
 /// The viewport a triangle is set up for.
@@ -228,7 +230,8 @@ fn outside_guard_f64(v: DVec4, vp: &Viewport) -> bool {
 /// coordinates; `None` if it is not representable (never for well-formed input).
 #[inline]
 fn project(v: Vec4, vp: &Viewport) -> Option<ScreenVertex> {
-    if !(v.w > 0.0) {
+    // Also rejects NaN.
+    if v.w.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let iw = 1.0 / v.w;
@@ -239,45 +242,80 @@ fn project(v: Vec4, vp: &Viewport) -> Option<ScreenVertex> {
         return None;
     }
     Some(ScreenVertex {
-        x: (sx * ONE as f32).round() as i64,
-        y: (sy * ONE as f32).round() as i64,
+        x: snap(sx),
+        y: snap(sy),
         z,
     })
 }
 
-/// Clips, projects and sets up the clip-space triangle `clip`, pushing 0 or
+/// `floor(p * ONE + 0.5)`: the nearest fixed-point value (halves round up),
+/// for `|p| <= LIMIT_PX` (a cheap, exact replacement for a libm `round`).
+#[inline]
+fn snap(p: f32) -> i64 {
+    let f = p * ONE as f32 + 0.5;
+    let i = f as i64; // truncates towards zero; exact since |f| < 2^31
+    i - i64::from((i as f32) > f)
+}
+
+/// Outcode bit: in front of the near plane fails (clip z < 0).
+const NEAR_BIT: u32 = 1 << 4;
+/// Outcode bit: outside the guard band (needs x/y clipping).
+const GUARD_BIT: u32 = 1 << 6;
+/// Outcode bit: unusable (non-finite coordinates, or projection failed).
+const BAD_BIT: u32 = 1 << 7;
+
+/// A transformed vertex with everything setup needs, computed once per vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    clip: Vec4,
+    /// Frustum outcode bits 0..=5, plus `GUARD_BIT` and `BAD_BIT`.
+    code: u32,
+    /// Snapped screen position; valid when no near/guard/bad bit is set.
+    s: ScreenVertex,
+}
+
+impl Vertex {
+    /// Classifies and (when it needs no clipping) projects a clip-space vertex.
+    /// A pure function of `clip` and the viewport.
+    #[inline]
+    pub fn new(clip: Vec4, vp: &Viewport) -> Vertex {
+        let s = ScreenVertex { x: 0, y: 0, z: 0.0 };
+        if !clip.is_finite() {
+            return Vertex { clip, code: BAD_BIT, s };
+        }
+        let mut code = outcode(clip);
+        if outside_guard(clip, vp) {
+            code |= GUARD_BIT;
+        }
+        if code & (NEAR_BIT | GUARD_BIT) != 0 {
+            return Vertex { clip, code, s };
+        }
+        match project(clip, vp) {
+            Some(s) => Vertex { clip, code, s },
+            None => Vertex { clip, code: BAD_BIT, s },
+        }
+    }
+}
+
+/// Clips, projects and sets up a triangle of prepared vertices, pushing 0 or
 /// more rasterizable triangles (a fan when clipped) onto `out`.
 /// Returns how many were pushed.
-pub fn setup_triangle(
-    clip: [Vec4; 3],
-    vp: &Viewport,
-    item: u32,
-    colour: [u8; 4],
-    out: &mut Vec<Tri>,
-) -> usize {
-    let [p0, p1, p2] = clip;
-    if !(p0.is_finite() && p1.is_finite() && p2.is_finite()) {
+pub fn setup_triangle(v: [&Vertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> usize {
+    let (c0, c1, c2) = (v[0].code, v[1].code, v[2].code);
+    if (c0 | c1 | c2) & BAD_BIT != 0 || c0 & c1 & c2 & 0x3f != 0 {
+        // Unusable, or wholly outside one frustum plane (behind near, beyond far, off a side).
         return 0;
     }
-    let (c0, c1, c2) = (outcode(p0), outcode(p1), outcode(p2));
-    if c0 & c1 & c2 != 0 {
-        return 0; // wholly outside one frustum plane (behind near, beyond far, or off a side)
-    }
-    let near = (c0 | c1 | c2) & (1 << 4) != 0;
-    let guard = outside_guard(p0, vp) || outside_guard(p1, vp) || outside_guard(p2, vp);
-    if !near && !guard {
-        let (Some(s0), Some(s1), Some(s2)) = (project(p0, vp), project(p1, vp), project(p2, vp))
-        else {
-            return 0;
-        };
-        return usize::from(setup_screen([s0, s1, s2], vp, item, colour, out));
+    let near = (c0 | c1 | c2) & NEAR_BIT != 0;
+    if !near && (c0 | c1 | c2) & GUARD_BIT == 0 {
+        return usize::from(setup_screen([v[0].s, v[1].s, v[2].s], vp, item, colour, out));
     }
     let mut a = Poly {
         v: [DVec4::ZERO; MAX_POLY],
         n: 3,
     };
-    for (d, s) in a.v.iter_mut().zip(clip) {
-        *d = s.as_dvec4();
+    for (d, s) in a.v.iter_mut().zip(v) {
+        *d = s.clip.as_dvec4();
     }
     let mut b = a;
     if near {
@@ -295,13 +333,13 @@ pub fn setup_triangle(
         return 0;
     }
     let mut s = [ScreenVertex { x: 0, y: 0, z: 0.0 }; MAX_POLY];
-    for i in 0..a.n {
-        let v = a.v[i].as_vec4();
+    for (d, v) in s.iter_mut().zip(&a.v[..a.n]) {
+        let v = v.as_vec4();
         if !v.is_finite() {
             return 0;
         }
         match project(v, vp) {
-            Some(p) => s[i] = p,
+            Some(p) => *d = p,
             None => return 0,
         }
     }
@@ -313,13 +351,7 @@ pub fn setup_triangle(
 }
 
 /// Sets up one snapped screen triangle; false if it covers no pixel centre.
-fn setup_screen(
-    v: [ScreenVertex; 3],
-    vp: &Viewport,
-    item: u32,
-    colour: [u8; 4],
-    out: &mut Vec<Tri>,
-) -> bool {
+fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> bool {
     let [v0, mut v1, mut v2] = v;
     let area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
     if area == 0 {
@@ -361,9 +393,9 @@ fn setup_screen(
     let (x0f, y0f, z0) = (to_px(v0.x), to_px(v0.y), f64::from(v0.z));
     let (dx1, dy1, dz1) = (to_px(v1.x) - x0f, to_px(v1.y) - y0f, f64::from(v1.z) - z0);
     let (dx2, dy2, dz2) = (to_px(v2.x) - x0f, to_px(v2.y) - y0f, f64::from(v2.z) - z0);
-    let det = dx1 * dy2 - dx2 * dy1;
-    let dzdx = (dz1 * dy2 - dz2 * dy1) / det;
-    let dzdy = (dz2 * dx1 - dz1 * dx2) / det;
+    let inv_det = 1.0 / (dx1 * dy2 - dx2 * dy1);
+    let dzdx = (dz1 * dy2 - dz2 * dy1) * inv_det;
+    let dzdy = (dz2 * dx1 - dz1 * dx2) * inv_det;
     let zref = z0 + dzdx * (x0 as f64 + 0.5 - x0f) + dzdy * (y0 as f64 + 0.5 - y0f);
     out.push(Tri {
         a,
@@ -382,14 +414,15 @@ fn setup_screen(
     true
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {
+        let vp = Viewport::new(w, h);
+        let v = clip.map(|c| Vertex::new(c, &vp));
         let mut out = Vec::new();
-        setup_triangle(clip, &Viewport::new(w, h), 7, [1, 2, 3, 255], &mut out);
+        setup_triangle([&v[0], &v[1], &v[2]], &vp, 7, [1, 2, 3, 255], &mut out);
         out
     }
 
@@ -467,20 +500,10 @@ mod tests {
             let scale = [2.0, 5.0, 20.0, 80.0][(rnd() * 4.0) as usize % 4];
             let cx = rnd() * 70.0 - 3.0;
             let cy = rnd() * 50.0 - 3.0;
-            let v = [0, 1, 2].map(|_| {
-                at(
-                    cx + (rnd() - 0.5) * scale,
-                    cy + (rnd() - 0.5) * scale,
-                    rnd(),
-                    64,
-                    48,
-                )
-            });
+            let v = [0, 1, 2].map(|_| at(cx + (rnd() - 0.5) * scale, cy + (rnd() - 0.5) * scale, rnd(), 64, 48));
             for t in setup(v, 64, 48) {
                 for y in u32::from(t.y0)..u32::from(t.y1) {
-                    let expect: Vec<u32> = (u32::from(t.x0)..u32::from(t.x1))
-                        .filter(|&x| t.covers(x, y))
-                        .collect();
+                    let expect: Vec<u32> = (u32::from(t.x0)..u32::from(t.x1)).filter(|&x| t.covers(x, y)).collect();
                     let got: Vec<u32> = t.row_span(y).map_or(Vec::new(), |(a, b)| (a..b).collect());
                     assert_eq!(got, expect, "row {y} of {t:?}");
                 }
