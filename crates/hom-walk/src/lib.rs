@@ -16,6 +16,7 @@
 //! Results are [`report`] records, written as JSON lines; [`pictures`] draws
 //! false-colour frames and plots.
 
+pub mod bench;
 pub mod cullers;
 pub mod pictures;
 pub mod report;

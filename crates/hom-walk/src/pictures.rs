@@ -3,9 +3,12 @@
 use crate::report::FrameRecord;
 use hom::cull::CullOutput;
 use hom::geom::Camera;
+use hom::map::{Level, Pyramid};
 use hom::scene::Scene;
 use hom_render::{Colouring, Framebuffer, RenderOptions, Renderer};
+use plotters::coord::ranged1d::SegmentValue;
 use plotters::prelude::*;
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Once;
 
@@ -168,6 +171,310 @@ fn draw_frame_times(path: &Path, frames: &[FrameRecord], culler: &str) -> Result
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 16))
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Colour of hole pixels in [`write_pyramid_levels`].
+pub const HOLE_BLUE: [u8; 3] = [25, 80, 255];
+
+/// Side of each level's panel in [`write_pyramid_levels`], pixels.
+pub const PYRAMID_PANEL: u32 = 256;
+
+const PANEL_GAP: u32 = 18;
+const PANEL_CAPTION: u32 = 46;
+const PYRAMID_TITLE: u32 = 56;
+const PANELS_PER_ROW: u32 = 4;
+
+/// Size in pixels of the picture [`write_pyramid_levels`] draws for `pyramid`.
+pub fn pyramid_picture_size(pyramid: &Pyramid) -> (u32, u32) {
+    let n = pyramid.levels().len().max(1) as u32;
+    let cols = n.min(PANELS_PER_ROW);
+    let rows = n.div_ceil(cols);
+    (
+        cols * (PYRAMID_PANEL + PANEL_GAP) + PANEL_GAP,
+        PYRAMID_TITLE + rows * (PYRAMID_PANEL + PANEL_CAPTION + PANEL_GAP),
+    )
+}
+
+/// One PNG of every level of the occlusion pyramid (figures 3 and 6 of the HOM
+/// paper), base level first, each scaled up with nearest-neighbour to
+/// [`PYRAMID_PANEL`] pixels on its longer side: grey is opacity (black =
+/// nothing covered, white = opaque). Pixels with opacity below `hole_opacity`
+/// are tinted and outlined in [`HOLE_BLUE`] as holes, unless the whole level
+/// is holes. Each level is captioned with its index, resolution and opacity
+/// statistics. The picture's size is [`pyramid_picture_size`].
+pub fn write_pyramid_levels(path: &Path, pyramid: &Pyramid, hole_opacity: f32) -> Result<(), PictureError> {
+    register_fonts();
+    let (width, height) = pyramid_picture_size(pyramid);
+    let mut rgb = vec![255u8; (width * height * 3) as usize];
+    draw_pyramid(&mut rgb, (width, height), pyramid, hole_opacity).map_err(|e| picture_error(path, e))?;
+    let rgba: Vec<[u8; 4]> = rgb.chunks_exact(3).map(|p| [p[0], p[1], p[2], 255]).collect();
+    hom_render::write_png(path, width, height, &rgba).map_err(|e| picture_error(path, e))
+}
+
+fn draw_pyramid(
+    rgb: &mut [u8],
+    (width, height): (u32, u32),
+    pyramid: &Pyramid,
+    hole_opacity: f32,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let levels = pyramid.levels();
+    let cols = (levels.len() as u32).clamp(1, PANELS_PER_ROW);
+    let mut captions = Vec::new();
+    for (k, level) in levels.iter().enumerate() {
+        let (col, row) = (k as u32 % cols, k as u32 / cols);
+        let x0 = PANEL_GAP + col * (PYRAMID_PANEL + PANEL_GAP);
+        let y0 = PYRAMID_TITLE + row * (PYRAMID_PANEL + PANEL_CAPTION + PANEL_GAP);
+        let stats = paint_level(rgb, width, (x0, y0), level, hole_opacity);
+        let size = pyramid.block() << k;
+        captions.push((
+            (x0, y0 + PYRAMID_PANEL + 4),
+            format!("level {k}: {}×{}, {size}×{size} samples/px", level.width, level.height),
+            format!("opaque {:.1}%, holes {:.1}%", stats.0, stats.1),
+        ));
+    }
+    let root = BitMapBackend::with_buffer(rgb, (width, height)).into_drawing_area();
+    let (vw, vh) = pyramid.viewport();
+    root.draw(&Text::new(
+        format!(
+            "Occlusion pyramid, {vw}×{vh} viewport: grey = opacity (white = opaque); blue = hole (opacity < {hole_opacity})"
+        ),
+        (PANEL_GAP as i32, 16),
+        ("sans-serif", 20).into_font().color(&BLACK),
+    ))?;
+    for ((x, y), line1, line2) in captions {
+        let (x, y) = (x as i32, y as i32);
+        root.draw(&Text::new(line1, (x, y), ("sans-serif", 16).into_font().color(&BLACK)))?;
+        root.draw(&Text::new(line2, (x, y + 20), ("sans-serif", 15).into_font().color(&RGBColor(80, 80, 80))))?;
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// Paints one level into its panel; returns (% opaque pixels, % hole pixels).
+fn paint_level(rgb: &mut [u8], stride: u32, (x0, y0): (u32, u32), level: &Level, hole_opacity: f32) -> (f64, f64) {
+    let (lw, lh) = (level.width.max(1), level.height.max(1));
+    let longest = lw.max(lh);
+    let (dw, dh) = (lw * PYRAMID_PANEL / longest, lh * PYRAMID_PANEL / longest);
+    let pixels = (lw * lh) as usize;
+    let is_hole: Vec<bool> = (0..pixels as u32).map(|i| level.opacity(i % lw, i / lw) < hole_opacity).collect();
+    let holes = is_hole.iter().filter(|&&h| h).count();
+    let opaque = level.counts.iter().filter(|&&c| c == level.samples_per_pixel).count();
+    let mark = holes > 0 && holes < pixels;
+    let hole = |x: i64, y: i64| x >= 0 && y >= 0 && x < lw as i64 && y < lh as i64 && is_hole[(y as u32 * lw + x as u32) as usize];
+    // Display pixels per level pixel; outline holes where cells are big enough to show it.
+    let cell = dw as f32 / lw as f32;
+    let outline = if cell >= 12.0 { 2 } else if cell >= 3.0 { 1 } else { 0 };
+    let mut put = |x: u32, y: u32, c: [u8; 3]| {
+        let i = (((y0 + y) * stride + x0 + x) * 3) as usize;
+        rgb[i..i + 3].copy_from_slice(&c);
+    };
+    for dy in 0..dh {
+        let ly = dy * lh / dh;
+        for dx in 0..dw {
+            let lx = dx * lw / dw;
+            let v = (level.opacity(lx, ly).clamp(0.0, 1.0) * 255.0).round() as u8;
+            let mut c = [v, v, v];
+            if mark && is_hole[(ly * lw + lx) as usize] {
+                c = [0, 1, 2].map(|i| (v as f32 * 0.45 + HOLE_BLUE[i] as f32 * 0.55) as u8);
+                if outline > 0 {
+                    // Distance in display pixels to this cell's edges, and whether the neighbour there is a hole.
+                    let (cx0, cx1) = ((lx * dw).div_ceil(lw), ((lx + 1) * dw).div_ceil(lw));
+                    let (cy0, cy1) = ((ly * dh).div_ceil(lh), ((ly + 1) * dh).div_ceil(lh));
+                    let (x, y) = (lx as i64, ly as i64);
+                    let edge = (dx < cx0 + outline && !hole(x - 1, y))
+                        || (dx + outline >= cx1 && !hole(x + 1, y))
+                        || (dy < cy0 + outline && !hole(x, y - 1))
+                        || (dy + outline >= cy1 && !hole(x, y + 1));
+                    if edge {
+                        c = HOLE_BLUE;
+                    }
+                }
+            }
+            put(dx, dy, c);
+        }
+    }
+    // A thin frame around the panel.
+    let frame = [90, 90, 90];
+    for dx in 0..dw {
+        if y0 > 0 {
+            let i = (((y0 - 1) * stride + x0 + dx) * 3) as usize;
+            rgb[i..i + 3].copy_from_slice(&frame);
+        }
+        let i = (((y0 + dh) * stride + x0 + dx) * 3) as usize;
+        rgb[i..i + 3].copy_from_slice(&frame);
+    }
+    for dy in 0..dh {
+        let i = (((y0 + dy) * stride + x0 - 1) * 3) as usize;
+        rgb[i..i + 3].copy_from_slice(&frame);
+        let i = (((y0 + dy) * stride + x0 + dw) * 3) as usize;
+        rgb[i..i + 3].copy_from_slice(&frame);
+    }
+    (
+        100.0 * opaque as f64 / pixels as f64,
+        100.0 * holes as f64 / pixels as f64,
+    )
+}
+
+/// One bar of [`plot_stage_breakdown`]: a scene or culler's median stage
+/// times against its own baseline.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StageBar {
+    /// Label on the bar's axis, e.g. `"city / hom"`.
+    pub label: String,
+    /// Milliseconds per stage, as in [`crate::report::Summary::median_stage_ms`];
+    /// the sum entry `cull` is ignored.
+    pub stages_ms: BTreeMap<String, f64>,
+    /// The 100 % mark: frame time rendering everything in the frustum, ms.
+    pub baseline_ms: f64,
+}
+
+/// Stages in bar order, with their colours; others go after `traversal`.
+const STAGES: &[(&str, RGBColor)] = &[
+    ("refit", RGBColor(140, 86, 75)),
+    ("selection", RGBColor(148, 103, 189)),
+    ("raster", RGBColor(255, 127, 14)),
+    ("pyramid", RGBColor(214, 39, 40)),
+    ("depth", RGBColor(23, 190, 207)),
+    ("traversal", RGBColor(44, 160, 44)),
+    ("render", RGBColor(31, 119, 180)),
+];
+const OTHER_STAGE_COLOURS: &[RGBColor] = &[
+    RGBColor(188, 189, 34),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(255, 187, 120),
+];
+
+/// Stage names present in `bars`, in bar order, with colours.
+fn stage_order(bars: &[StageBar]) -> Vec<(String, RGBColor)> {
+    let present: Vec<&String> = {
+        let mut v: Vec<&String> = bars.iter().flat_map(|b| b.stages_ms.keys()).filter(|k| *k != "cull").collect();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let known = |name: &str| STAGES.iter().find(|s| s.0 == name).map(|s| s.1);
+    let mut out: Vec<(String, RGBColor)> = STAGES
+        .iter()
+        .filter(|s| s.0 != "render" && present.iter().any(|p| *p == s.0))
+        .map(|s| (s.0.to_string(), s.1))
+        .collect();
+    for (i, name) in present.iter().filter(|p| known(p).is_none()).enumerate() {
+        out.push(((*name).clone(), OTHER_STAGE_COLOURS[i % OTHER_STAGE_COLOURS.len()]));
+    }
+    if present.iter().any(|p| *p == "render") {
+        out.push(("render".to_string(), known("render").expect("listed")));
+    }
+    out
+}
+
+/// Width of [`plot_stage_breakdown`]'s picture, pixels.
+pub const STAGE_PLOT_WIDTH: u32 = 1100;
+
+/// Height of [`plot_stage_breakdown`]'s picture for `bars` bars, pixels.
+pub fn stage_plot_height(bars: usize) -> u32 {
+    (170 + 46 * bars as u32).max(300)
+}
+
+/// The time of each stage of culling and rendering, in percent of each bar's
+/// baseline (rendering everything in the frustum = 100 %), as horizontal
+/// stacked bars (figure 8 of the HOM paper), one per entry of `bars`, top to
+/// bottom, with a legend and the 100 % line. The picture is
+/// [`STAGE_PLOT_WIDTH`] × [`stage_plot_height`] pixels.
+pub fn plot_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), PictureError> {
+    register_fonts();
+    draw_stage_breakdown(path, bars).map_err(|e| picture_error(path, e))
+}
+
+fn draw_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), Box<dyn std::error::Error>> {
+    let root = BitMapBackend::new(path, (STAGE_PLOT_WIDTH, stage_plot_height(bars.len()))).into_drawing_area();
+    root.fill(&WHITE)?;
+    let n = bars.len().max(1) as i32;
+    let stages = stage_order(bars);
+    let pct = |bar: &StageBar, ms: f64| if bar.baseline_ms > 0.0 { 100.0 * ms / bar.baseline_ms } else { 0.0 };
+    let totals: Vec<f64> = bars
+        .iter()
+        .map(|b| stages.iter().map(|(s, _)| pct(b, b.stages_ms.get(s).copied().unwrap_or(0.0))).sum())
+        .collect();
+    let x_max = totals.iter().copied().fold(100.0f64, f64::max) * 1.18;
+    let label_chars = bars.iter().map(|b| b.label.chars().count()).max().unwrap_or(0);
+    // Bar i (top first) sits in segment n - 1 - i: plotters' y grows upwards.
+    let segment = |i: usize| n - 1 - i as i32;
+    let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "Time per frame by stage, % of frustum culling only",
+            ("sans-serif", 24),
+        )
+        .margin(14)
+        .x_label_area_size(40)
+        .y_label_area_size((label_chars as u32 * 9 + 16).clamp(60, 360))
+        .build_cartesian_2d(0f64..x_max, (0..n).into_segmented())?;
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc("% of the frame time rendering everything in the view frustum")
+        .y_label_formatter(&|v| match v {
+            SegmentValue::CenterOf(i) if (0..n).contains(i) => labels[(n - 1 - i) as usize].clone(),
+            _ => String::new(),
+        })
+        .y_labels(bars.len().max(1))
+        .label_style(("sans-serif", 15))
+        .draw()?;
+    for (name, colour) in &stages {
+        let colour = *colour;
+        let mut rects = Vec::new();
+        for (i, bar) in bars.iter().enumerate() {
+            let start: f64 = stages
+                .iter()
+                .take_while(|(s, _)| s != name)
+                .map(|(s, _)| pct(bar, bar.stages_ms.get(s).copied().unwrap_or(0.0)))
+                .sum();
+            let width = pct(bar, bar.stages_ms.get(name).copied().unwrap_or(0.0));
+            if width <= 0.0 {
+                continue;
+            }
+            let y = segment(i);
+            let mut r = Rectangle::new(
+                [(start, SegmentValue::Exact(y)), (start + width, SegmentValue::Exact(y + 1))],
+                colour.filled(),
+            );
+            r.set_margin(7, 7, 0, 0);
+            rects.push(r);
+        }
+        chart
+            .draw_series(rects)?
+            .label(name.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], colour.filled()));
+    }
+    // Totals at the end of each bar.
+    chart.draw_series(bars.iter().zip(&totals).enumerate().map(|(i, (bar, total))| {
+        let ms: f64 = stages.iter().filter_map(|(s, _)| bar.stages_ms.get(s)).sum();
+        Text::new(
+            format!(" {total:.1}% ({ms:.2} ms)"),
+            (*total, SegmentValue::CenterOf(segment(i))),
+            ("sans-serif", 14).into_font().pos(Pos::new(HPos::Left, VPos::Center)),
+        )
+    }))?;
+    // The 100 % reference: frustum culling only.
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(100.0, SegmentValue::Exact(0)), (100.0, SegmentValue::Exact(n))],
+            6,
+            4,
+            BLACK.stroke_width(2),
+        ))?
+        .label("frustum culling only = 100%")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 15))
         .draw()?;
     root.present()?;
     Ok(())

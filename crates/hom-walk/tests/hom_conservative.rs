@@ -84,11 +84,11 @@ fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
     #[test]
     fn conservative_hom_never_culls_what_the_oracle_sees(
         seed in any::<u64>(), n in 1usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
-        look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), map_size in 8u32..48, plane in any::<bool>(),
+        look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), map_size in 8u32..48, depth_mode in 0usize..3,
         dynamic in any::<bool>(), time in 0.0f32..5.0,
     ) {
         let mut scene = random_scene(seed, n, dynamic);
@@ -98,7 +98,7 @@ proptest! {
         prop_assume!(camera.validate().is_ok());
         let mut config = permissive();
         config.map_size = map_size;
-        if plane { config.depth = DepthMode::SingleZPlane; }
+        config.depth = [DepthMode::Rasterized(13, 9), DepthMode::EstimationBuffer(16, 16), DepthMode::SingleZPlane][depth_mode];
         let mut culler = HomCuller::new(&scene, config);
         // Two frames, so the second uses the feedback (hole filling) of the first.
         assert_no_false_culls(&scene, &camera, &mut culler);
@@ -116,7 +116,7 @@ fn occluder_coverage_equals_the_renderers_item_buffer() {
         let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 3 != 0).collect();
         let db = OccluderDb::all(&scene);
         let mut cov = CoverageBuffer::default();
-        OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera);
+        OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera, None);
         let renderer = Renderer::new(2).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
         renderer.render(&scene, &ids, &camera, &hom_render::RenderOptions::default(), &mut fb);
@@ -127,6 +127,13 @@ fn occluder_coverage_equals_the_renderers_item_buffer() {
             }
         }
     }
+}
+
+/// Only the two wall halves fit the budget (12 triangles each): the box behind is never an occluder.
+fn walls_only() -> HomConfig {
+    let mut c = permissive();
+    c.selection.budget = 24;
+    c
 }
 
 fn wall_scene(gap: f32) -> Scene {
@@ -146,7 +153,7 @@ fn occluders_with_a_one_pixel_gap_do_not_hide_what_shows_through() {
     for gap in [0.0, 0.01, 0.03, 0.06, 0.12, 0.2] {
         let scene = wall_scene(gap);
         let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
-        let mut culler = HomCuller::new(&scene, permissive());
+        let mut culler = HomCuller::new(&scene, walls_only());
         let out = assert_no_false_culls(&scene, &camera, &mut culler);
         if gap == 0.0 {
             assert_eq!(out.occluded, vec![2], "a closed wall hides the box");
@@ -206,11 +213,28 @@ fn nan_camera_is_an_error_not_a_cull() {
 fn approximate_mode_culls_at_least_as_much() {
     let scene = wall_scene(0.03);
     let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
-    let mut exact = HomCuller::new(&scene, permissive());
-    let mut approx = HomCuller::new(&scene, HomConfig { opacity: Opacity::NegligibleHole(4), ..permissive() });
+    let mut exact = HomCuller::new(&scene, walls_only());
+    let mut approx = HomCuller::new(&scene, HomConfig { opacity: Opacity::NegligibleHole(4), ..walls_only() });
     let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
     exact.cull(&scene, &camera, &mut a).unwrap();
     approx.cull(&scene, &camera, &mut b).unwrap();
     assert!(b.occluded.len() >= a.occluded.len());
     assert_eq!(b.occluded, vec![2], "the thin gap is a negligible hole");
+}
+
+/// The property test above is only meaningful if culling happens: over many
+/// random scenes, HOM must occlusion-cull a good share of objects (and never wrongly).
+#[test]
+fn random_scenes_are_really_culled() {
+    let (mut occluded, mut total) = (0, 0);
+    for seed in 0..60u64 {
+        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
+        let eye = Vec3::new(0.0, 0.5, 13.0);
+        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        let mut culler = HomCuller::new(&scene, permissive());
+        let out = assert_no_false_culls(&scene, &camera, &mut culler);
+        occluded += out.occluded.len();
+        total += scene.objects().len();
+    }
+    assert!(occluded * 20 > total, "only {occluded} of {total} objects occlusion-culled");
 }

@@ -43,9 +43,15 @@ pub enum Opacity {
 /// How the depth test is done.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthMode {
-    /// The depth estimation buffer with this many cells (columns, rows).
+    /// A depth estimation buffer of this many cells (columns, rows), each
+    /// holding the farthest depth of the occluders' *rasterized samples* in it,
+    /// gathered during the coverage raster (the default: exact per sample, so
+    /// long occluders such as street facades do not push depth far away).
+    Rasterized(u32, u32),
+    /// The paper's depth estimation buffer (section 5.2.2): each occluder's
+    /// screen rectangle written with its box's farthest depth.
     EstimationBuffer(u32, u32),
-    /// One plane at the farthest occluder depth.
+    /// One plane at the farthest occluder depth (section 5.2.1).
     SingleZPlane,
 }
 
@@ -76,7 +82,7 @@ impl Default for HomConfig {
             min_level_side: 4,
             opacity: Opacity::Conservative,
             transparency: 0.0,
-            depth: DepthMode::EstimationBuffer(64, 64),
+            depth: DepthMode::Rasterized(64, 64),
             selection: SelectionConfig::default(),
             occluder_db: OccluderDbConfig::default(),
         }
@@ -186,13 +192,15 @@ impl HomCuller {
             self.pyramid = Some(p);
         }
         let depth_fits = match (&self.depth, self.config.depth) {
-            (Some(Depth::Buffer(_)), DepthMode::EstimationBuffer(..)) => fits,
+            (Some(Depth::Buffer(_)), DepthMode::EstimationBuffer(..) | DepthMode::Rasterized(..)) => fits,
             (Some(Depth::Plane(_)), DepthMode::SingleZPlane) => true,
             _ => false,
         };
         if !depth_fits {
             self.depth = Some(match self.config.depth {
-                DepthMode::EstimationBuffer(c, r) => Depth::Buffer(DepthEstimationBuffer::new(w, h, c.max(1), r.max(1))),
+                DepthMode::EstimationBuffer(c, r) | DepthMode::Rasterized(c, r) => {
+                    Depth::Buffer(DepthEstimationBuffer::new(w, h, c.max(1), r.max(1)))
+                }
                 DepthMode::SingleZPlane => Depth::Plane(SingleZPlane::default()),
             });
         }
@@ -293,6 +301,7 @@ impl Culler for HomCuller {
         });
 
         // 2. Occluder coverage at output resolution.
+        let depth_mode = self.config.depth;
         let Self {
             raster,
             coverage,
@@ -304,30 +313,39 @@ impl Culler for HomCuller {
             is_occluder,
             ..
         } = self;
-        let drawn = out.time("raster", || raster.rasterize(coverage, scene, db, &occluders, camera));
+        let depth = depth.as_mut().expect("ensured");
+        let rasterized_depth = matches!(depth_mode, DepthMode::Rasterized(..));
+        let drawn = out.time("raster", || {
+            let gather = match depth {
+                Depth::Buffer(b) if rasterized_depth => Some(b),
+                _ => None,
+            };
+            raster.rasterize(coverage, scene, db, &occluders, camera, gather)
+        });
 
         // 3. The pyramid.
         let pyramid = pyramid.as_mut().expect("ensured");
         out.time("pyramid", || pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row()));
 
-        // 4. Depth of the occluders.
-        let depth = depth.as_mut().expect("ensured");
-        out.time("depth", || {
-            match depth {
-                Depth::Buffer(b) => b.clear(),
-                Depth::Plane(p) => *p = SingleZPlane::default(),
-            }
-            for &id in &occluders {
-                let o = scene.object(id);
-                let corners = if o.is_dynamic() { o.obb.corners() } else { o.aabb.corners() };
-                if let Some(r) = project_box_clipped(&corners, &view_proj, w, h) {
-                    match depth {
-                        Depth::Buffer(b) => b.insert_occluder(&r),
-                        Depth::Plane(p) => p.insert_occluder(&r),
+        // 4. Depth of the occluders from their boxes (the rasterized buffer is already filled).
+        if !rasterized_depth {
+            out.time("depth", || {
+                match depth {
+                    Depth::Buffer(b) => b.clear(),
+                    Depth::Plane(p) => *p = SingleZPlane::default(),
+                }
+                for &id in &occluders {
+                    let o = scene.object(id);
+                    let corners = if o.is_dynamic() { o.obb.corners() } else { o.aabb.corners() };
+                    if let Some(r) = project_box_clipped(&corners, &view_proj, w, h) {
+                        match depth {
+                            Depth::Buffer(b) => b.insert_occluder(&r),
+                            Depth::Plane(p) => p.insert_occluder(&r),
+                        }
                     }
                 }
-            }
-        });
+            });
+        }
 
         // 5. Traversal: frustum → depth → overlap, front to back.
         let thresholds = thresholds.as_ref().expect("ensured");

@@ -1,20 +1,29 @@
 //! The depth estimation buffer (Zhang et al. 1997, section 5.2.2).
 //!
 //! A coarse software buffer (default 64×64 cells over the viewport) holding,
-//! per cell, the *farthest* view depth of any occluder whose screen rectangle
-//! touches the cell. An occludee is behind the occluders over its rectangle
-//! when its nearest depth is farther than every cell the rectangle touches.
+//! per cell, the *farthest* depth (clip z / w) of the occluders over it. An
+//! occludee is behind the occluders over its rectangle when its nearest depth
+//! is farther than every cell the rectangle touches.
 //!
-//! Why this is conservative: an output sample covered by an occluder lies in
-//! that occluder's rectangle, so its cell holds at least the occluder's
-//! farthest depth, which is at least the occluder's depth at the sample.
+//! Two ways to fill it, both conservative:
+//! - [`DepthEstimationBuffer::insert_occluder`] (the paper's): each occluder's
+//!   screen rectangle is written with the farthest depth of its box. A sample
+//!   covered by an occluder lies in that occluder's rectangle, so its cell
+//!   holds at least the box's farthest depth, which bounds the occluder's depth
+//!   at the sample.
+//! - [`DepthEstimationBuffer::cells_mut`] with [`crate::raster::OccluderRasterizer`]:
+//!   while rasterizing coverage, each cell keeps the farthest depth the
+//!   renderer's own depth formula gives at any covered sample in it. Exact per
+//!   sample, so far tighter where occluder boxes are long in depth (a street
+//!   facade), at no extra pass.
 
 use crate::geom::ScreenRect;
 
-/// Relative depth margin: an occludee must be this much farther than the
-/// buffer to count as behind, absorbing float rounding between the box
-/// projection here and the renderer's interpolated depths.
-pub const DEPTH_MARGIN: f32 = 1e-5;
+/// Depth margin (clip z / w): an occludee must be this much farther than the
+/// buffer to count as behind. It absorbs float rounding between the box
+/// projection here and the renderer's interpolated depths (a few ulps at 1.0;
+/// about a metre at 300 m with a 0.1 m near plane).
+pub const DEPTH_MARGIN: f32 = 1e-6;
 
 /// Farthest occluder depth per screen cell.
 #[derive(Clone, Debug)]
@@ -98,7 +107,7 @@ impl DepthEstimationBuffer {
         let z = rect.z_near;
         for cy in cy0..cy1 {
             let row = &self.cells[(cy * self.cols) as usize..][cx0 as usize..cx1 as usize];
-            if !row.iter().all(|&c| z > c * (1.0 + DEPTH_MARGIN)) {
+            if !row.iter().all(|&c| z > c + DEPTH_MARGIN) {
                 return false;
             }
         }
@@ -108,6 +117,13 @@ impl DepthEstimationBuffer {
     /// The cell values, row-major (for pictures and tests).
     pub fn cells(&self) -> &[f32] {
         &self.cells
+    }
+
+    /// The cells, row-major, for filling from a rasterizer: each must end up
+    /// `f32::INFINITY` (no occluder) or at least the farthest occluder depth at
+    /// any covered sample inside it.
+    pub fn cells_mut(&mut self) -> &mut [f32] {
+        &mut self.cells
     }
 }
 
@@ -135,7 +151,7 @@ impl SingleZPlane {
 
     /// True when an occludee with this rectangle lies beyond the plane.
     pub fn is_behind(&self, rect: &ScreenRect) -> bool {
-        rect.is_empty() || rect.z_near > self.depth * (1.0 + DEPTH_MARGIN)
+        rect.is_empty() || rect.z_near > self.depth + DEPTH_MARGIN
     }
 }
 

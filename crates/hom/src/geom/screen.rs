@@ -3,9 +3,9 @@
 //! Screen space: pixel (0, 0) is the top-left pixel; the renderer samples pixel
 //! centres at `(x + 0.5, y + 0.5)`. A [`ScreenRect`] holds every pixel whose
 //! centre the projected box may cover, so an image-space test over it is
-//! conservative. Depth here is *view depth*: clip `w`, the distance along the
-//! view axis in metres. It is linear, so depth tests between boxes keep their
-//! precision far from the eye (clip `z / w` would not).
+//! conservative. Depth is clip `z / w` in `[0, 1]` (0 at the near plane): the
+//! value the renderer's z-buffer compares, so a depth test against it decides
+//! what the renderer would decide.
 
 use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
 
@@ -35,9 +35,9 @@ pub struct ScreenRect {
     pub x1: u32,
     /// One past the last row.
     pub y1: u32,
-    /// Nearest view depth of the box (smallest clip w), metres.
+    /// Nearest depth of the box (smallest clip z / w).
     pub z_near: f32,
-    /// Farthest view depth of the box (largest clip w), metres.
+    /// Farthest depth of the box (largest clip z / w).
     pub z_far: f32,
 }
 
@@ -144,8 +144,8 @@ fn rect_of_clip_points(points: impl Iterator<Item = Vec4>, width: u32, height: u
         sx1 = sx1.max(sx);
         sy0 = sy0.min(sy);
         sy1 = sy1.max(sy);
-        z0 = z0.min(c.w);
-        z1 = z1.max(c.w);
+        z0 = z0.min(ndc.z);
+        z1 = z1.max(ndc.z);
     }
     if !(sx0.is_finite() && sx1.is_finite() && sy0.is_finite() && sy1.is_finite() && z0.is_finite() && z1.is_finite()) {
         return None;
@@ -203,8 +203,7 @@ mod tests {
                     let s = glam::Vec2::new((q.x * 0.5 + 0.5) * 100.0, (0.5 - q.y * 0.5) * 50.0);
                     lo = lo.min(s);
                     hi = hi.max(s);
-                    let depth = (c.view() * p.extend(1.0)).z * -1.0;
-                    assert!(depth >= r.z_near * (1.0 - 1e-6) && depth <= r.z_far * (1.0 + 1e-6));
+                    assert!(q.z >= r.z_near - 1e-6 && q.z <= r.z_far + 1e-6);
                 }
             }
         }
@@ -228,8 +227,9 @@ mod tests {
         let b = Aabb::new(Vec3::new(1.0, -1.0, -3.0), Vec3::new(2.0, 1.0, 8.0));
         assert_eq!(project_points(&b.corners(), &vp, 100, 50), Footprint::Straddles);
         let r = project_box_clipped(&b.corners(), &vp, 100, 50).expect("part is in front");
-        assert!((r.z_near - 0.5).abs() < 1e-4, "nearest is the near plane: {}", r.z_near);
-        assert!((r.z_far - 8.0).abs() < 1e-4, "farthest corner at view depth 8: {}", r.z_far);
+        assert!(r.z_near.abs() < 1e-6, "nearest is the near plane: {}", r.z_near);
+        let far = vp.project_point3(Vec3::new(1.0, 0.0, -3.0)).z;
+        assert!((r.z_far - far).abs() < 1e-6, "farthest is the corner at view depth 8: {} vs {far}", r.z_far);
         // Points of the box in front of the near plane project inside the rect.
         for i in 0..=10 {
             for k in 0..=40 {

@@ -9,6 +9,7 @@
 //! depend on the thread count or order).
 
 use super::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::depth::DepthEstimationBuffer;
 use crate::geom::Camera;
 use crate::occluders::OccluderDb;
 use crate::scene::Scene;
@@ -81,18 +82,23 @@ pub(crate) fn set_span(row: &mut [u64], lo: u32, hi: u32) {
     }
 }
 
-/// Rows per parallel band.
-const BAND_ROWS: usize = 16;
+/// Rows per parallel band when no depth is gathered.
+const BAND_ROWS: u32 = 16;
 
 /// Rasterizes occluders' coverage; keeps its scratch between frames.
 #[derive(Clone, Debug, Default)]
 pub struct OccluderRasterizer {
     tris: Vec<Tri>,
+    bins: Vec<Vec<u32>>,
 }
 
 impl OccluderRasterizer {
     /// Clears `coverage` to the camera's viewport and covers every sample the
     /// occluders `ids` cover (their stand-in meshes where they have one).
+    ///
+    /// With `depth`, also fills its cells with the farthest depth the renderer
+    /// would compute at any covered sample in each cell (`f32::INFINITY` where
+    /// nothing is covered); its cells must be laid over the same viewport.
     /// Returns the number of occluder triangles submitted.
     pub fn rasterize(
         &mut self,
@@ -101,6 +107,7 @@ impl OccluderRasterizer {
         db: &OccluderDb,
         ids: &[u32],
         camera: &Camera,
+        depth: Option<&mut DepthEstimationBuffer>,
     ) -> u64 {
         coverage.reset(camera.width, camera.height);
         let vp = Viewport::new(camera.width, camera.height);
@@ -136,21 +143,69 @@ impl OccluderRasterizer {
         for v in per_object {
             self.tris.extend(v);
         }
-        let tris = &self.tris;
+
+        // Bands of rows: one row of depth cells each when gathering depth, so
+        // every band writes only its own cells.
+        let (cols, band_rows, cell_w) = match depth.as_deref() {
+            Some(d) => (d.size().0 as usize, d.cell_size().1, d.cell_size().0),
+            None => (0, BAND_ROWS, 1),
+        };
+        let bands = camera.height.div_ceil(band_rows) as usize;
+        self.bins.resize_with(bands, Vec::new);
+        self.bins.truncate(bands);
+        for bin in &mut self.bins {
+            bin.clear();
+        }
+        for (i, t) in self.tris.iter().enumerate() {
+            for band in u32::from(t.y0) / band_rows..=(u32::from(t.y1) - 1) / band_rows {
+                self.bins[band as usize].push(i as u32);
+            }
+        }
+
+        let (tris, bins) = (&self.tris, &self.bins);
         let wpr = coverage.words_per_row;
+        // One row of depth cells per band (none when not gathering depth).
+        let mut cell_rows: Vec<&mut [f32]> = match depth {
+            Some(d) => d.cells_mut().chunks_mut(cols).collect(),
+            None => (0..bands).map(|_| <&mut [f32]>::default()).collect(),
+        };
+        debug_assert_eq!(cell_rows.len(), bands, "depth cells and bands share rows");
         coverage
             .bits
-            .par_chunks_mut(wpr * BAND_ROWS)
+            .par_chunks_mut(wpr * band_rows as usize)
+            .zip(bins.par_iter())
+            .zip(cell_rows.par_iter_mut())
             .enumerate()
-            .for_each(|(band, words)| {
-                let y0 = (band * BAND_ROWS) as u32;
+            .for_each(|(band, ((words, bin), cells))| {
+                let y0 = band as u32 * band_rows;
                 let y1 = y0 + (words.len() / wpr) as u32;
-                for t in tris {
+                let gather = !cells.is_empty();
+                cells.fill(f32::NEG_INFINITY);
+                for &i in bin {
+                    let t = &tris[i as usize];
                     let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
                     for py in ta..tb {
-                        if let Some((lo, hi)) = t.row_span(py) {
-                            set_span(&mut words[(py - y0) as usize * wpr..][..wpr], lo, hi);
+                        let Some((lo, hi)) = t.row_span(py) else { continue };
+                        set_span(&mut words[(py - y0) as usize * wpr..][..wpr], lo, hi);
+                        if gather {
+                            // The renderer's depth formula is monotone along a row,
+                            // so a segment's farthest depth is at one of its ends.
+                            let zr = t.depth_row(py);
+                            let z = |x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
+                            let mut a = lo;
+                            while a < hi {
+                                let cell = a / cell_w;
+                                let b = ((cell + 1) * cell_w).min(hi);
+                                let c = &mut cells[cell as usize];
+                                *c = c.max(z(a)).max(z(b - 1));
+                                a = b;
+                            }
                         }
+                    }
+                }
+                for c in cells.iter_mut() {
+                    if *c == f32::NEG_INFINITY {
+                        *c = f32::INFINITY; // nothing covered: nothing is behind this cell
                     }
                 }
             });

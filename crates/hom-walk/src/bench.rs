@@ -1,0 +1,466 @@
+//! `hom bench`: several cullers walked side by side over several scenes in one
+//! process, with the oracle on, summarised as one table (and JSON).
+//!
+//! Every culler walks the same path with the same renderer; each walk also
+//! times frustum-only culling and rendering of every frame (the baseline) and
+//! the render of just the oracle's visible set. The pseudo-row
+//! [`ORACLE_ROW`] is that oracle render: the frame time no culler can beat.
+
+use crate::pictures::StageBar;
+use crate::report::{median, Summary};
+use crate::{cullers, WalkError, WalkOptions, WalkResult};
+use hom_render::{RenderError, Renderer};
+use hom_scene::{CameraPathError, LoadError};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use thiserror::Error;
+
+/// Name of the pseudo-row that renders only the oracle's visible set.
+pub const ORACLE_ROW: &str = "oracle-visible-set";
+
+/// How to bench.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BenchOptions {
+    /// Walk only the first `n` frames of each path (all when `None`).
+    pub frames: Option<usize>,
+    /// Image width override (default: each path's own).
+    pub width: Option<u32>,
+    /// Image height override (default: each path's own).
+    pub height: Option<u32>,
+    /// Renderer threads (0 = one per core).
+    pub threads: usize,
+}
+
+/// Why a bench could not run.
+#[derive(Debug, Error)]
+pub enum BenchError {
+    /// A scene could not be opened.
+    #[error("scene {scene}: {source}")]
+    Scene {
+        /// The scene as given.
+        scene: String,
+        /// Cause.
+        source: LoadError,
+    },
+    /// A culler name is not known to [`cullers::make`].
+    #[error("unknown culler '{name}'; available: {known}")]
+    UnknownCuller {
+        /// The name as given.
+        name: String,
+        /// The known names, comma-separated.
+        known: String,
+    },
+    /// Nothing to do: no scenes, no cullers, or zero frames.
+    #[error("nothing to bench: {0}")]
+    Empty(&'static str),
+    /// The camera path is not usable at the requested viewport.
+    #[error("scene {scene}: {source}")]
+    Path {
+        /// The scene as given.
+        scene: String,
+        /// Cause.
+        source: CameraPathError,
+    },
+    /// The renderer could not be made.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// A walk stopped.
+    #[error("scene {scene}, culler {culler}: {source}")]
+    Walk {
+        /// Scene name.
+        scene: String,
+        /// Culler name.
+        culler: String,
+        /// Cause.
+        source: WalkError,
+    },
+}
+
+/// A benched scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchScene {
+    /// The scene as given (built-in name or file).
+    pub spec: String,
+    /// The scene's own name.
+    pub name: String,
+    /// Number of objects.
+    pub objects: usize,
+    /// Number of triangles.
+    pub triangles: u64,
+    /// Number of dynamic objects.
+    pub dynamic_objects: usize,
+    /// Image width walked.
+    pub width: u32,
+    /// Image height walked.
+    pub height: u32,
+    /// Frames walked per culler.
+    pub frames: usize,
+    /// Σ frustum-only frame time ÷ Σ oracle-visible-set render time, over the
+    /// frames of every culler's walk of this scene.
+    pub oracle_speedup: Option<f64>,
+}
+
+/// One row of the table: a culler (or [`ORACLE_ROW`]) on a scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    /// Scene name.
+    pub scene: String,
+    /// Culler name, or [`ORACLE_ROW`].
+    pub culler: String,
+    /// Frames walked.
+    pub frames: usize,
+    /// Median frame time (cull + render), ms.
+    pub median_frame_ms: f64,
+    /// Median culling time, ms (`None` for the oracle row).
+    pub median_cull_ms: Option<f64>,
+    /// Median render time, ms.
+    pub median_render_ms: f64,
+    /// Median frustum-only frame time of this walk, ms.
+    pub median_baseline_frame_ms: Option<f64>,
+    /// Median percentage of all triangles culled (frustum or occlusion).
+    pub median_pct_triangles_culled: f64,
+    /// Median percentage of all triangles culled as occluded.
+    pub median_pct_occlusion_culled: f64,
+    /// Occlusion-culled triangles ÷ invisible in-frustum triangles.
+    pub efficiency: Option<f64>,
+    /// Falsely culled objects, summed over frames.
+    pub false_culls: Option<u64>,
+    /// Frames with at least one false cull.
+    pub frames_with_false_culls: Option<u64>,
+    /// Σ frustum-only frame time ÷ Σ frame time.
+    pub speedup: Option<f64>,
+    /// `speedup` ÷ the scene's oracle speedup (1 = as good as culling can get).
+    pub share_of_oracle: Option<f64>,
+    /// Median milliseconds of each stage (the culler's, then `cull` = their sum, and `render`).
+    pub median_stage_ms: BTreeMap<String, f64>,
+    /// The culler's configuration (empty for the oracle row).
+    pub config: BTreeMap<String, String>,
+}
+
+/// Everything a bench measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    /// The options it ran with.
+    pub options: BenchOptions,
+    /// Renderer threads actually used.
+    pub render_threads: usize,
+    /// The scenes, in the order given.
+    pub scenes: Vec<BenchScene>,
+    /// Per scene, one row per culler in the order given, then [`ORACLE_ROW`].
+    pub rows: Vec<BenchRow>,
+}
+
+/// Walks every scene with every culler (oracle on) and collects one row per
+/// culler plus the [`ORACLE_ROW`] pseudo-row per scene. `progress` is told
+/// what is being walked before each walk.
+pub fn run_bench(
+    scenes: &[&str],
+    culler_names: &[&str],
+    options: &BenchOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<BenchReport, BenchError> {
+    if scenes.is_empty() {
+        return Err(BenchError::Empty("no scenes"));
+    }
+    if culler_names.is_empty() {
+        return Err(BenchError::Empty("no cullers"));
+    }
+    if options.frames == Some(0) {
+        return Err(BenchError::Empty("zero frames"));
+    }
+    let unknown = |name: &str| BenchError::UnknownCuller {
+        name: name.to_string(),
+        known: cullers::names(),
+    };
+    if let Some(name) = culler_names.iter().find(|n| !cullers::CULLERS.iter().any(|c| c.0 == **n)) {
+        return Err(unknown(name));
+    }
+    let renderer = Renderer::new(options.threads)?;
+    let walk_options = WalkOptions {
+        frames: options.frames,
+        oracle: true,
+        baseline: true,
+        ..WalkOptions::default()
+    };
+    let mut report = BenchReport {
+        options: options.clone(),
+        render_threads: renderer.threads(),
+        scenes: Vec::new(),
+        rows: Vec::new(),
+    };
+    for &spec in scenes {
+        let scene_error = |source| BenchError::Scene {
+            scene: spec.to_string(),
+            source,
+        };
+        let (mut scene, mut path) = crate::open_scene(spec).map_err(scene_error)?;
+        if let Some(w) = options.width {
+            path.width = w;
+        }
+        if let Some(h) = options.height {
+            path.height = h;
+        }
+        path.validate(spec).map_err(|source| BenchError::Path {
+            scene: spec.to_string(),
+            source,
+        })?;
+        let frame_count = walk_options.frame_count(&path);
+        let mut walks: Vec<(String, WalkResult)> = Vec::new();
+        for (i, &name) in culler_names.iter().enumerate() {
+            progress(&format!(
+                "{} ({}/{}): {name} ({}/{}), {frame_count} frames",
+                scene.name(),
+                report.scenes.len() + 1,
+                scenes.len(),
+                i + 1,
+                culler_names.len()
+            ));
+            let mut culler = cullers::make(name, &scene).ok_or_else(|| unknown(name))?;
+            let result = crate::walk(&mut scene, &path, culler.as_mut(), &renderer, &walk_options, |_| {}).map_err(
+                |source| BenchError::Walk {
+                    scene: scene.name().to_string(),
+                    culler: name.to_string(),
+                    source,
+                },
+            )?;
+            walks.push((name.to_string(), result));
+        }
+        let oracle_speedup = scene_oracle_speedup(&walks);
+        for (name, w) in &walks {
+            report.rows.push(culler_row(scene.name(), name, w, oracle_speedup));
+        }
+        report.rows.push(oracle_row(&scene, &walks, oracle_speedup));
+        report.scenes.push(BenchScene {
+            spec: spec.to_string(),
+            name: scene.name().to_string(),
+            objects: scene.objects().len(),
+            triangles: scene.triangle_count(),
+            dynamic_objects: scene.dynamic_count(),
+            width: path.width,
+            height: path.height,
+            frames: frame_count,
+            oracle_speedup,
+        });
+    }
+    Ok(report)
+}
+
+/// Σ baseline ÷ Σ oracle-set render time over every frame of every walk.
+fn scene_oracle_speedup(walks: &[(String, WalkResult)]) -> Option<f64> {
+    let (mut base, mut oracle) = (0.0, 0.0);
+    for f in walks.iter().flat_map(|(_, w)| &w.frames) {
+        base += f.baseline_frame_ms?;
+        oracle += f.oracle.as_ref()?.oracle_set_render_ms;
+    }
+    (oracle > 0.0).then(|| base / oracle)
+}
+
+fn culler_row(scene: &str, culler: &str, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
+    let s: &Summary = &w.summary;
+    BenchRow {
+        scene: scene.to_string(),
+        culler: culler.to_string(),
+        frames: s.frames,
+        median_frame_ms: s.median_frame_ms,
+        median_cull_ms: Some(s.median_stage_ms.get("cull").copied().unwrap_or(0.0)),
+        median_render_ms: s.median_stage_ms.get("render").copied().unwrap_or(0.0),
+        median_baseline_frame_ms: s.median_baseline_frame_ms,
+        median_pct_triangles_culled: s.median_pct_triangles_culled,
+        median_pct_occlusion_culled: s.median_pct_occlusion_culled,
+        efficiency: s.efficiency,
+        false_culls: s.false_culls,
+        frames_with_false_culls: s.frames_with_false_culls,
+        speedup: s.speedup,
+        share_of_oracle: share(s.speedup, oracle_speedup),
+        median_stage_ms: s.median_stage_ms.clone(),
+        config: w.header.config.clone(),
+    }
+}
+
+fn share(speedup: Option<f64>, oracle_speedup: Option<f64>) -> Option<f64> {
+    match (speedup, oracle_speedup) {
+        (Some(s), Some(o)) if o > 0.0 => Some(s / o),
+        _ => None,
+    }
+}
+
+/// The pseudo-row: render only what the oracle saw, with a perfect zero-cost culler.
+fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_speedup: Option<f64>) -> BenchRow {
+    let frames: Vec<_> = walks.iter().flat_map(|(_, w)| &w.frames).collect();
+    let objects = scene.objects();
+    let total = scene.triangle_count().max(1) as f64;
+    let oracle_frames: Vec<_> = frames.iter().filter_map(|f| f.oracle.as_ref().map(|o| (*f, o))).collect();
+    let median_ms = median(oracle_frames.iter().map(|(_, o)| o.oracle_set_render_ms));
+    let pct_culled = median(oracle_frames.iter().map(|(_, o)| {
+        let drawn: u64 = o.oracle_visible.iter().map(|&id| objects[id as usize].triangles as u64).sum();
+        100.0 * (total - drawn as f64) / total
+    }));
+    let pct_occluded = median(
+        oracle_frames
+            .iter()
+            .map(|(_, o)| 100.0 * o.triangles_in_frustum_invisible as f64 / total),
+    );
+    let invisible: u64 = oracle_frames.iter().map(|(_, o)| o.triangles_in_frustum_invisible).sum();
+    let mut stages = BTreeMap::new();
+    stages.insert("render".to_string(), median_ms);
+    BenchRow {
+        scene: scene.name().to_string(),
+        culler: ORACLE_ROW.to_string(),
+        frames: walks.first().map_or(0, |(_, w)| w.frames.len()),
+        median_frame_ms: median_ms,
+        median_cull_ms: None,
+        median_render_ms: median_ms,
+        median_baseline_frame_ms: Some(median(frames.iter().filter_map(|f| f.baseline_frame_ms))),
+        median_pct_triangles_culled: pct_culled,
+        median_pct_occlusion_culled: pct_occluded,
+        efficiency: (invisible > 0).then_some(1.0),
+        false_culls: Some(0),
+        frames_with_false_culls: Some(0),
+        speedup: oracle_speedup,
+        share_of_oracle: oracle_speedup.map(|_| 1.0),
+        median_stage_ms: stages,
+        config: BTreeMap::new(),
+    }
+}
+
+fn fmt_opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+}
+
+impl BenchReport {
+    /// The report as one plain-text table, a line per row, with a legend line.
+    pub fn table(&self) -> String {
+        let scene_w = self.rows.iter().map(|r| r.scene.chars().count()).max().unwrap_or(0).max(5);
+        let culler_w = self.rows.iter().map(|r| r.culler.chars().count()).max().unwrap_or(0).max(6);
+        let mut s = String::new();
+        for sc in &self.scenes {
+            let _ = writeln!(
+                s,
+                "scene {}: {} objects, {} triangles ({} dynamic), {}x{}, {} frames",
+                sc.name, sc.objects, sc.triangles, sc.dynamic_objects, sc.width, sc.height, sc.frames
+            );
+        }
+        let _ = writeln!(
+            s,
+            "{:<scene_w$} {:<culler_w$} {:>6} {:>9} {:>8} {:>9} {:>8} {:>8} {:>6} {:>8} {:>8}",
+            "scene", "culler", "frames", "frame ms", "cull ms", "render ms", "% culled", "effic.%", "false", "speedup", "% oracle"
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                s,
+                "{:<scene_w$} {:<culler_w$} {:>6} {:>9.2} {:>8} {:>9.2} {:>8.1} {:>8} {:>6} {:>8} {:>8}",
+                r.scene,
+                r.culler,
+                r.frames,
+                r.median_frame_ms,
+                fmt_opt(r.median_cull_ms, 2),
+                r.median_render_ms,
+                r.median_pct_triangles_culled,
+                fmt_opt(r.efficiency.map(|e| 100.0 * e), 1),
+                r.false_culls.map_or_else(|| "-".to_string(), |n| n.to_string()),
+                fmt_opt(r.speedup, 2),
+                fmt_opt(r.share_of_oracle.map(|x| 100.0 * x), 1),
+            );
+        }
+        s.push_str(
+            "(medians over frames; speedup = Σ frustum-only frame time ÷ Σ frame time; \
+             % oracle = speedup ÷ the speedup of rendering only the oracle's visible set)\n",
+        );
+        s
+    }
+
+    /// One bar per row for [`crate::pictures::plot_stage_breakdown`], labelled
+    /// `scene / culler` (just `culler` when one scene was benched), against the
+    /// row's median frustum-only frame time.
+    pub fn stage_bars(&self) -> Vec<StageBar> {
+        self.rows
+            .iter()
+            .map(|r| StageBar {
+                label: if self.scenes.len() > 1 {
+                    format!("{} / {}", r.scene, r.culler)
+                } else {
+                    r.culler.clone()
+                },
+                stages_ms: r.median_stage_ms.clone(),
+                baseline_ms: r.median_baseline_frame_ms.unwrap_or(0.0),
+            })
+            .collect()
+    }
+
+    /// The rows of one scene.
+    pub fn scene_rows<'a>(&'a self, scene: &'a str) -> impl Iterator<Item = &'a BenchRow> + 'a {
+        self.rows.iter().filter(move |r| r.scene == scene)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small() -> BenchOptions {
+        BenchOptions {
+            frames: Some(3),
+            width: Some(64),
+            height: Some(64),
+            threads: 1,
+        }
+    }
+
+    #[test]
+    fn every_culler_gets_a_row_plus_the_oracle_and_json_serializes() {
+        let names: Vec<&str> = cullers::CULLERS.iter().map(|c| c.0).collect();
+        let mut messages = Vec::new();
+        let report = run_bench(&["spheres"], &names, &small(), |m| messages.push(m.to_string())).unwrap();
+        assert_eq!(messages.len(), names.len());
+        assert_eq!(report.scenes.len(), 1);
+        let sc = &report.scenes[0];
+        assert_eq!((sc.width, sc.height, sc.frames), (64, 64, 3));
+        let rows: Vec<&BenchRow> = report.scene_rows(&sc.name).collect();
+        assert_eq!(rows.len(), names.len() + 1);
+        for (row, name) in rows.iter().zip(names.iter().chain([&ORACLE_ROW])) {
+            assert_eq!(row.culler, *name);
+            assert_eq!(row.frames, 3);
+            assert!(row.median_frame_ms >= 0.0 && row.median_frame_ms.is_finite());
+            assert!(row.false_culls.is_some(), "oracle ran for {name}");
+        }
+        let oracle = rows.last().unwrap();
+        assert_eq!(oracle.speedup, sc.oracle_speedup);
+        assert!(oracle.median_cull_ms.is_none());
+        // The frustum culler is its own baseline: speedup exactly 1.
+        let frustum = rows.iter().find(|r| r.culler == "frustum").unwrap();
+        assert_eq!(frustum.speedup, Some(1.0));
+        assert_eq!(frustum.false_culls, Some(0));
+
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["rows"].as_array().unwrap().len(), names.len() + 1);
+        assert_eq!(json["rows"][names.len()]["culler"], ORACLE_ROW);
+        assert!(json["rows"][0]["median_stage_ms"]["render"].is_number());
+
+        let table = report.table();
+        for name in names.iter().chain([&ORACLE_ROW]) {
+            assert!(table.lines().any(|l| l.contains(name)), "{name} missing from\n{table}");
+        }
+        assert_eq!(table.lines().count(), 1 + 1 + rows.len() + 1, "{table}");
+    }
+
+    #[test]
+    fn bad_input_is_a_typed_error() {
+        let err = run_bench(&["spheres"], &["nope"], &small(), |_| {}).unwrap_err();
+        assert!(matches!(err, BenchError::UnknownCuller { .. }), "{err}");
+        let err = run_bench(&["no-such-scene"], &["frustum"], &small(), |_| {}).unwrap_err();
+        assert!(matches!(err, BenchError::Scene { .. }), "{err}");
+        let zero = BenchOptions {
+            frames: Some(0),
+            ..small()
+        };
+        assert!(matches!(
+            run_bench(&["spheres"], &["frustum"], &zero, |_| {}),
+            Err(BenchError::Empty(_))
+        ));
+        assert!(matches!(
+            run_bench(&[], &["frustum"], &small(), |_| {}),
+            Err(BenchError::Empty(_))
+        ));
+    }
+}
