@@ -4,7 +4,8 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use hom::cull::CullOutput;
+use hom::cull::{CullOutput, DepthMode, HomConfig, Opacity};
+use hom::occluders::SelectionMode;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
 use hom_scene::CameraPath;
 use hom_walk::report::{self, FrameRecord, Summary};
@@ -76,6 +77,73 @@ struct View {
     /// Renderer threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    #[command(flatten)]
+    hom: HomArgs,
+}
+
+/// Settings of the `hom` culler.
+#[derive(Args, Clone, Default)]
+struct HomArgs {
+    /// HOM: occluder polygon budget L (triangles per frame).
+    #[arg(long)]
+    budget: Option<u32>,
+    /// HOM: adapt the budget per frame from frame time and culled percentage.
+    #[arg(long)]
+    adaptive_budget: bool,
+    /// HOM: base opacity threshold in (0, 1]; below 1 culls approximately (objects seen through small holes).
+    #[arg(long)]
+    opacity: Option<f32>,
+    /// HOM: depth test: rasterized (per-cell depth of occluder samples), box (the paper's estimation buffer), plane (single Z plane).
+    #[arg(long)]
+    depth: Option<String>,
+    /// HOM: base occlusion map resolution for the larger image side.
+    #[arg(long)]
+    map_size: Option<u32>,
+    /// HOM: occluder selection: nearest (default) or zplane.
+    #[arg(long)]
+    selection: Option<String>,
+    /// HOM: disable the hole-filling feedback.
+    #[arg(long)]
+    no_hole_filling: bool,
+}
+
+impl HomArgs {
+    fn config(&self) -> Result<HomConfig> {
+        let mut c = HomConfig::default();
+        if let Some(b) = self.budget {
+            c.selection.budget = b;
+        }
+        c.selection.adaptive = self.adaptive_budget;
+        c.selection.hole_filling = !self.no_hole_filling;
+        if let Some(o) = self.opacity {
+            if !(o > 0.0 && o <= 1.0) {
+                bail!("--opacity must be in (0, 1], got {o}");
+            }
+            c.opacity = if o == 1.0 { Opacity::Conservative } else { Opacity::Threshold(o) };
+        }
+        if let Some(d) = &self.depth {
+            c.depth = match d.as_str() {
+                "rasterized" => DepthMode::Rasterized(64, 64),
+                "box" => DepthMode::EstimationBuffer(64, 64),
+                "plane" => DepthMode::SingleZPlane,
+                other => bail!("--depth must be rasterized, box or plane, got '{other}'"),
+            };
+        }
+        if let Some(m) = self.map_size {
+            if !(1..=4096).contains(&m) {
+                bail!("--map-size must be 1..=4096, got {m}");
+            }
+            c.map_size = m;
+        }
+        if let Some(s) = &self.selection {
+            c.selection.mode = match s.as_str() {
+                "nearest" => SelectionMode::Nearest,
+                "zplane" => SelectionMode::ZPlane,
+                other => bail!("--selection must be nearest or zplane, got '{other}'"),
+            };
+        }
+        Ok(c)
+    }
 }
 
 #[derive(Args)]
@@ -162,8 +230,8 @@ fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
     Ok((scene, path))
 }
 
-fn make_culler(name: &str, scene: &hom::scene::Scene) -> Result<Box<dyn hom::cull::Culler>> {
-    match cullers::make(name, scene) {
+fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<Box<dyn hom::cull::Culler>> {
+    match cullers::make_with(name, scene, &hom.config()?) {
         Some(c) => Ok(c),
         None => bail!("unknown culler '{name}'; available: {}", cullers::names()),
     }
@@ -187,11 +255,12 @@ fn run_walk(
     scene: &mut hom::scene::Scene,
     path: &CameraPath,
     culler_name: &str,
+    hom: &HomArgs,
     renderer: &Renderer,
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
 ) -> Result<WalkResult> {
-    let mut culler = make_culler(culler_name, scene)?;
+    let mut culler = make_culler(culler_name, scene, hom)?;
     if let Some(out) = report.as_deref_mut() {
         let header = report::Header::new(
             scene,
@@ -244,6 +313,7 @@ fn walk(a: WalkArgs) -> Result<()> {
         &mut scene,
         &path,
         &a.view.culler,
+        &a.view.hom,
         &renderer,
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
@@ -317,6 +387,7 @@ fn demo(a: DemoArgs) -> Result<()> {
         height: Some(a.height),
         culler: cullers::BEST.into(),
         threads: 0,
+        hom: HomArgs::default(),
     };
     let (mut scene, path) = open(&view)?;
     let renderer = Renderer::new(0)?;
@@ -331,7 +402,7 @@ fn demo(a: DemoArgs) -> Result<()> {
     }
     let mut results = Vec::new();
     for name in &names {
-        results.push(run_walk(&mut scene, &path, name, &renderer, &options, None)?);
+        results.push(run_walk(&mut scene, &path, name, &view.hom, &renderer, &options, None)?);
     }
     let rows: Vec<(&str, &WalkResult)> = names.iter().copied().zip(results.iter()).collect();
     print_table(&scene, &rows);
@@ -343,7 +414,7 @@ fn demo(a: DemoArgs) -> Result<()> {
     // The frame where the best culler culled the most as occluded shows it best.
     let frame = busiest_frame(&best.frames);
     let picture = a.out.join(format!("false_colour_frame{frame}.png"));
-    write_false_colour(&mut scene, &path, cullers::BEST, frame, &renderer, &picture, options.frame_rate)?;
+    write_false_colour(&mut scene, &path, cullers::BEST, &view.hom, frame, &renderer, &picture, options.frame_rate)?;
     println!("pictures: {} (occluders blue, drawn grey, occlusion-culled red), {}", picture.display(), plot.display());
     Ok(())
 }
@@ -355,10 +426,12 @@ fn busiest_frame(frames: &[FrameRecord]) -> usize {
         .map_or(0, |f| f.frame)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn write_false_colour(
     scene: &mut hom::scene::Scene,
     path: &CameraPath,
     culler_name: &str,
+    hom: &HomArgs,
     frame: usize,
     renderer: &Renderer,
     out: &Path,
@@ -366,7 +439,7 @@ fn write_false_colour(
 ) -> Result<()> {
     scene.set_time(frame as f32 / frame_rate);
     let camera = path.camera(frame);
-    let mut culler = make_culler(culler_name, scene)?;
+    let mut culler = make_culler(culler_name, scene, hom)?;
     let mut cull = CullOutput::default();
     culler.cull(scene, &camera, &mut cull)?;
     let mut fb = Framebuffer::new(camera.width, camera.height);
@@ -383,11 +456,11 @@ fn render(a: RenderArgs) -> Result<()> {
     let renderer = Renderer::new(a.view.threads)?;
     let frame_rate = WalkOptions::default().frame_rate;
     if a.false_colour {
-        write_false_colour(&mut scene, &path, &a.view.culler, a.frame, &renderer, &a.out, frame_rate)?;
+        write_false_colour(&mut scene, &path, &a.view.culler, &a.view.hom, a.frame, &renderer, &a.out, frame_rate)?;
     } else {
         scene.set_time(a.frame as f32 / frame_rate);
         let camera = path.camera(a.frame);
-        let mut culler = make_culler(&a.view.culler, &scene)?;
+        let mut culler = make_culler(&a.view.culler, &scene, &a.view.hom)?;
         let mut cull = CullOutput::default();
         culler.cull(&scene, &camera, &mut cull)?;
         let mut fb = Framebuffer::new(camera.width, camera.height);

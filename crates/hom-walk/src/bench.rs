@@ -325,7 +325,8 @@ fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_
 }
 
 fn fmt_opt(v: Option<f64>, decimals: usize) -> String {
-    v.map_or_else(|| "-".to_string(), |v| format!("{v:.decimals$}"))
+    // `+ 0.0` turns -0.0 (a sum of nothing, rounding) into 0.0.
+    v.map_or_else(|| "-".to_string(), |v| format!("{:.decimals$}", v + 0.0))
 }
 
 impl BenchReport {

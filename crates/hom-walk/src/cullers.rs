@@ -13,12 +13,17 @@ pub const CULLERS: &[(&str, &str)] = &[
 /// The best culler hom has; `hom demo` uses it.
 pub const BEST: &str = "hom";
 
-/// Builds the culler called `name` for `scene`; `None` for an unknown name.
+/// Builds the culler called `name` for `scene` with default settings; `None` for an unknown name.
 pub fn make(name: &str, scene: &Scene) -> Option<Box<dyn Culler>> {
+    make_with(name, scene, &HomConfig::default())
+}
+
+/// Like [`make`], with the HOM culler's settings given.
+pub fn make_with(name: &str, scene: &Scene, hom: &HomConfig) -> Option<Box<dyn Culler>> {
     match name {
         "none" => Some(Box::new(NoCuller)),
         "frustum" => Some(Box::new(FrustumCuller::new(scene))),
-        "hom" => Some(Box::new(HomCuller::new(scene, HomConfig::default()))),
+        "hom" => Some(Box::new(HomCuller::new(scene, hom.clone()))),
         _ => None,
     }
 }

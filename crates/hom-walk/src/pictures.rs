@@ -6,8 +6,8 @@ use hom::geom::Camera;
 use hom::map::{Level, Pyramid};
 use hom::scene::Scene;
 use hom_render::{Colouring, Framebuffer, RenderOptions, Renderer};
-use plotters::coord::ranged1d::SegmentValue;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Once;
@@ -187,6 +187,18 @@ const PANEL_CAPTION: u32 = 46;
 const PYRAMID_TITLE: u32 = 56;
 const PANELS_PER_ROW: u32 = 4;
 
+/// Display size of a level's panel: its longer side [`PYRAMID_PANEL`], square cells.
+fn panel_size(level: &Level) -> (u32, u32) {
+    let (lw, lh) = (level.width.max(1), level.height.max(1));
+    let longest = lw.max(lh);
+    (lw * PYRAMID_PANEL / longest, lh * PYRAMID_PANEL / longest)
+}
+
+/// Height of a row of panels: the tallest panel.
+fn panel_row_height(pyramid: &Pyramid) -> u32 {
+    pyramid.levels().iter().map(|l| panel_size(l).1).max().unwrap_or(PYRAMID_PANEL)
+}
+
 /// Size in pixels of the picture [`write_pyramid_levels`] draws for `pyramid`.
 pub fn pyramid_picture_size(pyramid: &Pyramid) -> (u32, u32) {
     let n = pyramid.levels().len().max(1) as u32;
@@ -194,7 +206,7 @@ pub fn pyramid_picture_size(pyramid: &Pyramid) -> (u32, u32) {
     let rows = n.div_ceil(cols);
     (
         cols * (PYRAMID_PANEL + PANEL_GAP) + PANEL_GAP,
-        PYRAMID_TITLE + rows * (PYRAMID_PANEL + PANEL_CAPTION + PANEL_GAP),
+        PYRAMID_TITLE + rows * (panel_row_height(pyramid) + PANEL_CAPTION + PANEL_GAP),
     )
 }
 
@@ -226,11 +238,11 @@ fn draw_pyramid(
     for (k, level) in levels.iter().enumerate() {
         let (col, row) = (k as u32 % cols, k as u32 / cols);
         let x0 = PANEL_GAP + col * (PYRAMID_PANEL + PANEL_GAP);
-        let y0 = PYRAMID_TITLE + row * (PYRAMID_PANEL + PANEL_CAPTION + PANEL_GAP);
+        let y0 = PYRAMID_TITLE + row * (panel_row_height(pyramid) + PANEL_CAPTION + PANEL_GAP);
         let stats = paint_level(rgb, width, (x0, y0), level, hole_opacity);
         let size = pyramid.block() << k;
         captions.push((
-            (x0, y0 + PYRAMID_PANEL + 4),
+            (x0, y0 + panel_size(level).1 + 5),
             format!("level {k}: {}×{}, {size}×{size} samples/px", level.width, level.height),
             format!("opaque {:.1}%, holes {:.1}%", stats.0, stats.1),
         ));
@@ -256,8 +268,7 @@ fn draw_pyramid(
 /// Paints one level into its panel; returns (% opaque pixels, % hole pixels).
 fn paint_level(rgb: &mut [u8], stride: u32, (x0, y0): (u32, u32), level: &Level, hole_opacity: f32) -> (f64, f64) {
     let (lw, lh) = (level.width.max(1), level.height.max(1));
-    let longest = lw.max(lh);
-    let (dw, dh) = (lw * PYRAMID_PANEL / longest, lh * PYRAMID_PANEL / longest);
+    let (dw, dh) = panel_size(level);
     let pixels = (lw * lh) as usize;
     let is_hole: Vec<bool> = (0..pixels as u32).map(|i| level.opacity(i % lw, i / lw) < hole_opacity).collect();
     let holes = is_hole.iter().filter(|&&h| h).count();
@@ -334,6 +345,7 @@ pub struct StageBar {
 /// Stages in bar order, with their colours; others go after `traversal`.
 const STAGES: &[(&str, RGBColor)] = &[
     ("refit", RGBColor(140, 86, 75)),
+    ("frustum", RGBColor(127, 127, 127)),
     ("selection", RGBColor(148, 103, 189)),
     ("raster", RGBColor(255, 127, 14)),
     ("pyramid", RGBColor(214, 39, 40)),
@@ -344,8 +356,8 @@ const STAGES: &[(&str, RGBColor)] = &[
 const OTHER_STAGE_COLOURS: &[RGBColor] = &[
     RGBColor(188, 189, 34),
     RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
     RGBColor(255, 187, 120),
+    RGBColor(174, 199, 232),
 ];
 
 /// Stage names present in `bars`, in bar order, with colours.
@@ -392,90 +404,190 @@ pub fn plot_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), Pictur
 fn draw_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), Box<dyn std::error::Error>> {
     let root = BitMapBackend::new(path, (STAGE_PLOT_WIDTH, stage_plot_height(bars.len()))).into_drawing_area();
     root.fill(&WHITE)?;
-    let n = bars.len().max(1) as i32;
+    let (chart_area, legend_area) = root.split_vertically(stage_plot_height(bars.len()) - 48);
+    let n = bars.len().max(1) as f64;
     let stages = stage_order(bars);
     let pct = |bar: &StageBar, ms: f64| if bar.baseline_ms > 0.0 { 100.0 * ms / bar.baseline_ms } else { 0.0 };
     let totals: Vec<f64> = bars
         .iter()
         .map(|b| stages.iter().map(|(s, _)| pct(b, b.stages_ms.get(s).copied().unwrap_or(0.0))).sum())
         .collect();
-    let x_max = totals.iter().copied().fold(100.0f64, f64::max) * 1.18;
+    let x_max = totals.iter().copied().fold(100.0f64, f64::max) * 1.2;
     let label_chars = bars.iter().map(|b| b.label.chars().count()).max().unwrap_or(0);
-    // Bar i (top first) sits in segment n - 1 - i: plotters' y grows upwards.
-    let segment = |i: usize| n - 1 - i as i32;
-    let labels: Vec<String> = bars.iter().map(|b| b.label.clone()).collect();
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Time per frame by stage, % of frustum culling only",
-            ("sans-serif", 24),
-        )
+    // Bar i (top first) is centred at y = n - i - 0.5: plotters' y grows upwards.
+    let centre = |i: usize| n - i as f64 - 0.5;
+    let mut chart = ChartBuilder::on(&chart_area)
+        .caption("Time per frame by stage, % of frustum culling only", ("sans-serif", 24))
         .margin(14)
-        .x_label_area_size(40)
-        .y_label_area_size((label_chars as u32 * 9 + 16).clamp(60, 360))
-        .build_cartesian_2d(0f64..x_max, (0..n).into_segmented())?;
+        .x_label_area_size(44)
+        .y_label_area_size((label_chars as u32 * 9 + 20).clamp(60, 380))
+        .build_cartesian_2d(0f64..x_max, 0f64..n)?;
     chart
         .configure_mesh()
         .disable_y_mesh()
-        .x_desc("% of the frame time rendering everything in the view frustum")
-        .y_label_formatter(&|v| match v {
-            SegmentValue::CenterOf(i) if (0..n).contains(i) => labels[(n - 1 - i) as usize].clone(),
-            _ => String::new(),
-        })
-        .y_labels(bars.len().max(1))
+        .y_labels(0)
+        .x_desc("% of the frame time with frustum culling only (rendering everything in the view frustum)")
         .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
         .draw()?;
     for (name, colour) in &stages {
-        let colour = *colour;
-        let mut rects = Vec::new();
+        let mut start = vec![0.0f64; bars.len()];
         for (i, bar) in bars.iter().enumerate() {
-            let start: f64 = stages
+            start[i] = stages
                 .iter()
                 .take_while(|(s, _)| s != name)
                 .map(|(s, _)| pct(bar, bar.stages_ms.get(s).copied().unwrap_or(0.0)))
                 .sum();
-            let width = pct(bar, bar.stages_ms.get(name).copied().unwrap_or(0.0));
-            if width <= 0.0 {
-                continue;
-            }
-            let y = segment(i);
-            let mut r = Rectangle::new(
-                [(start, SegmentValue::Exact(y)), (start + width, SegmentValue::Exact(y + 1))],
-                colour.filled(),
-            );
-            r.set_margin(7, 7, 0, 0);
-            rects.push(r);
         }
-        chart
-            .draw_series(rects)?
-            .label(name.as_str())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 14, y + 6)], colour.filled()));
+        chart.draw_series(bars.iter().enumerate().filter_map(|(i, bar)| {
+            let width = pct(bar, bar.stages_ms.get(name).copied().unwrap_or(0.0));
+            (width > 0.0).then(|| {
+                let y = centre(i);
+                Rectangle::new([(start[i], y - 0.32), (start[i] + width, y + 0.32)], colour.filled())
+            })
+        }))?;
     }
-    // Totals at the end of each bar.
-    chart.draw_series(bars.iter().zip(&totals).enumerate().map(|(i, (bar, total))| {
-        let ms: f64 = stages.iter().filter_map(|(s, _)| bar.stages_ms.get(s)).sum();
-        Text::new(
-            format!(" {total:.1}% ({ms:.2} ms)"),
-            (*total, SegmentValue::CenterOf(segment(i))),
-            ("sans-serif", 14).into_font().pos(Pos::new(HPos::Left, VPos::Center)),
-        )
-    }))?;
     // The 100 % reference: frustum culling only.
-    chart
-        .draw_series(DashedLineSeries::new(
-            [(100.0, SegmentValue::Exact(0)), (100.0, SegmentValue::Exact(n))],
-            6,
-            4,
-            BLACK.stroke_width(2),
-        ))?
-        .label("frustum culling only = 100%")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], BLACK.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 15))
-        .draw()?;
+    chart.draw_series(DashedLineSeries::new(
+        [(100.0, 0.0), (100.0, n)],
+        6,
+        4,
+        BLACK.stroke_width(2),
+    ))?;
+    // Totals at the end of each bar, and the labels left of the axis.
+    let right = TextStyle::from(("sans-serif", 15).into_font()).pos(Pos::new(HPos::Right, VPos::Center));
+    let left = TextStyle::from(("sans-serif", 15).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    for (i, (bar, total)) in bars.iter().zip(&totals).enumerate() {
+        let ms: f64 = stages.iter().filter_map(|(s, _)| bar.stages_ms.get(s)).sum();
+        let (x, y) = chart.backend_coord(&(*total, centre(i)));
+        root.draw(&Text::new(format!("{total:.1}% ({ms:.2} ms)"), (x + 8, y), left.clone()))?;
+        let (x, y) = chart.backend_coord(&(0.0, centre(i)));
+        root.draw(&Text::new(bar.label.clone(), (x - 10, y), right.clone()))?;
+    }
+    // The legend, in one row under the chart.
+    let (mut x, y) = (16, 20);
+    let font = TextStyle::from(("sans-serif", 15).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    for (name, colour) in &stages {
+        legend_area.draw(&Rectangle::new([(x, y - 7), (x + 14, y + 7)], colour.filled()))?;
+        legend_area.draw(&Text::new(name.clone(), (x + 20, y), font.clone()))?;
+        x += 20 + legend_area.estimate_text_size(name, &font)?.0 as i32 + 18;
+    }
+    let mut dash = x;
+    while dash < x + 24 {
+        legend_area.draw(&PathElement::new(vec![(dash, y), (dash + 6, y)], BLACK.stroke_width(2)))?;
+        dash += 10;
+    }
+    legend_area.draw(&Text::new("frustum culling only = 100%", (x + 30, y), font))?;
     root.present()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
+
+    /// Width and height from a PNG's IHDR chunk.
+    fn png_size(path: &Path) -> (u32, u32) {
+        let bytes = std::fs::read(path).unwrap();
+        assert!(bytes.len() > 100, "{} is too small", path.display());
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+        assert_eq!(&bytes[12..16], b"IHDR");
+        let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().unwrap());
+        (be(16), be(20))
+    }
+
+    fn out_dir() -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join("hom-walk-pictures-test");
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn pyramid_of_a_city_frame_is_drawn_at_its_size() {
+        let b = hom_scene::builtin("city").unwrap();
+        let mut culler = HomCuller::new(&b.scene, HomConfig::default());
+        let camera = b.path.camera(100);
+        let mut out = CullOutput::default();
+        culler.cull(&b.scene, &camera, &mut out).unwrap();
+        let pyramid = culler.pyramid().unwrap();
+        let file = out_dir().join("pyramid_city.png");
+        write_pyramid_levels(&file, pyramid, 0.5).unwrap();
+        assert_eq!(png_size(&file), pyramid_picture_size(pyramid));
+    }
+
+    #[test]
+    fn pyramid_with_a_hole_and_odd_sizes_is_drawn() {
+        // 300x170 viewport, block 4: 75x43 base, non-square and ragged levels.
+        let (w, h) = (300u32, 170u32);
+        let wpr = (w as usize).div_ceil(64);
+        let mut bits = vec![0u64; wpr * h as usize];
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                let in_hole = (120..180).contains(&x) && (40..90).contains(&y);
+                let in_gap = x == 250;
+                if !in_hole && !in_gap && y > 10 {
+                    bits[y * wpr + x / 64] |= 1 << (x % 64);
+                }
+            }
+        }
+        let mut p = Pyramid::new(w, h, 4, 2);
+        p.build_from_coverage(&bits, wpr);
+        let file = out_dir().join("pyramid_hole.png");
+        write_pyramid_levels(&file, &p, 0.75).unwrap();
+        assert_eq!(png_size(&file), pyramid_picture_size(&p));
+        // An empty pyramid (all holes) still draws.
+        let empty = Pyramid::new(64, 64, 8, 1);
+        let file = out_dir().join("pyramid_empty.png");
+        write_pyramid_levels(&file, &empty, 0.5).unwrap();
+        assert_eq!(png_size(&file), pyramid_picture_size(&empty));
+    }
+
+    #[test]
+    fn stage_breakdown_is_drawn_at_its_size() {
+        let stages = |pairs: &[(&str, f64)]| pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect();
+        let bars = vec![
+            StageBar {
+                label: "city / frustum".into(),
+                stages_ms: stages(&[("refit", 0.01), ("traversal", 0.3), ("cull", 0.31), ("render", 20.0)]),
+                baseline_ms: 20.31,
+            },
+            StageBar {
+                label: "city / hom".into(),
+                stages_ms: stages(&[
+                    ("refit", 0.01),
+                    ("selection", 0.2),
+                    ("raster", 1.1),
+                    ("pyramid", 0.05),
+                    ("depth", 0.02),
+                    ("traversal", 0.4),
+                    ("cull", 1.78),
+                    ("render", 6.0),
+                ]),
+                baseline_ms: 20.31,
+            },
+            StageBar {
+                label: "city / oracle-visible-set".into(),
+                stages_ms: stages(&[("render", 3.5)]),
+                baseline_ms: 20.31,
+            },
+            StageBar {
+                label: "office / hom, a new stage".into(),
+                stages_ms: stages(&[("selection", 0.3), ("coherence", 0.5), ("render", 30.0)]),
+                baseline_ms: 25.0,
+            },
+        ];
+        let file = out_dir().join("stages.png");
+        plot_stage_breakdown(&file, &bars).unwrap();
+        assert_eq!(png_size(&file), (STAGE_PLOT_WIDTH, stage_plot_height(bars.len())));
+        let order: Vec<String> = stage_order(&bars).into_iter().map(|s| s.0).collect();
+        assert_eq!(
+            order,
+            ["refit", "selection", "raster", "pyramid", "depth", "traversal", "coherence", "render"]
+        );
+        // No bars at all still draws.
+        let file = out_dir().join("stages_empty.png");
+        plot_stage_breakdown(&file, &[]).unwrap();
+        assert_eq!(png_size(&file), (STAGE_PLOT_WIDTH, stage_plot_height(0)));
+    }
 }

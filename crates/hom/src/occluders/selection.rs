@@ -58,7 +58,7 @@ impl Default for SelectionConfig {
     fn default() -> Self {
         SelectionConfig {
             mode: SelectionMode::Nearest,
-            budget: 30_000,
+            budget: 3_000,
             adaptive: false,
             budget_range: (2_000, 200_000),
             hole_filling: true,

@@ -184,22 +184,26 @@ impl OccluderRasterizer {
                 for &i in bin {
                     let t = &tris[i as usize];
                     let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
+                    // Covered columns and rows of this triangle within the band.
+                    let (mut ulo, mut uhi, mut first, mut last) = (u32::MAX, 0, u32::MAX, 0);
                     for py in ta..tb {
                         let Some((lo, hi)) = t.row_span(py) else { continue };
                         set_span(&mut words[(py - y0) as usize * wpr..][..wpr], lo, hi);
-                        if gather {
-                            // The renderer's depth formula is monotone along a row,
-                            // so a segment's farthest depth is at one of its ends.
-                            let zr = t.depth_row(py);
-                            let z = |x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
-                            let mut a = lo;
-                            while a < hi {
-                                let cell = a / cell_w;
-                                let b = ((cell + 1) * cell_w).min(hi);
-                                let c = &mut cells[cell as usize];
-                                *c = c.max(z(a)).max(z(b - 1));
-                                a = b;
-                            }
+                        (ulo, uhi) = (ulo.min(lo), uhi.max(hi));
+                        (first, last) = (first.min(py), py);
+                    }
+                    if gather && ulo < uhi {
+                        // The renderer's depth formula is monotone in the row and in
+                        // the column, so over the covered rows × a cell's covered
+                        // columns its farthest value is at one of the four corners.
+                        let (z0, z1) = (t.depth_row(first), t.depth_row(last));
+                        let z = |zr: f32, x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
+                        for cell in ulo / cell_w..=(uhi - 1) / cell_w {
+                            let a = (cell * cell_w).max(ulo);
+                            let b = ((cell + 1) * cell_w).min(uhi) - 1;
+                            let far = z(z0, a).max(z(z0, b)).max(z(z1, a)).max(z(z1, b));
+                            let c = &mut cells[cell as usize];
+                            *c = c.max(far);
                         }
                     }
                 }

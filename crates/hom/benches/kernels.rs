@@ -1,0 +1,259 @@
+//! The HOM culler's per-frame kernels on a real frame: a 1024×1024 view of the
+//! built-in city (frame 100 of its walkthrough) with the default occluder
+//! selection.
+//!
+//! - `pyramid`: build the 256×256-base occlusion pyramid (block 4) from the
+//!   frame's coverage bitmap, and the reduction of the levels above the base alone.
+//! - `overlap`: the hierarchical overlap test on that pyramid for 10k screen
+//!   rectangles (the frame's object footprints, then random rectangles of
+//!   log-uniform size); throughput is box tests per second.
+//! - `depth`: the depth estimation buffer (64×64 cells): insert 200 occluder
+//!   rectangles, and 10k occludee tests.
+//! - `raster`: the occluder coverage rasterizer on the frame's selected
+//!   occluders, with and without the rasterized depth estimation buffer.
+//!
+//! `cargo bench -p hom --bench kernels -- --warm-up-time 1 --measurement-time 2`
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use hom::depth::DepthEstimationBuffer;
+use hom::geom::{project_box_clipped, project_points, Camera, Footprint, ScreenRect};
+use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
+use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
+use hom::raster::{CoverageBuffer, OccluderRasterizer};
+use hom::scene::Scene;
+use std::hint::black_box;
+use std::time::Duration;
+
+const SIDE: u32 = 1024;
+const BLOCK: u32 = 4;
+const TESTS: usize = 10_000;
+const OCCLUDERS: usize = 200;
+
+/// The city at frame 100 of its walkthrough, at `SIDE`×`SIDE`, with its occluders.
+struct Frame {
+    scene: Scene,
+    camera: Camera,
+    db: OccluderDb,
+    occluders: Vec<u32>,
+    coverage: CoverageBuffer,
+}
+
+fn city_frame() -> Frame {
+    let b = hom_scene::builtin("city").expect("the built-in city");
+    let path = b.path.with_viewport(SIDE, SIDE);
+    let camera = path.camera(100);
+    let scene = b.scene;
+    let db = OccluderDb::build(&scene, &OccluderDbConfig::default());
+    let frustum = camera.frustum().expect("a valid camera");
+    let mut selector = OccluderSelector::new(SelectionConfig::default());
+    let mut occluders = Vec::new();
+    selector.select(&db, &scene, &camera, &frustum, None, &mut occluders);
+    let mut coverage = CoverageBuffer::default();
+    OccluderRasterizer::default().rasterize(&mut coverage, &scene, &db, &occluders, &camera, None);
+    Frame {
+        scene,
+        camera,
+        db,
+        occluders,
+        coverage,
+    }
+}
+
+/// xorshift64*: deterministic, dependency-free.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    fn unit(&mut self) -> f32 {
+        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A rectangle of log-uniform side in 1..=512 pixels at a uniform position.
+    fn rect(&mut self, z_near: f32, z_far: f32) -> ScreenRect {
+        let mut side = || 512f32.powf(self.unit()).round().max(1.0) as u32;
+        let (w, h) = (side(), side());
+        let x0 = (self.unit() * SIDE as f32) as u32 % SIDE;
+        let y0 = (self.unit() * SIDE as f32) as u32 % SIDE;
+        ScreenRect {
+            x0,
+            y0,
+            x1: (x0 + w).min(SIDE),
+            y1: (y0 + h).min(SIDE),
+            z_near,
+            z_far,
+        }
+    }
+}
+
+/// The frame's object footprints, then random rectangles, `TESTS` in all.
+fn test_rects(frame: &Frame) -> Vec<ScreenRect> {
+    let vp = frame.camera.view_proj();
+    let mut rects: Vec<ScreenRect> = frame
+        .scene
+        .objects()
+        .iter()
+        .filter_map(|o| match project_points(&o.aabb.corners(), &vp, SIDE, SIDE) {
+            Footprint::Rect(r) if !r.is_empty() => Some(r),
+            _ => None,
+        })
+        .take(TESTS)
+        .collect();
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    while rects.len() < TESTS {
+        let z = 0.9 + 0.1 * rng.unit();
+        rects.push(rng.rect(z, z));
+    }
+    rects
+}
+
+fn pyramid(c: &mut Criterion, frame: &Frame) {
+    let bits = frame.coverage.bits();
+    let wpr = frame.coverage.words_per_row();
+    let mut p = Pyramid::new(SIDE, SIDE, BLOCK, 4);
+    let base = &p.levels()[0];
+    eprintln!(
+        "pyramid: {} levels, base {}x{}; {} occluders cover {:.1}% of the samples",
+        p.levels().len(),
+        base.width,
+        base.height,
+        frame.occluders.len(),
+        100.0 * frame.coverage.covered() as f64 / (SIDE * SIDE) as f64
+    );
+    let mut g = c.benchmark_group("pyramid");
+    g.bench_function("build_from_coverage 1024x1024 -> 256x256 base", |b| {
+        b.iter(|| {
+            p.build_from_coverage(black_box(bits), wpr);
+            black_box(p.levels()[1].counts[0]);
+        })
+    });
+    g.bench_function("build_levels (above the 256x256 base)", |b| {
+        b.iter(|| {
+            p.build_levels();
+            black_box(p.levels()[1].counts[0]);
+        })
+    });
+    g.finish();
+}
+
+fn overlap(c: &mut Criterion, frame: &Frame) {
+    let mut p = Pyramid::new(SIDE, SIDE, BLOCK, 4);
+    p.build_from_coverage(frame.coverage.bits(), frame.coverage.words_per_row());
+    let th = Thresholds::conservative(&p, 0.0);
+    let early = Thresholds::conservative(&p, 0.5);
+    let rects = test_rects(frame);
+    let mut stats = OverlapStats::default();
+    let covered = rects.iter().filter(|r| rect_covered(&p, &th, r, &mut stats)).count();
+    eprintln!(
+        "overlap: {covered} of {} rectangles covered; {:.1} pyramid pixels and {:.2} level visits per test",
+        rects.len(),
+        stats.pixels as f64 / rects.len() as f64,
+        stats.levels as f64 / rects.len() as f64
+    );
+    let mut g = c.benchmark_group("overlap");
+    g.throughput(Throughput::Elements(rects.len() as u64));
+    for (name, th) in [("rect_covered x10k, conservative", &th), ("rect_covered x10k, transparency 0.5", &early)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut stats = OverlapStats::default();
+                let n = rects.iter().filter(|r| rect_covered(&p, th, r, &mut stats)).count();
+                black_box((n, stats))
+            })
+        });
+    }
+    g.finish();
+}
+
+fn depth(c: &mut Criterion, frame: &Frame) {
+    let vp = frame.camera.view_proj();
+    // The frame's occluder rectangles, padded with random ones to 200.
+    let mut occluders: Vec<ScreenRect> = frame
+        .occluders
+        .iter()
+        .filter_map(|&id| project_box_clipped(&frame.scene.object(id).aabb.corners(), &vp, SIDE, SIDE))
+        .take(OCCLUDERS)
+        .collect();
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    while occluders.len() < OCCLUDERS {
+        let z = 0.9 + 0.09 * rng.unit();
+        occluders.push(rng.rect(z - 0.01, z));
+    }
+    let occludees = test_rects(frame);
+    let mut deb = DepthEstimationBuffer::new(SIDE, SIDE, 64, 64);
+    let mut g = c.benchmark_group("depth");
+    g.throughput(Throughput::Elements(OCCLUDERS as u64));
+    g.bench_function("clear + insert_occluder x200", |b| {
+        b.iter(|| {
+            deb.clear();
+            for r in &occluders {
+                deb.insert_occluder(black_box(r));
+            }
+            black_box(deb.cells()[0])
+        })
+    });
+    let behind = occludees.iter().filter(|r| deb.is_behind(r)).count();
+    eprintln!("depth: {behind} of {} occludees behind the occluders", occludees.len());
+    g.throughput(Throughput::Elements(occludees.len() as u64));
+    g.bench_function("is_behind x10k", |b| {
+        b.iter(|| black_box(occludees.iter().filter(|r| deb.is_behind(r)).count()))
+    });
+    g.finish();
+}
+
+fn raster(c: &mut Criterion, frame: &Frame) {
+    let triangles: u64 = frame.occluders.iter().map(|&id| frame.scene.object(id).triangles as u64).sum();
+    eprintln!("raster: {} occluders, {triangles} triangles", frame.occluders.len());
+    let mut rasterizer = OccluderRasterizer::default();
+    let mut coverage = CoverageBuffer::default();
+    let mut deb = DepthEstimationBuffer::new(SIDE, SIDE, 64, 64);
+    let mut g = c.benchmark_group("raster");
+    g.throughput(Throughput::Elements(triangles));
+    g.bench_function("rasterize city frame 100 at 1024x1024", |b| {
+        b.iter(|| {
+            rasterizer.rasterize(
+                &mut coverage,
+                &frame.scene,
+                &frame.db,
+                &frame.occluders,
+                &frame.camera,
+                None,
+            )
+        })
+    });
+    g.bench_function("rasterize city frame 100 at 1024x1024 + depth buffer", |b| {
+        b.iter(|| {
+            rasterizer.rasterize(
+                &mut coverage,
+                &frame.scene,
+                &frame.db,
+                &frame.occluders,
+                &frame.camera,
+                Some(&mut deb),
+            )
+        })
+    });
+    g.finish();
+}
+
+fn kernels(c: &mut Criterion) {
+    let frame = city_frame();
+    pyramid(c, &frame);
+    overlap(c, &frame);
+    depth(c, &frame);
+    raster(c, &frame);
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(50);
+    targets = kernels
+}
+criterion_main!(benches);
