@@ -173,7 +173,10 @@ pub fn run_bench(
         name: name.to_string(),
         known: cullers::names(),
     };
-    if let Some(name) = culler_names.iter().find(|n| !cullers::CULLERS.iter().any(|c| c.0 == **n)) {
+    if let Some(name) = culler_names
+        .iter()
+        .find(|n| !cullers::CULLERS.iter().any(|c| c.0 == **n))
+    {
         return Err(unknown(name));
     }
     let renderer = Renderer::new(options.threads)?;
@@ -290,10 +293,17 @@ fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_
     let frames: Vec<_> = walks.iter().flat_map(|(_, w)| &w.frames).collect();
     let objects = scene.objects();
     let total = scene.triangle_count().max(1) as f64;
-    let oracle_frames: Vec<_> = frames.iter().filter_map(|f| f.oracle.as_ref().map(|o| (*f, o))).collect();
+    let oracle_frames: Vec<_> = frames
+        .iter()
+        .filter_map(|f| f.oracle.as_ref().map(|o| (*f, o)))
+        .collect();
     let median_ms = median(oracle_frames.iter().map(|(_, o)| o.oracle_set_render_ms));
     let pct_culled = median(oracle_frames.iter().map(|(_, o)| {
-        let drawn: u64 = o.oracle_visible.iter().map(|&id| objects[id as usize].triangles as u64).sum();
+        let drawn: u64 = o
+            .oracle_visible
+            .iter()
+            .map(|&id| objects[id as usize].triangles as u64)
+            .sum();
         100.0 * (total - drawn as f64) / total
     }));
     let pct_occluded = median(
@@ -301,7 +311,10 @@ fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_
             .iter()
             .map(|(_, o)| 100.0 * o.triangles_in_frustum_invisible as f64 / total),
     );
-    let invisible: u64 = oracle_frames.iter().map(|(_, o)| o.triangles_in_frustum_invisible).sum();
+    let invisible: u64 = oracle_frames
+        .iter()
+        .map(|(_, o)| o.triangles_in_frustum_invisible)
+        .sum();
     let mut stages = BTreeMap::new();
     stages.insert("render".to_string(), median_ms);
     BenchRow {
@@ -332,8 +345,20 @@ fn fmt_opt(v: Option<f64>, decimals: usize) -> String {
 impl BenchReport {
     /// The report as one plain-text table, a line per row, with a legend line.
     pub fn table(&self) -> String {
-        let scene_w = self.rows.iter().map(|r| r.scene.chars().count()).max().unwrap_or(0).max(5);
-        let culler_w = self.rows.iter().map(|r| r.culler.chars().count()).max().unwrap_or(0).max(6);
+        let scene_w = self
+            .rows
+            .iter()
+            .map(|r| r.scene.chars().count())
+            .max()
+            .unwrap_or(0)
+            .max(5);
+        let culler_w = self
+            .rows
+            .iter()
+            .map(|r| r.culler.chars().count())
+            .max()
+            .unwrap_or(0)
+            .max(6);
         let mut s = String::new();
         for sc in &self.scenes {
             let _ = writeln!(
@@ -345,7 +370,17 @@ impl BenchReport {
         let _ = writeln!(
             s,
             "{:<scene_w$} {:<culler_w$} {:>6} {:>9} {:>8} {:>9} {:>8} {:>8} {:>6} {:>8} {:>8}",
-            "scene", "culler", "frames", "frame ms", "cull ms", "render ms", "% culled", "effic.%", "false", "speedup", "% oracle"
+            "scene",
+            "culler",
+            "frames",
+            "frame ms",
+            "cull ms",
+            "render ms",
+            "% culled",
+            "effic.%",
+            "false",
+            "speedup",
+            "% oracle"
         );
         for r in &self.rows {
             let _ = writeln!(

@@ -49,3 +49,8 @@ pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath), LoadError> {
     let orbit = CameraPath::orbit(&scene.bounds(), 120);
     Ok((scene, orbit))
 }
+
+/// The README's Rust examples, compiled as doc tests.
+#[doc = include_str!("../../../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -78,12 +78,15 @@ pub fn plot_frame_times(path: &Path, frames: &[FrameRecord], culler: &str) -> Re
     draw_frame_times(path, frames, culler).map_err(|e| picture_error(path, e))
 }
 
+/// A named, coloured line of (x, y) points.
+type Series<'a> = (&'a str, RGBColor, Vec<(f64, f64)>);
+
 fn draw_frame_times(path: &Path, frames: &[FrameRecord], culler: &str) -> Result<(), Box<dyn std::error::Error>> {
     let root = BitMapBackend::new(path, (1100, 760)).into_drawing_area();
     root.fill(&WHITE)?;
     let (top, bottom) = root.split_vertically(430);
     let n = frames.len().max(1) as f64;
-    let series: Vec<(&str, RGBColor, Vec<(f64, f64)>)> = [
+    let series: Vec<Series> = [
         (
             "frustum only",
             RGBColor(120, 120, 120),
@@ -148,7 +151,11 @@ fn draw_frame_times(path: &Path, frames: &[FrameRecord], culler: &str) -> Result
         .x_label_area_size(36)
         .y_label_area_size(60)
         .build_cartesian_2d(0f64..n, 0f64..100f64)?;
-    chart.configure_mesh().x_desc("frame").y_desc("% of all triangles").draw()?;
+    chart
+        .configure_mesh()
+        .x_desc("frame")
+        .y_desc("% of all triangles")
+        .draw()?;
     let frustum_colour = RGBColor(120, 120, 120);
     let culler_colour = RGBColor(30, 90, 200);
     chart
@@ -196,7 +203,12 @@ fn panel_size(level: &Level) -> (u32, u32) {
 
 /// Height of a row of panels: the tallest panel.
 fn panel_row_height(pyramid: &Pyramid) -> u32 {
-    pyramid.levels().iter().map(|l| panel_size(l).1).max().unwrap_or(PYRAMID_PANEL)
+    pyramid
+        .levels()
+        .iter()
+        .map(|l| panel_size(l).1)
+        .max()
+        .unwrap_or(PYRAMID_PANEL)
 }
 
 /// Size in pixels of the picture [`write_pyramid_levels`] draws for `pyramid`.
@@ -259,7 +271,11 @@ fn draw_pyramid(
     for ((x, y), line1, line2) in captions {
         let (x, y) = (x as i32, y as i32);
         root.draw(&Text::new(line1, (x, y), ("sans-serif", 16).into_font().color(&BLACK)))?;
-        root.draw(&Text::new(line2, (x, y + 20), ("sans-serif", 15).into_font().color(&RGBColor(80, 80, 80))))?;
+        root.draw(&Text::new(
+            line2,
+            (x, y + 20),
+            ("sans-serif", 15).into_font().color(&RGBColor(80, 80, 80)),
+        ))?;
     }
     root.present()?;
     Ok(())
@@ -270,14 +286,24 @@ fn paint_level(rgb: &mut [u8], stride: u32, (x0, y0): (u32, u32), level: &Level,
     let (lw, lh) = (level.width.max(1), level.height.max(1));
     let (dw, dh) = panel_size(level);
     let pixels = (lw * lh) as usize;
-    let is_hole: Vec<bool> = (0..pixels as u32).map(|i| level.opacity(i % lw, i / lw) < hole_opacity).collect();
+    let is_hole: Vec<bool> = (0..pixels as u32)
+        .map(|i| level.opacity(i % lw, i / lw) < hole_opacity)
+        .collect();
     let holes = is_hole.iter().filter(|&&h| h).count();
     let opaque = level.counts.iter().filter(|&&c| c == level.samples_per_pixel).count();
     let mark = holes > 0 && holes < pixels;
-    let hole = |x: i64, y: i64| x >= 0 && y >= 0 && x < lw as i64 && y < lh as i64 && is_hole[(y as u32 * lw + x as u32) as usize];
+    let hole = |x: i64, y: i64| {
+        x >= 0 && y >= 0 && x < lw as i64 && y < lh as i64 && is_hole[(y as u32 * lw + x as u32) as usize]
+    };
     // Display pixels per level pixel; outline holes where cells are big enough to show it.
     let cell = dw as f32 / lw as f32;
-    let outline = if cell >= 12.0 { 2 } else if cell >= 3.0 { 1 } else { 0 };
+    let outline = if cell >= 12.0 {
+        2
+    } else if cell >= 3.0 {
+        1
+    } else {
+        0
+    };
     let mut put = |x: u32, y: u32, c: [u8; 3]| {
         let i = (((y0 + y) * stride + x0 + x) * 3) as usize;
         rgb[i..i + 3].copy_from_slice(&c);
@@ -363,7 +389,11 @@ const OTHER_STAGE_COLOURS: &[RGBColor] = &[
 /// Stage names present in `bars`, in bar order, with colours.
 fn stage_order(bars: &[StageBar]) -> Vec<(String, RGBColor)> {
     let present: Vec<&String> = {
-        let mut v: Vec<&String> = bars.iter().flat_map(|b| b.stages_ms.keys()).filter(|k| *k != "cull").collect();
+        let mut v: Vec<&String> = bars
+            .iter()
+            .flat_map(|b| b.stages_ms.keys())
+            .filter(|k| *k != "cull")
+            .collect();
         v.sort();
         v.dedup();
         v
@@ -407,10 +437,21 @@ fn draw_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), Box<dyn st
     let (chart_area, legend_area) = root.split_vertically(stage_plot_height(bars.len()) - 48);
     let n = bars.len().max(1) as f64;
     let stages = stage_order(bars);
-    let pct = |bar: &StageBar, ms: f64| if bar.baseline_ms > 0.0 { 100.0 * ms / bar.baseline_ms } else { 0.0 };
+    let pct = |bar: &StageBar, ms: f64| {
+        if bar.baseline_ms > 0.0 {
+            100.0 * ms / bar.baseline_ms
+        } else {
+            0.0
+        }
+    };
     let totals: Vec<f64> = bars
         .iter()
-        .map(|b| stages.iter().map(|(s, _)| pct(b, b.stages_ms.get(s).copied().unwrap_or(0.0))).sum())
+        .map(|b| {
+            stages
+                .iter()
+                .map(|(s, _)| pct(b, b.stages_ms.get(s).copied().unwrap_or(0.0)))
+                .sum()
+        })
         .collect();
     let x_max = totals.iter().copied().fold(100.0f64, f64::max) * 1.2;
     let label_chars = bars.iter().map(|b| b.label.chars().count()).max().unwrap_or(0);
@@ -460,7 +501,11 @@ fn draw_stage_breakdown(path: &Path, bars: &[StageBar]) -> Result<(), Box<dyn st
     for (i, (bar, total)) in bars.iter().zip(&totals).enumerate() {
         let ms: f64 = stages.iter().filter_map(|(s, _)| bar.stages_ms.get(s)).sum();
         let (x, y) = chart.backend_coord(&(*total, centre(i)));
-        root.draw(&Text::new(format!("{total:.1}% ({ms:.2} ms)"), (x + 8, y), left.clone()))?;
+        root.draw(&Text::new(
+            format!("{total:.1}% ({ms:.2} ms)"),
+            (x + 8, y),
+            left.clone(),
+        ))?;
         let (x, y) = chart.backend_coord(&(0.0, centre(i)));
         root.draw(&Text::new(bar.label.clone(), (x - 10, y), right.clone()))?;
     }
@@ -583,7 +628,16 @@ mod tests {
         let order: Vec<String> = stage_order(&bars).into_iter().map(|s| s.0).collect();
         assert_eq!(
             order,
-            ["refit", "selection", "raster", "pyramid", "depth", "traversal", "coherence", "render"]
+            [
+                "refit",
+                "selection",
+                "raster",
+                "pyramid",
+                "depth",
+                "traversal",
+                "coherence",
+                "render"
+            ]
         );
         // No bars at all still draws.
         let file = out_dir().join("stages_empty.png");

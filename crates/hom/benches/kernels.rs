@@ -157,7 +157,10 @@ fn overlap(c: &mut Criterion, frame: &Frame) {
     );
     let mut g = c.benchmark_group("overlap");
     g.throughput(Throughput::Elements(rects.len() as u64));
-    for (name, th) in [("rect_covered x10k, conservative", &th), ("rect_covered x10k, transparency 0.5", &early)] {
+    for (name, th) in [
+        ("rect_covered x10k, conservative", &th),
+        ("rect_covered x10k, transparency 0.5", &early),
+    ] {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut stats = OverlapStats::default();
@@ -206,7 +209,11 @@ fn depth(c: &mut Criterion, frame: &Frame) {
 }
 
 fn raster(c: &mut Criterion, frame: &Frame) {
-    let triangles: u64 = frame.occluders.iter().map(|&id| frame.scene.object(id).triangles as u64).sum();
+    let triangles: u64 = frame
+        .occluders
+        .iter()
+        .map(|&id| frame.scene.object(id).triangles as u64)
+        .sum();
     eprintln!("raster: {} occluders, {triangles} triangles", frame.occluders.len());
     let mut rasterizer = OccluderRasterizer::default();
     let mut coverage = CoverageBuffer::default();
