@@ -4,7 +4,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
-use hom::cull::{CullOutput, DepthMode, HomConfig, Opacity};
+use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::occluders::SelectionMode;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
 use hom_scene::CameraPath;
@@ -29,6 +29,8 @@ enum Command {
     Walk(WalkArgs),
     /// Render one frame of a scene's path to a PNG.
     Render(RenderArgs),
+    /// Walk scenes with several cullers side by side (oracle on); print one table, write JSON and a stage chart.
+    Bench(BenchArgs),
     /// List the built-in scenes with object and triangle counts.
     Scenes,
     /// Scene tools: info, export.
@@ -180,6 +182,31 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct BenchArgs {
+    /// Comma-separated built-in scene names or files (default: every built-in scene).
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Comma-separated cullers to compare (default: frustum,hom).
+    #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
+    cullers: Vec<String>,
+    /// Walk only the first N frames of each path.
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Image width (default: each path's).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height (default: each path's).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Renderer threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Write the JSON record here.
+    #[arg(long, default_value = "hom-out/bench/bench.json")]
+    json: PathBuf,
+}
+
+#[derive(Args)]
 struct DemoArgs {
     /// Folder for the pictures.
     #[arg(long, default_value = "hom-out/demo")]
@@ -201,6 +228,7 @@ fn main() {
         Command::Demo(a) => demo(a),
         Command::Walk(a) => walk(a),
         Command::Render(a) => render(a),
+        Command::Bench(a) => bench(a),
         Command::Scenes => scenes(),
         Command::Scene { command } => match command {
             SceneCommand::Info { scene } => scene_info(&scene),
@@ -330,7 +358,18 @@ fn walk(a: WalkArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let plot = dir.join("frame_times.png");
         pictures::plot_frame_times(&plot, &result.frames, &a.view.culler)?;
-        eprintln!("plot: {}", plot.display());
+        let stages = dir.join("stages.png");
+        write_stage_chart(&stages, &[(&a.view.culler, &result)])?;
+        let frame = busiest_frame(&result.frames);
+        let picture = dir.join(format!("false_colour_frame{frame}.png"));
+        let frame_rate = WalkOptions::default().frame_rate;
+        let pyramid =
+            write_false_colour(&mut scene, &path, &a.view.culler, &a.view.hom, frame, &renderer, &picture, frame_rate)?;
+        if let Some(p) = pyramid {
+            let hole = a.view.hom.config()?.selection.hole_opacity;
+            pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
+        }
+        eprintln!("pictures: {}", dir.display());
     }
     Ok(())
 }
@@ -414,8 +453,49 @@ fn demo(a: DemoArgs) -> Result<()> {
     // The frame where the best culler culled the most as occluded shows it best.
     let frame = busiest_frame(&best.frames);
     let picture = a.out.join(format!("false_colour_frame{frame}.png"));
-    write_false_colour(&mut scene, &path, cullers::BEST, &view.hom, frame, &renderer, &picture, options.frame_rate)?;
-    println!("pictures: {} (occluders blue, drawn grey, occlusion-culled red), {}", picture.display(), plot.display());
+    let pyramid = write_false_colour(&mut scene, &path, cullers::BEST, &view.hom, frame, &renderer, &picture, options.frame_rate)?;
+    let stages = a.out.join("stages.png");
+    write_stage_chart(&stages, &rows)?;
+    println!("pictures in {}:", a.out.display());
+    println!("  {} (occluders blue, drawn grey, occlusion-culled red)", picture.display());
+    println!("  {} (frame time and % culled per frame, with and without occlusion culling)", plot.display());
+    println!("  {} (time per stage, % of frustum-only frame time)", stages.display());
+    if let Some(p) = pyramid {
+        let levels = a.out.join(format!("pyramid_frame{frame}.png"));
+        pictures::write_pyramid_levels(&levels, &p, HomConfig::default().selection.hole_opacity)?;
+        println!("  {} (the occlusion map pyramid, holes in blue)", levels.display());
+    }
+    Ok(())
+}
+
+fn bench(a: BenchArgs) -> Result<()> {
+    let scenes: Vec<String> = if a.scenes.is_empty() {
+        hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| n.to_string()).collect()
+    } else {
+        a.scenes.clone()
+    };
+    let scene_refs: Vec<&str> = scenes.iter().map(String::as_str).collect();
+    let culler_refs: Vec<&str> = a.cullers.iter().map(String::as_str).collect();
+    let options = hom_walk::bench::BenchOptions {
+        frames: a.frames,
+        width: a.width,
+        height: a.height,
+        threads: a.threads,
+    };
+    let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, |what| {
+        if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            eprintln!("{what}");
+        }
+    })?;
+    print!("{}", report.table());
+    if let Some(dir) = a.json.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let json = serde_json::to_string_pretty(&report).context("serializing the bench report")?;
+    std::fs::write(&a.json, json).with_context(|| format!("writing {}", a.json.display()))?;
+    let chart = a.json.with_file_name("stages.png");
+    pictures::plot_stage_breakdown(&chart, &report.stage_bars())?;
+    println!("json: {}\nstage chart: {}", a.json.display(), chart.display());
     Ok(())
 }
 
@@ -426,6 +506,8 @@ fn busiest_frame(frames: &[FrameRecord]) -> usize {
         .map_or(0, |f| f.frame)
 }
 
+/// Culls frame `frame` with the named culler and writes it in false colour to
+/// `out`. With HOM, also returns that frame's occlusion pyramid (for pictures).
 #[allow(clippy::too_many_arguments)]
 fn write_false_colour(
     scene: &mut hom::scene::Scene,
@@ -436,15 +518,38 @@ fn write_false_colour(
     renderer: &Renderer,
     out: &Path,
     frame_rate: f32,
-) -> Result<()> {
+) -> Result<Option<hom::map::Pyramid>> {
     scene.set_time(frame as f32 / frame_rate);
     let camera = path.camera(frame);
-    let mut culler = make_culler(culler_name, scene, hom)?;
     let mut cull = CullOutput::default();
-    culler.cull(scene, &camera, &mut cull)?;
+    let pyramid = if culler_name == "hom" {
+        let mut culler = HomCuller::new(scene, hom.config()?);
+        renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
+        culler.pyramid().cloned()
+    } else {
+        let mut culler = make_culler(culler_name, scene, hom)?;
+        renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
+        None
+    };
     let mut fb = Framebuffer::new(camera.width, camera.height);
-    pictures::render_false_colour(renderer, scene, &camera, &cull, &mut fb);
-    fb.save_png(out)?;
+    let image = pictures::render_false_colour(renderer, scene, &camera, &cull, &mut fb);
+    hom_render::write_png(out, camera.width, camera.height, &image)?;
+    Ok(pyramid)
+}
+
+/// The stage chart of walks: each culler's median stages against frustum-only frames.
+fn write_stage_chart(out: &Path, rows: &[(&str, &WalkResult)]) -> Result<()> {
+    let bars: Vec<pictures::StageBar> = rows
+        .iter()
+        .filter_map(|(name, r)| {
+            Some(pictures::StageBar {
+                label: name.to_string(),
+                stages_ms: r.summary.median_stage_ms.clone(),
+                baseline_ms: r.summary.median_baseline_frame_ms?,
+            })
+        })
+        .collect();
+    pictures::plot_stage_breakdown(out, &bars)?;
     Ok(())
 }
 

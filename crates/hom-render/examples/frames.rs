@@ -37,13 +37,15 @@ fn main() {
                 scene.set_time(i as f32 / 30.0);
                 let camera = path.camera(i);
                 culler.cull(&scene, &camera, &mut out).expect("cull");
+                let mut best = f64::INFINITY;
                 for _ in 0..reps {
                     let start = Instant::now();
                     let stats = renderer.render(&scene, &out.visible, &camera, &options, &mut fb);
-                    if shading == Shading::Flat {
-                        times.push(start.elapsed().as_secs_f64() * 1e3);
-                    }
+                    best = best.min(start.elapsed().as_secs_f64() * 1e3);
                     std::hint::black_box(stats);
+                }
+                if shading == Shading::Flat {
+                    times.push(best);
                 }
                 let stats = renderer.render(&scene, &out.visible, &camera, &options, &mut fb);
                 (stats.triangles_rasterized, stats.fragments_written).hash(&mut hasher);
@@ -55,9 +57,9 @@ fn main() {
         }
         times.sort_by(f64::total_cmp);
         println!(
-            "{name:14} median {:7.3} ms  p25 {:7.3}  hash {:016x}  items {:016x}",
+            "{name:14} median-of-min {:7.3} ms  mean-of-min {:7.3}  hash {:016x}  items {:016x}",
             times[times.len() / 2],
-            times[times.len() / 4],
+            times.iter().sum::<f64>() / times.len() as f64,
             hasher.finish(),
             item_hasher.finish()
         );

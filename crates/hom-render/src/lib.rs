@@ -382,6 +382,13 @@ impl Renderer {
         self.pool.current_num_threads()
     }
 
+    /// Runs `f` inside the renderer's thread pool, so rayon work it starts
+    /// (a culler's occluder rasterizer, say) shares the renderer's threads
+    /// instead of a second pool competing with them for the cores.
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        self.pool.install(f)
+    }
+
     /// Clears `fb` (resizing it to `camera.width` × `camera.height`) to the
     /// background, then draws the objects `ids` of `scene` in that order, each
     /// with its current `transform`, as seen by `camera`.

@@ -33,42 +33,90 @@ pub(crate) fn raster_tri<const COLOUR: bool>(
     let mut e = t.edges_at_row(ya);
     let mut written = 0u64;
     let mut row = (ya - band_y0) as usize * width + x0;
-    let mut fragment = |idx: usize, z: f32| {
-        if z < depth[idx] {
-            depth[idx] = z;
-            item[idx] = t.item;
-            if COLOUR {
-                colour[idx] = t.colour;
-            }
-            written += 1;
-        }
-    };
     for py in ya..yb {
-        let zr = t.depth_row(py);
-        if n <= SCAN_MAX {
-            // Coverage and depth in one pass over the bounding-box row.
-            let mut f = e;
-            let mut seen = false;
-            for k in 0..n {
-                if (f[0] | f[1] | f[2]) >= 0 {
-                    seen = true;
-                    fragment(row + k as usize, (zr + t.dzdx * k as f32).max(0.0));
-                } else if seen {
-                    break;
-                }
-                f[0] += step_x[0];
-                f[1] += step_x[1];
-                f[2] += step_x[2];
-            }
-        } else if let Some((lo, hi)) = divide_span(e, step_x, n) {
-            for k in lo..hi {
-                fragment(row + k as usize, (zr + t.dzdx * k as f32).max(0.0));
-            }
+        let span = if n <= SCAN_MAX {
+            scan_span(e, step_x, n)
+        } else {
+            divide_span(e, step_x, n)
+        };
+        if let Some((lo, hi)) = span {
+            let r = row + lo as usize..row + hi as usize;
+            written += u64::from(fill_span::<COLOUR>(
+                t,
+                t.depth_row(py),
+                lo,
+                &mut depth[r.clone()],
+                &mut item[r.clone()],
+                &mut colour[r],
+            ));
         }
         e[0] += step_y[0];
         e[1] += step_y[1];
         e[2] += step_y[2];
         row += width;
+    }
+    written
+}
+
+/// Covered steps `lo..hi` of a row of at most [`SCAN_MAX`] samples with edge
+/// values `e` at step 0 and increments `step`, testing sample by sample (the
+/// covered samples of a row are contiguous, so it stops at the first miss
+/// after a hit). Same result as [`divide_span`].
+#[inline(always)]
+fn scan_span(mut e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
+    let mut k = 0;
+    while k < n && (e[0] | e[1] | e[2]) < 0 {
+        e[0] += step[0];
+        e[1] += step[1];
+        e[2] += step[2];
+        k += 1;
+    }
+    let lo = k;
+    while k < n && (e[0] | e[1] | e[2]) >= 0 {
+        e[0] += step[0];
+        e[1] += step[1];
+        e[2] += step[2];
+        k += 1;
+    }
+    (lo < k).then_some((lo, k))
+}
+
+/// Depth-tests and writes one covered span: `depth`, `item` and `colour` hold
+/// its pixels, the first at column offset `k0` from the triangle's `x0`, and
+/// `zr` is the depth at offset 0 of the row. Branch-free per pixel so it
+/// vectorizes; the depth of each pixel is computed exactly as
+/// `max(zr + dzdx * k, 0)`. Returns the number of fragments written.
+#[inline(always)]
+fn fill_span<const COLOUR: bool>(
+    t: &Tri,
+    zr: f32,
+    k0: u32,
+    depth: &mut [f32],
+    item: &mut [u32],
+    colour: &mut [[u8; 4]],
+) -> u32 {
+    let (dzdx, id, c) = (t.dzdx, t.item, t.colour);
+    let len = depth.len();
+    let item = &mut item[..len];
+    let k0 = k0 as i32;
+    let mut written = 0u32;
+    if COLOUR {
+        for (j, ((d, i), o)) in depth.iter_mut().zip(item.iter_mut()).zip(colour.iter_mut()).enumerate() {
+            let z = (zr + dzdx * (k0 + j as i32) as f32).max(0.0);
+            let hit = z < *d;
+            *d = if hit { z } else { *d };
+            *i = if hit { id } else { *i };
+            *o = if hit { c } else { *o };
+            written += u32::from(hit);
+        }
+    } else {
+        for (j, (d, i)) in depth.iter_mut().zip(item.iter_mut()).enumerate() {
+            let z = (zr + dzdx * (k0 + j as i32) as f32).max(0.0);
+            let hit = z < *d;
+            *d = if hit { z } else { *d };
+            *i = if hit { id } else { *i };
+            written += u32::from(hit);
+        }
     }
     written
 }

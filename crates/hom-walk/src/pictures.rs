@@ -36,30 +36,43 @@ fn picture_error(path: &Path, e: impl std::fmt::Display) -> PictureError {
     }
 }
 
-/// Renders every object the culler kept or culled as occluded, coloured by
-/// its fate: occluders blue, other drawn objects grey, occlusion-culled red.
-/// Frustum-culled objects are not drawn.
+/// A false-colour picture of one culled frame, like figure 1 of the HOM paper:
+/// the objects drawn, occluders blue and the rest grey, with the objects
+/// culled as occluded shown *through* them in translucent red (they are hidden,
+/// so an opaque render would never show them). Frustum-culled objects are not
+/// drawn. Returns RGBA pixels, row 0 at the top (`camera.width` × `camera.height`).
 pub fn render_false_colour(
     renderer: &Renderer,
     scene: &Scene,
     camera: &Camera,
     cull: &CullOutput,
     fb: &mut Framebuffer,
-) {
+) -> Vec<[u8; 4]> {
     let mut colours = vec![DRAWN_GREY; scene.objects().len()];
-    for &id in &cull.occluded {
-        colours[id as usize] = CULLED_RED;
-    }
     for &id in &cull.occluders {
         colours[id as usize] = OCCLUDER_BLUE;
     }
-    let mut ids: Vec<u32> = cull.visible.iter().chain(&cull.occluded).copied().collect();
-    ids.sort_unstable();
     let options = RenderOptions {
         colouring: Colouring::PerObject(&colours),
         ..RenderOptions::default()
     };
-    renderer.render(scene, &ids, camera, &options, fb);
+    renderer.render(scene, &cull.visible, camera, &options, fb);
+    let mut image = fb.color().to_vec();
+    // The culled objects alone, blended over the drawn ones where they would project.
+    let reds = vec![CULLED_RED; scene.objects().len()];
+    let culled = RenderOptions {
+        colouring: Colouring::PerObject(&reds),
+        ..RenderOptions::default()
+    };
+    renderer.render(scene, &cull.occluded, camera, &culled, fb);
+    for (px, (&item, red)) in image.iter_mut().zip(fb.items().iter().zip(fb.color())) {
+        if item != hom_render::NO_OBJECT {
+            for c in 0..3 {
+                px[c] = ((px[c] as u16 + 2 * red[c] as u16) / 3) as u8;
+            }
+        }
+    }
+    image
 }
 
 fn register_fonts() {

@@ -96,8 +96,9 @@ pub fn walk(
         let time_s = i as f32 / options.frame_rate;
         scene.set_time(time_s);
         let camera = path.camera(i);
-        culler
-            .cull(scene, &camera, &mut out)
+        // On the renderer's threads: one pool, no two pools fighting for the cores.
+        renderer
+            .install(|| culler.cull(scene, &camera, &mut out))
             .map_err(|source| WalkError::Cull { frame: i, source })?;
         let cull_ms = out.total_ms();
         let start = Instant::now();

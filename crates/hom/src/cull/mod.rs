@@ -84,7 +84,7 @@ impl CullOutput {
 /// Contract: every object that owns a pixel of the full rendering of the
 /// scene from `camera` must be in `out.visible` — unless the culler was
 /// configured to approximate, and says so in [`Culler::config`].
-pub trait Culler {
+pub trait Culler: Send {
     /// Short name, as accepted by `hom walk --culler`.
     fn name(&self) -> &'static str;
 
