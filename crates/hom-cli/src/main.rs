@@ -15,7 +15,11 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 #[derive(Parser)]
-#[command(name = "hom", version, about = "Visibility culling for large 3D scenes: hierarchical occlusion maps and friends")]
+#[command(
+    name = "hom",
+    version,
+    about = "Visibility culling for large 3D scenes: hierarchical occlusion maps and friends"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -121,7 +125,11 @@ impl HomArgs {
             if !(o > 0.0 && o <= 1.0) {
                 bail!("--opacity must be in (0, 1], got {o}");
             }
-            c.opacity = if o == 1.0 { Opacity::Conservative } else { Opacity::Threshold(o) };
+            c.opacity = if o == 1.0 {
+                Opacity::Conservative
+            } else {
+                Opacity::Threshold(o)
+            };
         }
         if let Some(d) = &self.depth {
             c.depth = match d.as_str() {
@@ -363,8 +371,16 @@ fn walk(a: WalkArgs) -> Result<()> {
         let frame = busiest_frame(&result.frames);
         let picture = dir.join(format!("false_colour_frame{frame}.png"));
         let frame_rate = WalkOptions::default().frame_rate;
-        let pyramid =
-            write_false_colour(&mut scene, &path, &a.view.culler, &a.view.hom, frame, &renderer, &picture, frame_rate)?;
+        let pyramid = write_false_colour(
+            &mut scene,
+            &path,
+            &a.view.culler,
+            &a.view.hom,
+            frame,
+            &renderer,
+            &picture,
+            frame_rate,
+        )?;
         if let Some(p) = pyramid {
             let hole = a.view.hom.config()?.selection.hole_opacity;
             pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
@@ -396,7 +412,17 @@ fn print_table(scene: &hom::scene::Scene, rows: &[(&str, &WalkResult)]) {
     );
     println!(
         "{:<10} {:>6} {:>10} {:>9} {:>11} {:>9} {:>10} {:>10} {:>10} {:>8} {:>8}",
-        "culler", "frames", "tris drawn", "% culled", "false culls", "effic. %", "cull ms", "render ms", "frame ms", "speedup", "oracle×"
+        "culler",
+        "frames",
+        "tris drawn",
+        "% culled",
+        "false culls",
+        "effic. %",
+        "cull ms",
+        "render ms",
+        "frame ms",
+        "speedup",
+        "oracle×"
     );
     for (name, r) in rows {
         let s: &Summary = &r.summary;
@@ -453,12 +479,27 @@ fn demo(a: DemoArgs) -> Result<()> {
     // The frame where the best culler culled the most as occluded shows it best.
     let frame = busiest_frame(&best.frames);
     let picture = a.out.join(format!("false_colour_frame{frame}.png"));
-    let pyramid = write_false_colour(&mut scene, &path, cullers::BEST, &view.hom, frame, &renderer, &picture, options.frame_rate)?;
+    let pyramid = write_false_colour(
+        &mut scene,
+        &path,
+        cullers::BEST,
+        &view.hom,
+        frame,
+        &renderer,
+        &picture,
+        options.frame_rate,
+    )?;
     let stages = a.out.join("stages.png");
     write_stage_chart(&stages, &rows)?;
     println!("pictures in {}:", a.out.display());
-    println!("  {} (occluders blue, drawn grey, occlusion-culled red)", picture.display());
-    println!("  {} (frame time and % culled per frame, with and without occlusion culling)", plot.display());
+    println!(
+        "  {} (occluders blue, drawn grey, occlusion-culled red)",
+        picture.display()
+    );
+    println!(
+        "  {} (frame time and % culled per frame, with and without occlusion culling)",
+        plot.display()
+    );
     println!("  {} (time per stage, % of frustum-only frame time)", stages.display());
     if let Some(p) = pyramid {
         let levels = a.out.join(format!("pyramid_frame{frame}.png"));
@@ -556,12 +597,25 @@ fn write_stage_chart(out: &Path, rows: &[(&str, &WalkResult)]) -> Result<()> {
 fn render(a: RenderArgs) -> Result<()> {
     let (mut scene, path) = open(&a.view)?;
     if a.frame >= path.frames.len() {
-        bail!("--frame {} is past the end of the path ({} frames)", a.frame, path.frames.len());
+        bail!(
+            "--frame {} is past the end of the path ({} frames)",
+            a.frame,
+            path.frames.len()
+        );
     }
     let renderer = Renderer::new(a.view.threads)?;
     let frame_rate = WalkOptions::default().frame_rate;
     if a.false_colour {
-        write_false_colour(&mut scene, &path, &a.view.culler, &a.view.hom, a.frame, &renderer, &a.out, frame_rate)?;
+        write_false_colour(
+            &mut scene,
+            &path,
+            &a.view.culler,
+            &a.view.hom,
+            a.frame,
+            &renderer,
+            &a.out,
+            frame_rate,
+        )?;
     } else {
         scene.set_time(a.frame as f32 / frame_rate);
         let camera = path.camera(a.frame);
@@ -577,7 +631,10 @@ fn render(a: RenderArgs) -> Result<()> {
 }
 
 fn scenes() -> Result<()> {
-    println!("{:<14} {:>8} {:>10} {:>8}  description", "name", "objects", "triangles", "frames");
+    println!(
+        "{:<14} {:>8} {:>10} {:>8}  description",
+        "name", "objects", "triangles", "frames"
+    );
     for (name, description) in hom_scene::BUILTIN_SCENES {
         let b = hom_scene::builtin(name)?;
         println!(
@@ -601,15 +658,28 @@ fn scene_info(spec: &str) -> Result<()> {
     println!("objects:    {} ({dynamic} dynamic)", scene.objects().len());
     println!("meshes:     {}", scene.meshes().len());
     println!("triangles:  {}", scene.triangle_count());
-    println!("per object: {:.0} triangles on average, {max_tris} at most", scene.triangle_count() as f64 / scene.objects().len() as f64);
+    println!(
+        "per object: {:.0} triangles on average, {max_tris} at most",
+        scene.triangle_count() as f64 / scene.objects().len() as f64
+    );
     println!("bounds:     {:?} .. {:?}", b.min.to_array(), b.max.to_array());
-    println!("path:       {} frames at {}x{}", path.frames.len(), path.width, path.height);
+    println!(
+        "path:       {} frames at {}x{}",
+        path.frames.len(),
+        path.width,
+        path.height
+    );
     Ok(())
 }
 
 fn scene_export(spec: &str, out: &Path) -> Result<()> {
     let (scene, _) = hom_walk::open_scene(spec)?;
     hom_scene::export::write_obj(&scene, out)?;
-    println!("wrote {} ({} objects, {} triangles)", out.display(), scene.objects().len(), scene.triangle_count());
+    println!(
+        "wrote {} ({} objects, {} triangles)",
+        out.display(),
+        scene.objects().len(),
+        scene.triangle_count()
+    );
     Ok(())
 }

@@ -50,11 +50,23 @@ fn malformed_camera_path_and_scene_files_are_rejected() {
     std::fs::create_dir_all(&dir).unwrap();
     let bad_json = dir.join("path.json");
     std::fs::write(&bad_json, "{\"frames\": [ {\"eye\": [0,0,0]} ]").unwrap();
-    let o = hom(&["walk", "--scene", "spheres", "--camera-path", bad_json.to_str().unwrap()]);
+    let o = hom(&[
+        "walk",
+        "--scene",
+        "spheres",
+        "--camera-path",
+        bad_json.to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "path.json");
     let nan_path = dir.join("nan.json");
     std::fs::write(&nan_path, r#"{"frames":[{"eye":[0,0,0],"target":[0,0,0]}]}"#).unwrap();
-    let o = hom(&["walk", "--scene", "spheres", "--camera-path", nan_path.to_str().unwrap()]);
+    let o = hom(&[
+        "walk",
+        "--scene",
+        "spheres",
+        "--camera-path",
+        nan_path.to_str().unwrap(),
+    ]);
     assert_clean_failure(&o, "frame 0");
     let missing = dir.join("missing.obj");
     let o = hom(&["scene", "info", "--scene", missing.to_str().unwrap()]);
@@ -76,8 +88,20 @@ fn walk_report_has_header_frames_and_summary_with_no_false_culls() {
     std::fs::create_dir_all(&dir).unwrap();
     let report = dir.join("r.jsonl");
     let o = hom(&[
-        "walk", "--scene", "spheres", "--culler", "frustum", "--oracle", "--frames", "6", "--width", "160", "--height", "120",
-        "--report", report.to_str().unwrap(),
+        "walk",
+        "--scene",
+        "spheres",
+        "--culler",
+        "frustum",
+        "--oracle",
+        "--frames",
+        "6",
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--report",
+        report.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&report).unwrap();

@@ -4,7 +4,7 @@
 //!
 //! `cargo run --release -p hom-render --example frames -- [frames] [reps] [scene...]`
 
-use hom::cull::{Culler, CullOutput, FrustumCuller};
+use hom::cull::{CullOutput, Culler, FrustumCuller};
 use hom_render::{Framebuffer, RenderOptions, Renderer, Shading};
 use std::hash::{Hash, Hasher};
 use std::time::Instant;

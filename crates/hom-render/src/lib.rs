@@ -54,8 +54,8 @@
 mod raster;
 
 use hom::geom::{Camera, MAX_VIEWPORT_SIDE};
-use hom::scene::Scene;
 use hom::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
+use hom::scene::Scene;
 use raster::raster_tri;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};

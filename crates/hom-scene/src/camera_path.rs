@@ -227,7 +227,11 @@ impl CameraPath {
                 d += (eyes[j + 1] - eyes[j]).length();
                 j += 1;
             }
-            let dir = if j > i { eyes[j] - eyes[i] } else { eyes[i] - eyes[i.saturating_sub(1)] };
+            let dir = if j > i {
+                eyes[j] - eyes[i]
+            } else {
+                eyes[i] - eyes[i.saturating_sub(1)]
+            };
             eyes[i] + dir.normalize_or(Vec3::NEG_Z) * look_ahead.max(1.0)
         };
         let frames = (0..eyes.len())
@@ -252,7 +256,10 @@ mod tests {
         p.validate("x").unwrap();
         assert_eq!(p.camera(0).eye, Vec3::new(0.0, 1.7, 0.0));
         let same: CameraPath = serde_json::from_str(r#"{"frames":[{"eye":[1,1,1],"target":[1,1,1]}]}"#).unwrap();
-        assert!(matches!(same.validate("x"), Err(CameraPathError::BadFrame { frame: 0, .. })));
+        assert!(matches!(
+            same.validate("x"),
+            Err(CameraPathError::BadFrame { frame: 0, .. })
+        ));
         let none: CameraPath = serde_json::from_str(r#"{"frames":[]}"#).unwrap();
         assert!(matches!(none.validate("x"), Err(CameraPathError::FrameCount { .. })));
         assert!(serde_json::from_str::<CameraPath>(r#"{"frames":[], "fov":3}"#).is_err());
@@ -263,6 +270,9 @@ mod tests {
         let p = CameraPath::along(&[Vec3::ZERO, Vec3::new(10.0, 0.0, 0.0)], 1.0, 5.0);
         assert_eq!(p.frames.len(), 11);
         p.validate("line").unwrap();
-        assert!(p.frames.iter().all(|f| f.target[0] > f.eye[0] - 1e-3 || f.eye[0] >= 10.0));
+        assert!(p
+            .frames
+            .iter()
+            .all(|f| f.target[0] > f.eye[0] - 1e-3 || f.eye[0] >= 10.0));
     }
 }

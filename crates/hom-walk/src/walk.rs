@@ -128,12 +128,18 @@ pub fn walk(
 
         let oracle = options.oracle.then(|| {
             let counts = hom_render::oracle_pixel_counts(renderer, scene, &camera, &mut fb);
-            let oracle_visible: Vec<u32> = (0..objects.len() as u32).filter(|&id| counts[id as usize] > 0).collect();
+            let oracle_visible: Vec<u32> = (0..objects.len() as u32)
+                .filter(|&id| counts[id as usize] > 0)
+                .collect();
             let mut kept = vec![false; objects.len()];
             for &id in &out.visible {
                 kept[id as usize] = true;
             }
-            let false_culls: Vec<u32> = oracle_visible.iter().copied().filter(|&id| !kept[id as usize]).collect();
+            let false_culls: Vec<u32> = oracle_visible
+                .iter()
+                .copied()
+                .filter(|&id| !kept[id as usize])
+                .collect();
             let false_cull_pixels = false_culls.iter().map(|&id| counts[id as usize] as u64).sum();
             let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("validated camera");
             let triangles_in_frustum_invisible = objects
@@ -200,7 +206,12 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
     stage_names.dedup();
     let median_stage_ms = stage_names
         .into_iter()
-        .map(|name| (name.clone(), median(frames.iter().filter_map(|f| f.stages_ms.get(name).copied()))))
+        .map(|name| {
+            (
+                name.clone(),
+                median(frames.iter().filter_map(|f| f.stages_ms.get(name).copied())),
+            )
+        })
         .collect();
     let total = total_triangles.max(1) as f64;
     let sum_frame: f64 = frames.iter().map(|f| f.frame_ms).sum();
@@ -208,7 +219,9 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
     let oracles: Option<Vec<&crate::report::OracleFrame>> = frames.iter().map(|f| f.oracle.as_ref()).collect();
     let oracles = oracles.filter(|o| !o.is_empty());
     let sum_baseline = baselines.as_ref().map(|b| b.iter().sum::<f64>());
-    let sum_oracle_set = oracles.as_ref().map(|o| o.iter().map(|f| f.oracle_set_render_ms).sum::<f64>());
+    let sum_oracle_set = oracles
+        .as_ref()
+        .map(|o| o.iter().map(|f| f.oracle_set_render_ms).sum::<f64>());
     let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
         (Some(a), Some(b)) if b > 0.0 => Some(a / b),
         _ => None,
@@ -219,7 +232,9 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
         median_stage_ms,
         median_frame_ms: median(frames.iter().map(|f| f.frame_ms)),
         median_baseline_frame_ms: baselines.as_ref().map(|b| median(b.iter().copied())),
-        median_oracle_set_ms: oracles.as_ref().map(|o| median(o.iter().map(|f| f.oracle_set_render_ms))),
+        median_oracle_set_ms: oracles
+            .as_ref()
+            .map(|o| median(o.iter().map(|f| f.oracle_set_render_ms))),
         speedup: ratio(sum_baseline, Some(sum_frame)),
         oracle_speedup: ratio(sum_baseline, sum_oracle_set),
         median_pct_triangles_culled: median(
@@ -227,9 +242,15 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
                 .iter()
                 .map(|f| 100.0 * (f.triangles_frustum_culled + f.triangles_occlusion_culled) as f64 / total),
         ),
-        median_pct_occlusion_culled: median(frames.iter().map(|f| 100.0 * f.triangles_occlusion_culled as f64 / total)),
+        median_pct_occlusion_culled: median(
+            frames
+                .iter()
+                .map(|f| 100.0 * f.triangles_occlusion_culled as f64 / total),
+        ),
         median_triangles_drawn: median(frames.iter().map(|f| f.triangles_drawn as f64)),
-        false_culls: oracles.as_ref().map(|o| o.iter().map(|f| f.false_culls.len() as u64).sum()),
+        false_culls: oracles
+            .as_ref()
+            .map(|o| o.iter().map(|f| f.false_culls.len() as u64).sum()),
         frames_with_false_culls: oracles
             .as_ref()
             .map(|o| o.iter().filter(|f| !f.false_culls.is_empty()).count() as u64),

@@ -14,8 +14,18 @@ fn cube() -> Mesh {
     let p: Vec<Vec3> = (0..8)
         .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
         .collect();
-    let faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
-    let tris = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let tris = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
     Mesh::new("cube", p, tris).unwrap()
 }
 
@@ -141,9 +151,32 @@ fn wall_scene(gap: f32) -> Scene {
     let mut b = SceneBuilder::new("walls");
     let m = b.add_mesh(cube());
     let half = 5.0 - gap * 0.5;
-    b.add_object("left", m, Mat4::from_scale_rotation_translation(Vec3::new(half, 6.0, 0.2), Quat::IDENTITY, Vec3::new(-gap * 0.5 - half * 0.5, 0.0, 0.0))).unwrap();
-    b.add_object("right", m, Mat4::from_scale_rotation_translation(Vec3::new(half, 6.0, 0.2), Quat::IDENTITY, Vec3::new(gap * 0.5 + half * 0.5, 0.0, 0.0))).unwrap();
-    b.add_object("behind", m, Mat4::from_scale_rotation_translation(Vec3::new(1.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, -4.0))).unwrap();
+    b.add_object(
+        "left",
+        m,
+        Mat4::from_scale_rotation_translation(
+            Vec3::new(half, 6.0, 0.2),
+            Quat::IDENTITY,
+            Vec3::new(-gap * 0.5 - half * 0.5, 0.0, 0.0),
+        ),
+    )
+    .unwrap();
+    b.add_object(
+        "right",
+        m,
+        Mat4::from_scale_rotation_translation(
+            Vec3::new(half, 6.0, 0.2),
+            Quat::IDENTITY,
+            Vec3::new(gap * 0.5 + half * 0.5, 0.0, 0.0),
+        ),
+    )
+    .unwrap();
+    b.add_object(
+        "behind",
+        m,
+        Mat4::from_scale_rotation_translation(Vec3::new(1.0, 1.0, 1.0), Quat::IDENTITY, Vec3::new(0.0, 0.0, -4.0)),
+    )
+    .unwrap();
     b.build().unwrap()
 }
 
@@ -152,7 +185,16 @@ fn occluders_with_a_one_pixel_gap_do_not_hide_what_shows_through() {
     // At 10 m with a 1 m wide view per 100 px, 0.02 m is a fraction of a pixel; 0.15 m is about a pixel.
     for gap in [0.0, 0.01, 0.03, 0.06, 0.12, 0.2] {
         let scene = wall_scene(gap);
-        let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
+        let camera = Camera::new(
+            Vec3::new(0.003, 0.0, 10.0),
+            Vec3::new(0.003, 0.0, 0.0),
+            Vec3::Y,
+            0.7,
+            0.1,
+            100.0,
+            400,
+            300,
+        );
         let mut culler = HomCuller::new(&scene, walls_only());
         let out = assert_no_false_culls(&scene, &camera, &mut culler);
         if gap == 0.0 {
@@ -165,9 +207,11 @@ fn occluders_with_a_one_pixel_gap_do_not_hide_what_shows_through() {
 fn occludee_exactly_at_the_occluder_depth_is_kept() {
     let mut b = SceneBuilder::new("coplanar");
     let m = b.add_mesh(cube());
-    b.add_object("wall", m, Mat4::from_scale(Vec3::new(8.0, 8.0, 0.0001))).unwrap();
+    b.add_object("wall", m, Mat4::from_scale(Vec3::new(8.0, 8.0, 0.0001)))
+        .unwrap();
     // A thin plate in the same plane, drawn after the wall.
-    b.add_object("plate", m, Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0001))).unwrap();
+    b.add_object("plate", m, Mat4::from_scale(Vec3::new(1.0, 1.0, 0.0001)))
+        .unwrap();
     let scene = b.build().unwrap();
     let camera = Camera::new(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 120, 90);
     let mut culler = HomCuller::new(&scene, permissive());
@@ -179,7 +223,11 @@ fn occludee_exactly_at_the_occluder_depth_is_kept() {
 fn boxes_crossing_the_near_plane_and_camera_inside_a_box_are_kept() {
     let scene = wall_scene(0.0);
     // Eye inside the left wall's box, and touching the near plane of the right one.
-    for eye in [Vec3::new(-2.5, 0.0, 0.05), Vec3::new(2.5, 0.0, 0.15), Vec3::new(0.0, 0.0, 0.11)] {
+    for eye in [
+        Vec3::new(-2.5, 0.0, 0.05),
+        Vec3::new(2.5, 0.0, 0.15),
+        Vec3::new(0.0, 0.0, 0.11),
+    ] {
         let camera = Camera::new(eye, eye - Vec3::Z, Vec3::Y, 1.2, 0.1, 100.0, 64, 48);
         let mut culler = HomCuller::new(&scene, permissive());
         assert_no_false_culls(&scene, &camera, &mut culler);
@@ -189,7 +237,16 @@ fn boxes_crossing_the_near_plane_and_camera_inside_a_box_are_kept() {
 #[test]
 fn odd_viewport_zero_occluders_and_zero_budget() {
     let scene = random_scene(42, 30, false);
-    let camera = Camera::new(Vec3::new(0.0, 1.0, 14.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 1000, 750);
+    let camera = Camera::new(
+        Vec3::new(0.0, 1.0, 14.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        1.0,
+        0.1,
+        100.0,
+        1000,
+        750,
+    );
     let mut culler = HomCuller::new(&scene, permissive());
     assert_no_false_culls(&scene, &camera, &mut culler);
     let mut zero = permissive();
@@ -197,14 +254,26 @@ fn odd_viewport_zero_occluders_and_zero_budget() {
     zero.selection.hole_filling = false;
     let mut culler = HomCuller::new(&scene, zero);
     let out = assert_no_false_culls(&scene, &camera, &mut culler);
-    assert!(out.occluders.is_empty() && out.occluded.is_empty(), "no occluders, nothing occluded");
+    assert!(
+        out.occluders.is_empty() && out.occluded.is_empty(),
+        "no occluders, nothing occluded"
+    );
 }
 
 #[test]
 fn nan_camera_is_an_error_not_a_cull() {
     let scene = random_scene(7, 10, false);
     let mut culler = HomCuller::new(&scene, permissive());
-    let camera = Camera::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 64, 64);
+    let camera = Camera::new(
+        Vec3::new(f32::NAN, 0.0, 0.0),
+        Vec3::ZERO,
+        Vec3::Y,
+        1.0,
+        0.1,
+        100.0,
+        64,
+        64,
+    );
     let mut out = CullOutput::default();
     assert!(culler.cull(&scene, &camera, &mut out).is_err());
 }
@@ -212,9 +281,24 @@ fn nan_camera_is_an_error_not_a_cull() {
 #[test]
 fn approximate_mode_culls_at_least_as_much() {
     let scene = wall_scene(0.03);
-    let camera = Camera::new(Vec3::new(0.003, 0.0, 10.0), Vec3::new(0.003, 0.0, 0.0), Vec3::Y, 0.7, 0.1, 100.0, 400, 300);
+    let camera = Camera::new(
+        Vec3::new(0.003, 0.0, 10.0),
+        Vec3::new(0.003, 0.0, 0.0),
+        Vec3::Y,
+        0.7,
+        0.1,
+        100.0,
+        400,
+        300,
+    );
     let mut exact = HomCuller::new(&scene, walls_only());
-    let mut approx = HomCuller::new(&scene, HomConfig { opacity: Opacity::NegligibleHole(4), ..walls_only() });
+    let mut approx = HomCuller::new(
+        &scene,
+        HomConfig {
+            opacity: Opacity::NegligibleHole(4),
+            ..walls_only()
+        },
+    );
     let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
     exact.cull(&scene, &camera, &mut a).unwrap();
     approx.cull(&scene, &camera, &mut b).unwrap();
@@ -236,5 +320,8 @@ fn random_scenes_are_really_culled() {
         occluded += out.occluded.len();
         total += scene.objects().len();
     }
-    assert!(occluded * 20 > total, "only {occluded} of {total} objects occlusion-culled");
+    assert!(
+        occluded * 20 > total,
+        "only {occluded} of {total} objects occlusion-culled"
+    );
 }

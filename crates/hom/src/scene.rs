@@ -97,11 +97,7 @@ pub struct Mesh {
 
 impl Mesh {
     /// A validated mesh: every coordinate finite, every index in range, at least one triangle.
-    pub fn new(
-        name: impl Into<String>,
-        positions: Vec<Vec3>,
-        triangles: Vec<[u32; 3]>,
-    ) -> Result<Mesh, SceneError> {
+    pub fn new(name: impl Into<String>, positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Mesh, SceneError> {
         let name = name.into();
         if let Some((vertex, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
             return Err(SceneError::NonFiniteVertex {
@@ -184,10 +180,7 @@ pub struct Motion {
 
 impl Motion {
     fn is_finite(&self) -> bool {
-        self.velocity.is_finite()
-            && self.region.is_finite()
-            && self.spin_axis.is_finite()
-            && self.spin_rate.is_finite()
+        self.velocity.is_finite() && self.region.is_finite() && self.spin_axis.is_finite() && self.spin_rate.is_finite()
     }
 
     /// The world transform at time `t` seconds for an object whose pose at `t = 0` is `base`.
@@ -292,12 +285,7 @@ impl SceneBuilder {
     }
 
     /// Adds a static object and returns its id.
-    pub fn add_object(
-        &mut self,
-        name: impl Into<String>,
-        mesh: MeshId,
-        transform: Mat4,
-    ) -> Result<u32, SceneError> {
+    pub fn add_object(&mut self, name: impl Into<String>, mesh: MeshId, transform: Mat4) -> Result<u32, SceneError> {
         self.push(name.into(), mesh, transform, None)
     }
 
@@ -312,13 +300,7 @@ impl SceneBuilder {
         self.push(name.into(), mesh, transform, Some(motion))
     }
 
-    fn push(
-        &mut self,
-        name: String,
-        mesh: MeshId,
-        transform: Mat4,
-        motion: Option<Motion>,
-    ) -> Result<u32, SceneError> {
+    fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, motion: Option<Motion>) -> Result<u32, SceneError> {
         let Some(m) = self.meshes.get(mesh as usize) else {
             return Err(SceneError::UnknownMesh {
                 object: name,
@@ -456,7 +438,10 @@ mod tests {
         assert!(matches!(nan, Err(SceneError::NonFiniteVertex { vertex: 0, .. })));
         let oob = Mesh::new("m", vec![Vec3::ZERO], vec![[0, 0, 1]]);
         assert!(matches!(oob, Err(SceneError::IndexOutOfRange { index: 1, .. })));
-        assert!(matches!(Mesh::new("m", vec![], vec![]), Err(SceneError::EmptyMesh { .. })));
+        assert!(matches!(
+            Mesh::new("m", vec![], vec![]),
+            Err(SceneError::EmptyMesh { .. })
+        ));
     }
 
     #[test]
@@ -476,7 +461,8 @@ mod tests {
             spin_rate: 1.3,
         };
         b.add_dynamic_object("q", m, Mat4::IDENTITY, motion).unwrap();
-        b.add_object("still", m, Mat4::from_translation(Vec3::X * 10.0)).unwrap();
+        b.add_object("still", m, Mat4::from_translation(Vec3::X * 10.0))
+            .unwrap();
         let mut s = b.build().unwrap();
         for i in 0..200 {
             s.set_time(i as f32 * 0.1);

@@ -40,7 +40,7 @@ impl FrustumCuller {
 }
 
 /// Refits a BVH to the current boxes of a scene's objects when anything moves.
-pub(crate) fn refit_if_dynamic(scene: &Scene, bvh: &mut Bvh, boxes: &mut Vec<Aabb>) -> Result<(), CullError> {
+pub(crate) fn refit_if_dynamic(scene: &Scene, bvh: &mut Bvh, boxes: &mut [Aabb]) -> Result<(), CullError> {
     if boxes.len() != scene.objects().len() {
         return Err(CullError::SceneMismatch {
             expected: boxes.len(),

@@ -293,7 +293,11 @@ impl Culler for HomCuller {
         let (w, h) = (camera.width, camera.height);
 
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
-        let hole = if self.selector.wants_hole() { self.worst_hole() } else { None };
+        let hole = if self.selector.wants_hole() {
+            self.worst_hole()
+        } else {
+            None
+        };
         let mut occluders = std::mem::take(&mut out.occluders);
         let sel = out.time("selection", || {
             self.selector
@@ -325,7 +329,9 @@ impl Culler for HomCuller {
 
         // 3. The pyramid.
         let pyramid = pyramid.as_mut().expect("ensured");
-        out.time("pyramid", || pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row()));
+        out.time("pyramid", || {
+            pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row())
+        });
 
         // 4. Depth of the occluders from their boxes (the rasterized buffer is already filled).
         if !rasterized_depth {
@@ -336,7 +342,11 @@ impl Culler for HomCuller {
                 }
                 for &id in &occluders {
                     let o = scene.object(id);
-                    let corners = if o.is_dynamic() { o.obb.corners() } else { o.aabb.corners() };
+                    let corners = if o.is_dynamic() {
+                        o.obb.corners()
+                    } else {
+                        o.aabb.corners()
+                    };
                     if let Some(r) = project_box_clipped(&corners, &view_proj, w, h) {
                         match depth {
                             Depth::Buffer(b) => b.insert_occluder(&r),
@@ -369,7 +379,11 @@ impl Culler for HomCuller {
             while let Some((index, inside)) = stack.pop() {
                 let node = &bvh.nodes()[index as usize];
                 box_tests += 1;
-                let containment = if inside { Containment::Inside } else { frustum.test_aabb(&node.bounds) };
+                let containment = if inside {
+                    Containment::Inside
+                } else {
+                    frustum.test_aabb(&node.bounds)
+                };
                 if containment == Containment::Outside {
                     continue;
                 }
@@ -430,7 +444,11 @@ impl Culler for HomCuller {
         }
         let tris = |ids: &[u32]| ids.iter().map(|&i| scene.object(i).triangles as u64).sum::<u64>();
         let (tv, to) = (tris(&visible), tris(&occluded));
-        self.culled_pct = if tv + to > 0 { 100.0 * to as f32 / (tv + to) as f32 } else { 0.0 };
+        self.culled_pct = if tv + to > 0 {
+            100.0 * to as f32 / (tv + to) as f32
+        } else {
+            0.0
+        };
         out.visible = visible;
         out.occluded = occluded;
         out.occluders = occluders;

@@ -60,8 +60,7 @@ impl CullOutput {
     pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
         let start = Instant::now();
         let r = f();
-        self.stages
-            .push((name, start.elapsed().as_secs_f64() * 1e3));
+        self.stages.push((name, start.elapsed().as_secs_f64() * 1e3));
         r
     }
 

@@ -145,7 +145,11 @@ impl SingleZPlane {
     /// Records an occluder's rectangle (its farthest depth).
     pub fn insert_occluder(&mut self, rect: &ScreenRect) {
         if !rect.is_empty() {
-            self.depth = if self.depth == f32::INFINITY { rect.z_far } else { self.depth.max(rect.z_far) };
+            self.depth = if self.depth == f32::INFINITY {
+                rect.z_far
+            } else {
+                self.depth.max(rect.z_far)
+            };
         }
     }
 
@@ -161,7 +165,14 @@ mod tests {
     use proptest::prelude::*;
 
     fn rect(x0: u32, y0: u32, x1: u32, y1: u32, z_near: f32, z_far: f32) -> ScreenRect {
-        ScreenRect { x0, y0, x1, y1, z_near, z_far }
+        ScreenRect {
+            x0,
+            y0,
+            x1,
+            y1,
+            z_near,
+            z_far,
+        }
     }
 
     proptest! {
@@ -208,7 +219,10 @@ mod tests {
         assert!(!deb.is_behind(&rect(10, 10, 20, 20, 10.0, 12.0)));
         assert!(deb.is_behind(&rect(10, 10, 20, 20, 10.5, 12.0)));
         let mut z = SingleZPlane::default();
-        assert!(!z.is_behind(&rect(10, 10, 20, 20, 1e9, 1e9)), "no occluders: nothing is behind");
+        assert!(
+            !z.is_behind(&rect(10, 10, 20, 20, 1e9, 1e9)),
+            "no occluders: nothing is behind"
+        );
         z.insert_occluder(&rect(0, 0, 1, 1, 5.0, 10.0));
         assert!(!z.is_behind(&rect(10, 10, 20, 20, 10.0, 12.0)));
         assert!(z.is_behind(&rect(10, 10, 20, 20, 10.5, 12.0)));

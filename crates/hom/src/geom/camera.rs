@@ -74,16 +74,7 @@ pub struct Camera {
 impl Camera {
     /// A camera from its parts (not validated: see [`Camera::validate`]).
     #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        eye: Vec3,
-        target: Vec3,
-        up: Vec3,
-        fov_y: f32,
-        near: f32,
-        far: f32,
-        width: u32,
-        height: u32,
-    ) -> Camera {
+    pub fn new(eye: Vec3, target: Vec3, up: Vec3, fov_y: f32, near: f32, far: f32, width: u32, height: u32) -> Camera {
         Camera {
             eye,
             target,
@@ -125,11 +116,7 @@ impl Camera {
                 far: self.far,
             });
         }
-        if self.width == 0
-            || self.height == 0
-            || self.width > MAX_VIEWPORT_SIDE
-            || self.height > MAX_VIEWPORT_SIDE
-        {
+        if self.width == 0 || self.height == 0 || self.width > MAX_VIEWPORT_SIDE || self.height > MAX_VIEWPORT_SIDE {
             return Err(CameraError::Viewport {
                 width: self.width,
                 height: self.height,
@@ -179,11 +166,21 @@ mod tests {
     fn validate_names_the_problem() {
         let ok = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 10.0, 64, 64);
         assert!(ok.validate().is_ok());
-        let nan = Camera { eye: Vec3::new(f32::NAN, 0.0, 0.0), ..ok };
-        assert!(matches!(nan.validate(), Err(CameraError::NotFinite { field: "eye", .. })));
+        let nan = Camera {
+            eye: Vec3::new(f32::NAN, 0.0, 0.0),
+            ..ok
+        };
+        assert!(matches!(
+            nan.validate(),
+            Err(CameraError::NotFinite { field: "eye", .. })
+        ));
         let parallel = Camera { up: -Vec3::Z, ..ok };
         assert!(matches!(parallel.validate(), Err(CameraError::Degenerate { .. })));
-        let clip = Camera { near: 10.0, far: 1.0, ..ok };
+        let clip = Camera {
+            near: 10.0,
+            far: 1.0,
+            ..ok
+        };
         assert!(matches!(clip.validate(), Err(CameraError::ClipRange { .. })));
         let vp = Camera { width: 0, ..ok };
         assert!(matches!(vp.validate(), Err(CameraError::Viewport { .. })));

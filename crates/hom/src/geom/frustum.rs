@@ -104,7 +104,10 @@ mod tests {
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, 10.0))), Containment::Outside);
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, 0.0))), Containment::Intersecting);
         assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -200.0))), Containment::Outside);
-        assert_eq!(f.test_aabb(&unit(Vec3::new(0.0, 0.0, -100.0))), Containment::Intersecting);
+        assert_eq!(
+            f.test_aabb(&unit(Vec3::new(0.0, 0.0, -100.0))),
+            Containment::Intersecting
+        );
         // The whole NDC square gives the same frustum; its right half excludes the left.
         let vp = cam.view_proj();
         let whole = Frustum::from_view_proj_ndc_rect(&vp, (-1.0, 1.0), (-1.0, 1.0)).unwrap();
@@ -112,7 +115,10 @@ mod tests {
             assert!((a.normal - b.normal).length() < 1e-5 && (a.d - b.d).abs() < 1e-4);
         }
         let right = Frustum::from_view_proj_ndc_rect(&vp, (0.0, 1.0), (-1.0, 1.0)).unwrap();
-        assert_eq!(right.test_aabb(&unit(Vec3::new(-8.0, 0.0, -10.0))), Containment::Outside);
+        assert_eq!(
+            right.test_aabb(&unit(Vec3::new(-8.0, 0.0, -10.0))),
+            Containment::Outside
+        );
         assert_ne!(right.test_aabb(&unit(Vec3::new(3.0, 0.0, -10.0))), Containment::Outside);
     }
 }

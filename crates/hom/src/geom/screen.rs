@@ -133,7 +133,7 @@ fn rect_of_clip_points(points: impl Iterator<Item = Vec4>, width: u32, height: u
     let (mut sx0, mut sy0, mut sx1, mut sy1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
     let (mut z0, mut z1) = (f32::MAX, f32::MIN);
     for c in points {
-        if !(c.w > 0.0) {
+        if c.w.is_nan() || c.w <= 0.0 {
             return None;
         }
         let inv = 1.0 / c.w;
@@ -169,7 +169,16 @@ mod tests {
     use crate::geom::{Aabb, Camera};
 
     fn cam() -> Camera {
-        Camera::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 90f32.to_radians(), 0.5, 100.0, 100, 50)
+        Camera::new(
+            Vec3::new(0.0, 0.0, 5.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            90f32.to_radians(),
+            0.5,
+            100.0,
+            100,
+            50,
+        )
     }
 
     #[test]
@@ -177,7 +186,10 @@ mod tests {
         let c = cam();
         let vp = c.view_proj();
         let around_eye = Aabb::new(Vec3::new(-1.0, -1.0, 4.0), Vec3::new(1.0, 1.0, 6.0));
-        assert_eq!(project_points(&around_eye.corners(), &vp, 100, 50), Footprint::Straddles);
+        assert_eq!(
+            project_points(&around_eye.corners(), &vp, 100, 50),
+            Footprint::Straddles
+        );
         let behind = Aabb::new(Vec3::new(-1.0, -1.0, 8.0), Vec3::new(1.0, 1.0, 9.0));
         assert_eq!(project_points(&behind.corners(), &vp, 100, 50), Footprint::Straddles);
         let nan = [Vec3::new(f32::NAN, 0.0, 0.0)];
@@ -211,7 +223,10 @@ mod tests {
             for px in 0..100u32 {
                 let centre = glam::Vec2::new(px as f32 + 0.5, py as f32 + 0.5);
                 if centre.cmpge(lo).all() && centre.cmple(hi).all() {
-                    assert!(px >= r.x0 && px < r.x1 && py >= r.y0 && py < r.y1, "pixel {px},{py} outside {r:?}");
+                    assert!(
+                        px >= r.x0 && px < r.x1 && py >= r.y0 && py < r.y1,
+                        "pixel {px},{py} outside {r:?}"
+                    );
                 }
             }
         }
@@ -229,7 +244,11 @@ mod tests {
         let r = project_box_clipped(&b.corners(), &vp, 100, 50).expect("part is in front");
         assert!(r.z_near.abs() < 1e-6, "nearest is the near plane: {}", r.z_near);
         let far = vp.project_point3(Vec3::new(1.0, 0.0, -3.0)).z;
-        assert!((r.z_far - far).abs() < 1e-6, "farthest is the corner at view depth 8: {} vs {far}", r.z_far);
+        assert!(
+            (r.z_far - far).abs() < 1e-6,
+            "farthest is the corner at view depth 8: {} vs {far}",
+            r.z_far
+        );
         // Points of the box in front of the near plane project inside the rect.
         for i in 0..=10 {
             for k in 0..=40 {

@@ -224,9 +224,21 @@ mod tests {
         let mut cov = vec![vec![true; w as usize]; h as usize];
         cov[30][30] = false;
         let p = pyramid_from(&cov, w, h, 4);
-        let rect = ScreenRect { x0: 20, y0: 20, x1: 40, y1: 40, z_near: 1.0, z_far: 1.0 };
+        let rect = ScreenRect {
+            x0: 20,
+            y0: 20,
+            x1: 40,
+            y1: 40,
+            z_near: 1.0,
+            z_far: 1.0,
+        };
         let mut s = OverlapStats::default();
         assert!(!rect_covered(&p, &Thresholds::conservative(&p, 0.0), &rect, &mut s));
-        assert!(rect_covered(&p, &Thresholds::negligible_hole(&p, 1, 0.0), &rect, &mut s));
+        assert!(rect_covered(
+            &p,
+            &Thresholds::negligible_hole(&p, 1, 0.0),
+            &rect,
+            &mut s
+        ));
     }
 }

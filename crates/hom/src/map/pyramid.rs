@@ -116,7 +116,9 @@ impl Pyramid {
         // Samples past the viewport's right and bottom edges count as covered.
         let base = &mut self.levels[0];
         let (last_x, last_y) = (base.width - 1, base.height - 1);
-        let edge = (0..base.height).map(|my| (last_x, my)).chain((0..last_x).map(|mx| (mx, last_y)));
+        let edge = (0..base.height)
+            .map(|my| (last_x, my))
+            .chain((0..last_x).map(|mx| (mx, last_y)));
         for (mx, my) in edge {
             let inside_w = b.min(width - mx * b);
             let inside_h = b.min(height - my * b);
@@ -215,7 +217,11 @@ fn count_bits(row: &[u64], x0: u32, n: u32) -> u32 {
         let word = row[(x / 64) as usize];
         let lo = x % 64;
         let take = (64 - lo).min(end - x);
-        let mask = if take == 64 { u64::MAX } else { ((1u64 << take) - 1) << lo };
+        let mask = if take == 64 {
+            u64::MAX
+        } else {
+            ((1u64 << take) - 1) << lo
+        };
         count += (word & mask).count_ones();
         x += take;
     }
@@ -237,9 +243,19 @@ fn reduce(lower: &Level, upper: &mut Level) {
         }
     }
     // Ragged right column and bottom row.
-    let child = |x: u32, y: u32| if x < lw && y < lh { lower.counts[(y * lw + x) as usize] } else { full };
+    let child = |x: u32, y: u32| {
+        if x < lw && y < lh {
+            lower.counts[(y * lw + x) as usize]
+        } else {
+            full
+        }
+    };
     for y in 0..upper.height {
-        let xs = if y < inner_h { inner_w..upper.width } else { 0..upper.width };
+        let xs = if y < inner_h {
+            inner_w..upper.width
+        } else {
+            0..upper.width
+        };
         for x in xs {
             upper.counts[(y * upper.width + x) as usize] =
                 child(2 * x, 2 * y) + child(2 * x + 1, 2 * y) + child(2 * x, 2 * y + 1) + child(2 * x + 1, 2 * y + 1);

@@ -184,7 +184,11 @@ impl OccluderSelector {
                     .fold(f32::MIN, f32::max),
             };
             // Temporal coherence: last frame's occluders win near-ties.
-            let key = if self.last_selected[occ.object as usize] { key * 0.98 } else { key };
+            let key = if self.last_selected[occ.object as usize] {
+                key * 0.98
+            } else {
+                key
+            };
             self.candidates.push((key, occ.object, occ.triangles));
         }
         stats.candidates = self.candidates.len() as u32;

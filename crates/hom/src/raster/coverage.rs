@@ -129,7 +129,11 @@ impl OccluderRasterizer {
                 let o = scene.object(id);
                 let mesh = stand_in.unwrap_or_else(|| scene.mesh_of(o));
                 let mvp = view_proj * o.transform;
-                let verts: Vec<Vertex> = mesh.positions().iter().map(|p| Vertex::new(mvp * p.extend(1.0), &vp)).collect();
+                let verts: Vec<Vertex> = mesh
+                    .positions()
+                    .iter()
+                    .map(|p| Vertex::new(mvp * p.extend(1.0), &vp))
+                    .collect();
                 let mut out = Vec::with_capacity(mesh.triangle_count());
                 for t in mesh.triangles() {
                     let [a, b, c] = t.map(|i| &verts[i as usize]);

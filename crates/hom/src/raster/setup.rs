@@ -79,7 +79,7 @@ impl Tri {
     }
 
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
-        pub fn covers(&self, px: u32, py: u32) -> bool {
+    pub fn covers(&self, px: u32, py: u32) -> bool {
         let sx = i64::from(px) * ONE + HALF;
         let sy = i64::from(py) * ONE + HALF;
         (0..3).all(|i| self.a[i] * sx + self.b[i] * sy + self.c[i] >= 0)

@@ -108,11 +108,7 @@ impl Record {
         let c = b.center();
         Record {
             bounds: if b.is_empty() { Aabb::EMPTY } else { *b },
-            centroid: if !b.is_empty() && c.is_finite() {
-                c
-            } else {
-                Vec3::NAN
-            },
+            centroid: if !b.is_empty() && c.is_finite() { c } else { Vec3::NAN },
             id: id as u32,
         }
     }
@@ -178,13 +174,7 @@ impl Binner {
     /// Partitions one node's records for a split and returns the size of the
     /// left part, or `None` to make the node a leaf. `bounds` and `cbounds` are
     /// the node's bounds and the bounds of its finite centroids.
-    fn split(
-        &mut self,
-        recs: &mut [Record],
-        bounds: &Aabb,
-        cbounds: &Aabb,
-        depth: usize,
-    ) -> Option<usize> {
+    fn split(&mut self, recs: &mut [Record], bounds: &Aabb, cbounds: &Aabb, depth: usize) -> Option<usize> {
         let n = recs.len();
         if n <= 1 || (n <= self.max_leaf && depth >= COUNT_SPLIT_DEPTH) {
             return None;
@@ -202,8 +192,7 @@ impl Binner {
         // One pass bins all three axes: the records are read once, not three times.
         for r in recs.iter() {
             for axis in (0..3).filter(|&a| active[a]) {
-                let b =
-                    axis * bins + bin_of(r.centroid, axis, cbounds.min[axis], scale[axis], bins);
+                let b = axis * bins + bin_of(r.centroid, axis, cbounds.min[axis], scale[axis], bins);
                 self.bin_counts[b] += 1;
                 self.bin_bounds[b] = self.bin_bounds[b].union(r.bounds);
             }
@@ -257,9 +246,7 @@ impl Binner {
         match best {
             Some(b) => {
                 let (lo, scale) = (cbounds.min[b.axis], scale[b.axis]);
-                let mid = partition(recs, |r| {
-                    bin_of(r.centroid, b.axis, lo, scale, bins) < b.plane
-                });
+                let mid = partition(recs, |r| bin_of(r.centroid, b.axis, lo, scale, bins) < b.plane);
                 debug_assert!(mid > 0 && mid < n, "SAH split left a side empty");
                 Some(mid)
             }
@@ -315,11 +302,7 @@ impl Bvh {
             bin_counts: vec![0; 3 * bins],
             right: vec![(0.0, 0); bins],
         };
-        let mut recs: Vec<Record> = boxes
-            .iter()
-            .enumerate()
-            .map(|(i, b)| Record::new(i, b))
-            .collect();
+        let mut recs: Vec<Record> = boxes.iter().enumerate().map(|(i, b)| Record::new(i, b)).collect();
         let placeholder = BvhNode {
             bounds: Aabb::EMPTY,
             first: 0,
@@ -393,11 +376,7 @@ impl Bvh {
     /// # Panics
     /// If `boxes` does not have one box per item.
     pub fn refit(&mut self, boxes: &[Aabb]) {
-        assert_eq!(
-            boxes.len(),
-            self.items.len(),
-            "refit needs one box per BVH item"
-        );
+        assert_eq!(boxes.len(), self.items.len(), "refit needs one box per BVH item");
         // Children come after their parents, so a reverse pass sees children first.
         for i in (0..self.nodes.len()).rev() {
             let node = self.nodes[i];
@@ -490,9 +469,11 @@ impl Bvh {
                 Containment::Intersecting if node.is_leaf() => {
                     let ids = self.leaf_items(node);
                     tests += ids.len() as u64;
-                    out.extend(ids.iter().copied().filter(|&id| {
-                        frustum.test_aabb(&boxes[id as usize]) != Containment::Outside
-                    }));
+                    out.extend(
+                        ids.iter()
+                            .copied()
+                            .filter(|&id| frustum.test_aabb(&boxes[id as usize]) != Containment::Outside),
+                    );
                 }
                 Containment::Intersecting => {
                     // At most one pending sibling per level, so depth bounds the stack.
@@ -554,11 +535,7 @@ impl Bvh {
                 continue;
             }
             let (a, b) = (node.first, node.first + 1);
-            let (near, far) = if nearer(
-                eye,
-                &self.nodes[b as usize].bounds,
-                &self.nodes[a as usize].bounds,
-            ) {
+            let (near, far) = if nearer(eye, &self.nodes[b as usize].bounds, &self.nodes[a as usize].bounds) {
                 (b, a)
             } else {
                 (a, b)
@@ -683,10 +660,7 @@ impl Bvh {
             ranges[i] = if node.is_leaf() {
                 node.first as usize..(node.first + node.count) as usize
             } else {
-                let (l, r) = (
-                    &ranges[node.first as usize],
-                    &ranges[node.first as usize + 1],
-                );
+                let (l, r) = (&ranges[node.first as usize], &ranges[node.first as usize + 1]);
                 assert_eq!(
                     l.end, r.start,
                     "inner node {i}: items of its children are not contiguous ({l:?}, {r:?})"
@@ -734,10 +708,7 @@ mod tests {
     }
 
     fn arb_config() -> impl Strategy<Value = BvhConfig> {
-        (0usize..9, 0usize..40).prop_map(|(max_leaf_size, bins)| BvhConfig {
-            max_leaf_size,
-            bins,
-        })
+        (0usize..9, 0usize..40).prop_map(|(max_leaf_size, bins)| BvhConfig { max_leaf_size, bins })
     }
 
     /// Valid cameras anywhere from inside the scene to far enough away to see all of it.
@@ -753,13 +724,9 @@ mod tests {
             1u32..300,
             1u32..300,
         )
-            .prop_filter_map(
-                "invalid camera",
-                |(eye, target, up, fov, near, depth, w, h)| {
-                    Camera::new(eye, target, up, fov.to_radians(), near, near + depth, w, h)
-                        .frustum()
-                },
-            )
+            .prop_filter_map("invalid camera", |(eye, target, up, fov, near, depth, w, h)| {
+                Camera::new(eye, target, up, fov.to_radians(), near, near + depth, w, h).frustum()
+            })
     }
 
     fn linear_scan(boxes: &[Aabb], f: &Frustum) -> Vec<u32> {
@@ -788,10 +755,7 @@ mod tests {
         });
         assert_eq!(order.len(), bvh.nodes().len(), "every node visited once");
         seen_items.sort_unstable();
-        assert_eq!(
-            seen_items,
-            (0..bvh.items().len() as u32).collect::<Vec<_>>()
-        );
+        assert_eq!(seen_items, (0..bvh.items().len() as u32).collect::<Vec<_>>());
         let mut pos = vec![usize::MAX; bvh.nodes().len()];
         for (k, &i) in order.iter().enumerate() {
             pos[i as usize] = k;
@@ -811,15 +775,10 @@ mod tests {
             let (a, b) = (n.first as usize, n.first as usize + 1);
             let (ba, bb) = (bvh.nodes()[a].bounds, bvh.nodes()[b].bounds);
             let (da, db) = (ba.distance_squared(eye), bb.distance_squared(eye));
-            let b_first = db < da
-                || (db == da
-                    && (bb.center() - eye).length_squared() < (ba.center() - eye).length_squared());
+            let b_first =
+                db < da || (db == da && (bb.center() - eye).length_squared() < (ba.center() - eye).length_squared());
             let (near, far) = if b_first { (b, a) } else { (a, b) };
-            assert_eq!(
-                pos[near],
-                pos[i] + 1,
-                "node {i}: nearer child {near} not visited next"
-            );
+            assert_eq!(pos[near], pos[i] + 1, "node {i}: nearer child {near} not visited next");
             assert_eq!(
                 pos[far],
                 pos[near] + size[near],
@@ -975,18 +934,10 @@ mod tests {
         let bvh = Bvh::build(&boxes, &BvhConfig::default());
         bvh.assert_well_formed(&boxes);
         let bound = 2.0 * (boxes.len() as f32).log2() + 4.0;
-        assert!(
-            bvh.depth() as f32 <= bound,
-            "depth {} > {bound}",
-            bvh.depth()
-        );
+        assert!(bvh.depth() as f32 <= bound, "depth {} > {bound}", bvh.depth());
         // Separated unit boxes: SAH fills leaves rather than making a node per box.
         let leaves = bvh.nodes().iter().filter(|n| n.is_leaf()).count();
-        assert!(
-            leaves <= boxes.len() / 2,
-            "{leaves} leaves for {} boxes",
-            boxes.len()
-        );
+        assert!(leaves <= boxes.len() / 2, "{leaves} leaves for {} boxes", boxes.len());
     }
 
     #[test]
@@ -999,18 +950,9 @@ mod tests {
         type Corrupt = Box<dyn Fn(&mut Bvh)>;
         let corruptions: Vec<(&str, Corrupt)> = vec![
             ("duplicate item", Box::new(|b| b.items[1] = b.items[0])),
-            (
-                "shrunk leaf",
-                Box::new(move |b| b.nodes[leaf].bounds.max -= 0.25),
-            ),
-            (
-                "shrunk inner",
-                Box::new(move |b| b.nodes[inner].bounds.max -= 0.25),
-            ),
-            (
-                "child before parent",
-                Box::new(move |b| b.nodes[inner + 1].first = 0),
-            ),
+            ("shrunk leaf", Box::new(move |b| b.nodes[leaf].bounds.max -= 0.25)),
+            ("shrunk inner", Box::new(move |b| b.nodes[inner].bounds.max -= 0.25)),
+            ("child before parent", Box::new(move |b| b.nodes[inner + 1].first = 0)),
             ("leaf too big", Box::new(|b| b.max_leaf_size = 1)),
             ("wrong depth", Box::new(|b| b.depth += 1)),
         ];
@@ -1020,10 +962,7 @@ mod tests {
             let caught = std::panic::catch_unwind(|| bad.assert_well_formed(&boxes));
             assert!(caught.is_err(), "{what} not detected");
         }
-        let moved: Vec<Aabb> = boxes
-            .iter()
-            .map(|b| Aabb::new(b.min + 1.0, b.max + 1.0))
-            .collect();
+        let moved: Vec<Aabb> = boxes.iter().map(|b| Aabb::new(b.min + 1.0, b.max + 1.0)).collect();
         assert!(
             std::panic::catch_unwind(|| good.assert_well_formed(&moved)).is_err(),
             "stale bounds not detected"
@@ -1110,18 +1049,9 @@ mod tests {
             bvh.depth()
         );
         check_front_to_back(&bvh, Vec3::ZERO);
-        let f = Camera::new(
-            Vec3::new(0.0, 0.0, 10.0),
-            Vec3::ZERO,
-            Vec3::Y,
-            1.0,
-            0.1,
-            1e6,
-            64,
-            64,
-        )
-        .frustum()
-        .unwrap();
+        let f = Camera::new(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 1e6, 64, 64)
+            .frustum()
+            .unwrap();
         assert_eq!(cull_sorted(&bvh, &boxes, &f).0, linear_scan(&boxes, &f));
     }
 
