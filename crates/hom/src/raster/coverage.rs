@@ -82,6 +82,25 @@ pub(crate) fn set_span(row: &mut [u64], lo: u32, hi: u32) {
     }
 }
 
+/// Sets bits `lo..hi` of a row and calls `fresh(base, bits)` for each word
+/// where some were not set before (`bits` bit `i` is sample `base + i`).
+#[inline]
+fn set_span_reporting(row: &mut [u64], lo: u32, hi: u32, mut fresh: impl FnMut(u32, u64)) {
+    let mut x = lo;
+    while x < hi {
+        let bit = x % 64;
+        let n = (64 - bit).min(hi - x);
+        let mask = if n == 64 { u64::MAX } else { ((1u64 << n) - 1) << bit };
+        let word = &mut row[(x / 64) as usize];
+        let new = mask & !*word;
+        *word |= mask;
+        if new != 0 {
+            fresh(x - bit, new);
+        }
+        x += n;
+    }
+}
+
 /// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 16;
 
@@ -112,7 +131,12 @@ impl OccluderRasterizer {
         coverage.reset(camera.width, camera.height);
         let vp = Viewport::new(camera.width, camera.height);
         let view_proj = camera.view_proj();
-        // Triangle setup, in parallel over occluders, concatenated in id order.
+        // Triangle setup, in parallel over occluders, concatenated nearest first.
+        let mut order = ids.to_vec();
+        let eye = camera.eye;
+        let near = |id: &u32| scene.object(*id).aabb.distance_squared(eye);
+        order.sort_by(|a, b| near(a).total_cmp(&near(b)).then(a.cmp(b)));
+        let ids = &order[..];
         let stand_ins: Vec<Option<&crate::scene::Mesh>> = ids
             .iter()
             .map(|&id| {
@@ -188,27 +212,33 @@ impl OccluderRasterizer {
                 for &i in bin {
                     let t = &tris[i as usize];
                     let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                    // Covered columns and rows of this triangle within the band.
-                    let (mut ulo, mut uhi, mut first, mut last) = (u32::MAX, 0, u32::MAX, 0);
                     for py in ta..tb {
                         let Some((lo, hi)) = t.row_span(py) else { continue };
-                        set_span(&mut words[(py - y0) as usize * wpr..][..wpr], lo, hi);
-                        (ulo, uhi) = (ulo.min(lo), uhi.max(hi));
-                        (first, last) = (first.min(py), py);
-                    }
-                    if gather && ulo < uhi {
-                        // The renderer's depth formula is monotone in the row and in
-                        // the column, so over the covered rows × a cell's covered
-                        // columns its farthest value is at one of the four corners.
-                        let (z0, z1) = (t.depth_row(first), t.depth_row(last));
-                        let z = |zr: f32, x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
-                        for cell in ulo / cell_w..=(uhi - 1) / cell_w {
-                            let a = (cell * cell_w).max(ulo);
-                            let b = ((cell + 1) * cell_w).min(uhi) - 1;
-                            let far = z(z0, a).max(z(z0, b)).max(z(z1, a)).max(z(z1, b));
-                            let c = &mut cells[cell as usize];
-                            *c = c.max(far);
+                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                        if !gather {
+                            set_span(row, lo, hi);
+                            continue;
                         }
+                        // Only samples this triangle covers first set depth: occluders
+                        // come nearest first, so that is mostly the visible occluder, and
+                        // in any order the first cover's depth bounds the nearest from above.
+                        // The renderer's depth formula is monotone along the row, so the
+                        // farthest of a cell's new samples is its first or last one.
+                        let zr = t.depth_row(py);
+                        let z = |x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
+                        set_span_reporting(row, lo, hi, |base, fresh| {
+                            let mut m = fresh;
+                            while m != 0 {
+                                let first = base + m.trailing_zeros();
+                                let cell = first / cell_w;
+                                let upto = ((cell + 1) * cell_w).min(base + 64) - base;
+                                let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
+                                let last = base + 63 - in_cell.leading_zeros();
+                                let c = &mut cells[cell as usize];
+                                *c = c.max(z(first)).max(z(last));
+                                m &= !in_cell;
+                            }
+                        });
                     }
                 }
                 for c in cells.iter_mut() {
