@@ -114,8 +114,8 @@ struct HomArgs {
 }
 
 impl HomArgs {
-    fn config(&self) -> Result<HomConfig> {
-        let mut c = HomConfig::default();
+    fn config(&self, scene: &hom::scene::Scene) -> Result<HomConfig> {
+        let mut c = HomConfig::for_scene(scene);
         if let Some(b) = self.budget {
             c.selection.budget = b;
         }
@@ -267,7 +267,7 @@ fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
 }
 
 fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<Box<dyn hom::cull::Culler>> {
-    match cullers::make_with(name, scene, &hom.config()?) {
+    match cullers::make_with(name, scene, &hom.config(scene)?) {
         Some(c) => Ok(c),
         None => bail!("unknown culler '{name}'; available: {}", cullers::names()),
     }
@@ -382,7 +382,7 @@ fn walk(a: WalkArgs) -> Result<()> {
             frame_rate,
         )?;
         if let Some(p) = pyramid {
-            let hole = a.view.hom.config()?.selection.hole_opacity;
+            let hole = a.view.hom.config(&scene)?.selection.hole_opacity;
             pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
         }
         eprintln!("pictures: {}", dir.display());
@@ -564,7 +564,7 @@ fn write_false_colour(
     let camera = path.camera(frame);
     let mut cull = CullOutput::default();
     let pyramid = if culler_name == "hom" {
-        let mut culler = HomCuller::new(scene, hom.config()?);
+        let mut culler = HomCuller::new(scene, hom.config(scene)?);
         renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
         culler.pyramid().cloned()
     } else {

@@ -15,7 +15,7 @@ pub const BEST: &str = "hom";
 
 /// Builds the culler called `name` for `scene` with default settings; `None` for an unknown name.
 pub fn make(name: &str, scene: &Scene) -> Option<Box<dyn Culler>> {
-    make_with(name, scene, &HomConfig::default())
+    make_with(name, scene, &HomConfig::for_scene(scene))
 }
 
 /// Like [`make`], with the HOM culler's settings given.
