@@ -189,21 +189,20 @@ fn count_blocks_swar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, hei
                 }
             }
             let first = word * per_word;
+            // Lane k of `even` (and of `odd` for b = 4) is pixel 2k (2k + 1); for b = 8, pixel k.
+            let mut counts = [0u32; 16];
             for lane in 0..8 {
                 let e = ((even >> (8 * lane)) & 0xFF) as u32;
+                let o = ((odd >> (8 * lane)) & 0xFF) as u32;
                 if b == 4 {
-                    let o = ((odd >> (8 * lane)) & 0xFF) as u32;
-                    let px = first + 2 * lane;
-                    if px < bw {
-                        out[px] = e;
-                    }
-                    if px + 1 < bw {
-                        out[px + 1] = o;
-                    }
-                } else if first + lane < bw {
-                    out[first + lane] = e;
+                    counts[2 * lane] = e;
+                    counts[2 * lane + 1] = o;
+                } else {
+                    counts[lane] = e;
                 }
             }
+            let n = per_word.min(bw.saturating_sub(first));
+            out[first..first + n].copy_from_slice(&counts[..n]);
         }
     }
 }
