@@ -194,8 +194,7 @@ impl OccluderSelector {
         stats.candidates = self.candidates.len() as u32;
         self.candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
-        let mut chosen = vec![false; 0];
-        chosen.resize(objects.len(), false);
+        let mut chosen = vec![false; objects.len()];
         let mut spent: u64 = 0;
         let budget = self.budget as u64;
         let mut take = |id: u32, tris: u32, limit: u64, spent: &mut u64, out: &mut Vec<u32>| -> bool {
