@@ -3,6 +3,10 @@
 //! time: a bit-exactness and speed check for renderer changes.
 //!
 //! `cargo run --release -p hom-render --example frames -- [frames] [reps] [scene...]`
+//!
+//! Environment: `THREADS` (renderer threads, default all cores), `STATS`
+//! (print per-frame counters), `EMPTY` (draw nothing: the fixed per-frame cost).
+//! Timings are the per-frame minimum over `reps`, flat shading only.
 
 use hom::cull::{CullOutput, Culler, FrustumCuller};
 use hom_render::{Framebuffer, RenderOptions, Renderer, Shading};
@@ -18,7 +22,8 @@ fn main() {
     } else {
         vec!["city", "machine-room", "dynamic"]
     };
-    let renderer = Renderer::new(0).expect("renderer");
+    let threads = std::env::var("THREADS").ok().and_then(|t| t.parse().ok()).unwrap_or(0);
+    let renderer = Renderer::new(threads).expect("renderer");
     for name in names {
         let b = hom_scene::builtin(name).expect("scene");
         let (mut scene, path) = (b.scene, b.path);
@@ -37,6 +42,9 @@ fn main() {
                 scene.set_time(i as f32 / 30.0);
                 let camera = path.camera(i);
                 culler.cull(&scene, &camera, &mut out).expect("cull");
+                if std::env::var_os("EMPTY").is_some() {
+                    out.visible.clear();
+                }
                 let mut best = f64::INFINITY;
                 for _ in 0..reps {
                     let start = Instant::now();
@@ -49,6 +57,12 @@ fn main() {
                 }
                 let stats = renderer.render(&scene, &out.visible, &camera, &options, &mut fb);
                 (stats.triangles_rasterized, stats.fragments_written).hash(&mut hasher);
+                if std::env::var_os("STATS").is_some() && shading == Shading::Flat {
+                    println!(
+                        "frame {i}: {} tris, {} fragments",
+                        stats.triangles_rasterized, stats.fragments_written
+                    );
+                }
                 fb.color().hash(&mut hasher);
                 fb.depth().iter().map(|d| d.to_bits()).for_each(|d| d.hash(&mut hasher));
                 fb.items().hash(&mut hasher);

@@ -34,16 +34,36 @@ pub(crate) fn raster_tri<const COLOUR: bool>(
     let mut written = 0u64;
     let mut row = (ya - band_y0) as usize * width + x0;
     for py in ya..yb {
-        let span = if n <= SCAN_MAX {
-            scan_span(e, step_x, n)
-        } else {
-            divide_span(e, step_x, n)
-        };
-        if let Some((lo, hi)) = span {
+        let zr = t.depth_row(py);
+        if n <= SCAN_MAX {
+            // Coverage and depth in one pass over the bounding-box row.
+            let mut f = e;
+            let mut seen = false;
+            for k in 0..n {
+                if (f[0] | f[1] | f[2]) >= 0 {
+                    seen = true;
+                    let idx = row + k as usize;
+                    let z = (zr + t.dzdx * k as f32).max(0.0);
+                    if z < depth[idx] {
+                        depth[idx] = z;
+                        item[idx] = t.item;
+                        if COLOUR {
+                            colour[idx] = t.colour;
+                        }
+                        written += 1;
+                    }
+                } else if seen {
+                    break;
+                }
+                f[0] += step_x[0];
+                f[1] += step_x[1];
+                f[2] += step_x[2];
+            }
+        } else if let Some((lo, hi)) = divide_span(e, step_x, n) {
             let r = row + lo as usize..row + hi as usize;
             written += u64::from(fill_span::<COLOUR>(
                 t,
-                t.depth_row(py),
+                zr,
                 lo,
                 &mut depth[r.clone()],
                 &mut item[r.clone()],
@@ -58,34 +78,15 @@ pub(crate) fn raster_tri<const COLOUR: bool>(
     written
 }
 
-/// Covered steps `lo..hi` of a row of at most [`SCAN_MAX`] samples with edge
-/// values `e` at step 0 and increments `step`, testing sample by sample (the
-/// covered samples of a row are contiguous, so it stops at the first miss
-/// after a hit). Same result as [`divide_span`].
-#[inline(always)]
-fn scan_span(mut e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
-    let mut k = 0;
-    while k < n && (e[0] | e[1] | e[2]) < 0 {
-        e[0] += step[0];
-        e[1] += step[1];
-        e[2] += step[2];
-        k += 1;
-    }
-    let lo = k;
-    while k < n && (e[0] | e[1] | e[2]) >= 0 {
-        e[0] += step[0];
-        e[1] += step[1];
-        e[2] += step[2];
-        k += 1;
-    }
-    (lo < k).then_some((lo, k))
-}
+/// Lanes [`fill_span`] handles at once.
+const LANES: usize = 8;
 
 /// Depth-tests and writes one covered span: `depth`, `item` and `colour` hold
 /// its pixels, the first at column offset `k0` from the triangle's `x0`, and
-/// `zr` is the depth at offset 0 of the row. Branch-free per pixel so it
-/// vectorizes; the depth of each pixel is computed exactly as
-/// `max(zr + dzdx * k, 0)`. Returns the number of fragments written.
+/// `zr` is the depth at offset 0 of the row. The depth of each pixel is
+/// computed exactly as `max(zr + dzdx * k, 0)`; groups of [`LANES`] pixels
+/// are tested and blended branch-free (bit masks), so this vectorizes.
+/// Returns the number of fragments written.
 #[inline(always)]
 fn fill_span<const COLOUR: bool>(
     t: &Tri,
@@ -95,27 +96,42 @@ fn fill_span<const COLOUR: bool>(
     item: &mut [u32],
     colour: &mut [[u8; 4]],
 ) -> u32 {
-    let (dzdx, id, c) = (t.dzdx, t.item, t.colour);
+    let (dzdx, id, c) = (t.dzdx, t.item, u32::from_ne_bytes(t.colour));
     let len = depth.len();
-    let item = &mut item[..len];
-    let k0 = k0 as i32;
+    let (item, colour) = (&mut item[..len], &mut colour[..len]);
+    let mut k = k0 as i32;
     let mut written = 0u32;
-    if COLOUR {
-        for (j, ((d, i), o)) in depth.iter_mut().zip(item.iter_mut()).zip(colour.iter_mut()).enumerate() {
-            let z = (zr + dzdx * (k0 + j as i32) as f32).max(0.0);
-            let hit = z < *d;
-            *d = if hit { z } else { *d };
-            *i = if hit { id } else { *i };
-            *o = if hit { c } else { *o };
-            written += u32::from(hit);
+    let mut dc = depth.chunks_exact_mut(LANES);
+    let mut ic = item.chunks_exact_mut(LANES);
+    let mut cc = colour.chunks_exact_mut(LANES);
+    for ((d, i), o) in (&mut dc).zip(&mut ic).zip(&mut cc) {
+        let mut m = [0u32; LANES];
+        for l in 0..LANES {
+            let z = (zr + dzdx * (k + l as i32) as f32).max(0.0);
+            m[l] = 0u32.wrapping_sub(u32::from(z < d[l]));
+            d[l] = f32::from_bits((z.to_bits() & m[l]) | (d[l].to_bits() & !m[l]));
         }
-    } else {
-        for (j, (d, i)) in depth.iter_mut().zip(item.iter_mut()).enumerate() {
-            let z = (zr + dzdx * (k0 + j as i32) as f32).max(0.0);
-            let hit = z < *d;
-            *d = if hit { z } else { *d };
-            *i = if hit { id } else { *i };
-            written += u32::from(hit);
+        for l in 0..LANES {
+            i[l] = (id & m[l]) | (i[l] & !m[l]);
+            written += m[l] & 1;
+        }
+        if COLOUR {
+            for l in 0..LANES {
+                o[l] = ((c & m[l]) | (u32::from_ne_bytes(o[l]) & !m[l])).to_ne_bytes();
+            }
+        }
+        k += LANES as i32;
+    }
+    let (d, i, o) = (dc.into_remainder(), ic.into_remainder(), cc.into_remainder());
+    for l in 0..d.len() {
+        let z = (zr + dzdx * (k + l as i32) as f32).max(0.0);
+        if z < d[l] {
+            d[l] = z;
+            i[l] = id;
+            if COLOUR {
+                o[l] = t.colour;
+            }
+            written += 1;
         }
     }
     written
