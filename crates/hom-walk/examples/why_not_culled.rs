@@ -1,0 +1,64 @@
+//! Why did HOM not cull what the oracle says is hidden? For one frame of a
+//! built-in scene, sorts the triangles of in-frustum objects that own no pixel
+//! by what stopped HOM: culled, selected as an occluder (always drawn), box
+//! straddling the near plane, rectangle not covered by the occlusion map, not
+//! behind the depth estimation buffer, or neither.
+//!
+//! `cargo run --release -p hom-walk --example why_not_culled -- city 56`
+
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
+use hom::geom::{project_points, Containment, Footprint, Frustum};
+use hom::map::{rect_covered, OverlapStats, Thresholds};
+use hom_render::{Framebuffer, Renderer};
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let (Some(scene_name), Some(frame)) = (args.get(1), args.get(2).and_then(|f| f.parse::<usize>().ok())) else {
+        eprintln!("usage: why_not_culled SCENE FRAME");
+        std::process::exit(2);
+    };
+    let b = hom_scene::builtin(scene_name).unwrap();
+    let mut scene = b.scene;
+    scene.set_time(frame as f32 / 30.0);
+    let cam = b.path.camera(frame);
+    let mut c = HomCuller::new(&scene, HomConfig::for_scene(&scene));
+    let mut out = CullOutput::default();
+    c.cull(&scene, &cam, &mut out).unwrap();
+    let r = Renderer::new(0).unwrap();
+    let mut fb = Framebuffer::new(cam.width, cam.height);
+    let counts = hom_render::oracle_pixel_counts(&r, &scene, &cam, &mut fb);
+    let vp = cam.view_proj();
+    let f = Frustum::from_view_proj(&vp).unwrap();
+    let p = c.pyramid().unwrap();
+    let th = Thresholds::conservative(p, 0.0);
+    let deb = c.depth_buffer().unwrap();
+    let (mut straddle, mut not_cov, mut not_behind, mut both, mut occl, mut occluder) =
+        (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
+    for (id, o) in scene.objects().iter().enumerate() {
+        if counts[id] > 0 || f.test_aabb(&o.aabb) == Containment::Outside {
+            continue;
+        }
+        let t = o.triangles as u64;
+        if out.occluded.binary_search(&(id as u32)).is_ok() {
+            occl += t;
+            continue;
+        }
+        if out.occluders.binary_search(&(id as u32)).is_ok() {
+            occluder += t;
+            continue;
+        }
+        match project_points(&o.aabb.corners(), &vp, cam.width, cam.height) {
+            Footprint::Straddles => straddle += t,
+            Footprint::Rect(rect) => {
+                let cov = rect_covered(p, &th, &rect, &mut OverlapStats::default());
+                let beh = deb.is_behind(&rect);
+                match (cov, beh) {
+                    (false, true) => not_cov += t,
+                    (true, false) => not_behind += t,
+                    (false, false) => both += t,
+                    _ => {}
+                }
+            }
+        }
+    }
+    println!("invisible-in-frustum tris: occluded {occl}, selected occluders {occluder}, straddle {straddle}, not covered {not_cov}, not behind {not_behind}, neither {both}");
+}
