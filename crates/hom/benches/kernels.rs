@@ -10,7 +10,8 @@
 //! - `depth`: the depth estimation buffer (64×64 cells): insert 200 occluder
 //!   rectangles, and 10k occludee tests.
 //! - `raster`: the occluder coverage rasterizer on the frame's selected
-//!   occluders, with and without the rasterized depth estimation buffer.
+//!   occluders, with and without the rasterized depth estimation buffer, once
+//!   per raster backend the CPU supports (`[scalar]`, `[sse2]`, `[avx2]`).
 //!
 //! `cargo bench -p hom --bench kernels -- --warm-up-time 1 --measurement-time 2`
 
@@ -19,7 +20,7 @@ use hom::depth::DepthEstimationBuffer;
 use hom::geom::{project_box_clipped, project_points, Camera, Footprint, ScreenRect};
 use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
-use hom::raster::{CoverageBuffer, OccluderRasterizer};
+use hom::raster::{CoverageBuffer, OccluderRasterizer, RasterBackend};
 use hom::scene::Scene;
 use std::hint::black_box;
 use std::time::Duration;
@@ -215,35 +216,48 @@ fn raster(c: &mut Criterion, frame: &Frame) {
         .map(|&id| frame.scene.object(id).triangles as u64)
         .sum();
     eprintln!("raster: {} occluders, {triangles} triangles", frame.occluders.len());
-    let mut rasterizer = OccluderRasterizer::default();
     let mut coverage = CoverageBuffer::default();
     let mut deb = DepthEstimationBuffer::new(SIDE, SIDE, 64, 64);
     let mut g = c.benchmark_group("raster");
     g.throughput(Throughput::Elements(triangles));
-    g.bench_function("rasterize city frame 100 at 1024x1024", |b| {
-        b.iter(|| {
-            rasterizer.rasterize(
-                &mut coverage,
-                &frame.scene,
-                &frame.db,
-                &frame.occluders,
-                &frame.camera,
-                None,
-            )
-        })
-    });
-    g.bench_function("rasterize city frame 100 at 1024x1024 + depth buffer", |b| {
-        b.iter(|| {
-            rasterizer.rasterize(
-                &mut coverage,
-                &frame.scene,
-                &frame.db,
-                &frame.occluders,
-                &frame.camera,
-                Some(&mut deb),
-            )
-        })
-    });
+    // The scalar path against every vector backend this CPU supports.
+    eprintln!(
+        "raster: backends {:?}, detected {:?}, default {:?}",
+        RasterBackend::supported(),
+        RasterBackend::detect(),
+        RasterBackend::active()
+    );
+    for backend in RasterBackend::supported() {
+        let mut rasterizer = OccluderRasterizer::with_backend(backend);
+        let name = backend.name();
+        g.bench_function(format!("rasterize city frame 100 at 1024x1024 [{name}]"), |b| {
+            b.iter(|| {
+                rasterizer.rasterize(
+                    &mut coverage,
+                    &frame.scene,
+                    &frame.db,
+                    &frame.occluders,
+                    &frame.camera,
+                    None,
+                )
+            })
+        });
+        g.bench_function(
+            format!("rasterize city frame 100 at 1024x1024 + depth buffer [{name}]"),
+            |b| {
+                b.iter(|| {
+                    rasterizer.rasterize(
+                        &mut coverage,
+                        &frame.scene,
+                        &frame.db,
+                        &frame.occluders,
+                        &frame.camera,
+                        Some(&mut deb),
+                    )
+                })
+            },
+        );
+    }
     g.finish();
 }
 

@@ -7,8 +7,13 @@
 //! triangle. Coverage is one bit per output sample; rows of the image are
 //! split into bands filled in parallel (bits are OR-ed, so the result does not
 //! depend on the thread count or order).
+//!
+//! Rows are filled by one of the [`RasterBackend`]s: the scalar one (exact
+//! spans from [`Tri::row_span`]) defines the result, and the vector kernels of
+//! [`super::simd`] produce bit-identical coverage and depth cells.
 
 use super::setup::{setup_triangle, Tri, Vertex, Viewport};
+use super::simd::{row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
 use crate::geom::Camera;
 use crate::occluders::OccluderDb;
@@ -101,17 +106,107 @@ fn set_span_reporting(row: &mut [u64], lo: u32, hi: u32, mut fresh: impl FnMut(u
     }
 }
 
+/// ORs `mask` (bit `k` is sample `x + k`) into a row.
+#[inline]
+fn or_mask(row: &mut [u64], x: u32, mask: u64) {
+    let (w, bit) = ((x / 64) as usize, x % 64);
+    row[w] |= mask << bit;
+    if bit != 0 {
+        let high = mask >> (64 - bit);
+        if high != 0 {
+            row[w + 1] |= high;
+        }
+    }
+}
+
+/// [`or_mask`], calling `fresh(base, bits)` for each word where some bits were
+/// not set before, exactly as [`set_span_reporting`] does for the same samples.
+#[inline]
+fn or_mask_reporting(row: &mut [u64], x: u32, mask: u64, mut fresh: impl FnMut(u32, u64)) {
+    let (w, bit) = ((x / 64) as usize, x % 64);
+    let mut put = |w: usize, bits: u64| {
+        let new = bits & !row[w];
+        row[w] |= bits;
+        if new != 0 {
+            fresh(w as u32 * 64, new);
+        }
+    };
+    put(w, mask << bit);
+    if bit != 0 {
+        let high = mask >> (64 - bit);
+        if high != 0 {
+            put(w + 1, high);
+        }
+    }
+}
+
+/// Raises each depth cell over the newly covered samples `fresh` (bit `i` is
+/// sample `base + i`) to the farthest depth `z` at them. `z` is monotone along
+/// the row, so the farthest of a cell's new samples is its first or last one.
+#[inline]
+fn raise_cells(cells: &mut [f32], cell_w: u32, base: u32, fresh: u64, z: impl Fn(u32) -> f32) {
+    let mut m = fresh;
+    while m != 0 {
+        let first = base + m.trailing_zeros();
+        let cell = first / cell_w;
+        let upto = ((cell + 1) * cell_w).min(base + 64) - base;
+        let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
+        let last = base + 63 - in_cell.leading_zeros();
+        let c = &mut cells[cell as usize];
+        *c = c.max(z(first)).max(z(last));
+        m &= !in_cell;
+    }
+}
+
 /// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 16;
 
+/// Rows whose masks a vector kernel computes per call.
+const MASK_ROWS: usize = 32;
+
 /// Rasterizes occluders' coverage; keeps its scratch between frames.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct OccluderRasterizer {
     tris: Vec<Tri>,
     bins: Vec<Vec<u32>>,
+    backend: RasterBackend,
+}
+
+impl Default for OccluderRasterizer {
+    /// A rasterizer using [`RasterBackend::active`].
+    fn default() -> OccluderRasterizer {
+        OccluderRasterizer::with_backend(RasterBackend::active())
+    }
 }
 
 impl OccluderRasterizer {
+    /// A rasterizer using [`RasterBackend::active`] (the fastest backend the CPU
+    /// supports, or `Scalar` under `HOM_FORCE_SCALAR=1`).
+    pub fn new() -> OccluderRasterizer {
+        OccluderRasterizer::default()
+    }
+
+    /// A rasterizer using `backend`; every backend covers the same samples.
+    ///
+    /// # Panics
+    /// If the CPU does not support `backend` ([`RasterBackend::is_supported`]).
+    pub fn with_backend(backend: RasterBackend) -> OccluderRasterizer {
+        assert!(
+            backend.is_supported(),
+            "raster backend {backend:?} is not supported by this CPU"
+        );
+        OccluderRasterizer {
+            tris: Vec::new(),
+            bins: Vec::new(),
+            backend,
+        }
+    }
+
+    /// The backend in use.
+    pub fn backend(&self) -> RasterBackend {
+        self.backend
+    }
+
     /// Clears `coverage` to the camera's viewport and covers every sample the
     /// occluders `ids` cover (their stand-in meshes where they have one).
     ///
@@ -190,7 +285,7 @@ impl OccluderRasterizer {
             }
         }
 
-        let (tris, bins) = (&self.tris, &self.bins);
+        let (tris, bins, backend) = (&self.tris, &self.bins, self.backend);
         let wpr = coverage.words_per_row;
         // One row of depth cells per band (none when not gathering depth).
         let mut cell_rows: Vec<&mut [f32]> = match depth {
@@ -209,36 +304,50 @@ impl OccluderRasterizer {
                 let y1 = y0 + (words.len() / wpr) as u32;
                 let gather = !cells.is_empty();
                 cells.fill(f32::NEG_INFINITY);
+                let mut masks = [0u64; MASK_ROWS];
                 for &i in bin {
                     let t = &tris[i as usize];
                     let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                    for py in ta..tb {
-                        let Some((lo, hi)) = t.row_span(py) else { continue };
-                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                        if !gather {
-                            set_span(row, lo, hi);
-                            continue;
-                        }
-                        // Only samples this triangle covers first set depth: occluders
-                        // come nearest first, so that is mostly the visible occluder, and
-                        // in any order the first cover's depth bounds the nearest from above.
-                        // The renderer's depth formula is monotone along the row, so the
-                        // farthest of a cell's new samples is its first or last one.
-                        let zr = t.depth_row(py);
-                        let z = |x: u32| (zr + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
-                        set_span_reporting(row, lo, hi, |base, fresh| {
-                            let mut m = fresh;
-                            while m != 0 {
-                                let first = base + m.trailing_zeros();
-                                let cell = first / cell_w;
-                                let upto = ((cell + 1) * cell_w).min(base + 64) - base;
-                                let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
-                                let last = base + 63 - in_cell.leading_zeros();
-                                let c = &mut cells[cell as usize];
-                                *c = c.max(z(first)).max(z(last));
-                                m &= !in_cell;
+                    let x0 = u32::from(t.x0);
+                    // Depth at sample x of row py. Only samples this triangle covers first
+                    // set depth: occluders come nearest first, so that is mostly the
+                    // visible occluder, and in any order the first cover's depth bounds
+                    // the nearest from above.
+                    let z = |zr: f32, x: u32| (zr + t.dzdx * (x - x0) as f32).max(0.0);
+                    if backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX {
+                        for py in ta..tb {
+                            let Some((lo, hi)) = t.row_span(py) else { continue };
+                            let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                            if gather {
+                                let zr = t.depth_row(py);
+                                set_span_reporting(row, lo, hi, |base, fresh| {
+                                    raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                });
+                            } else {
+                                set_span(row, lo, hi);
                             }
-                        });
+                        }
+                        continue;
+                    }
+                    let mut py0 = ta;
+                    while py0 < tb {
+                        let rows = &mut masks[..((tb - py0) as usize).min(MASK_ROWS)];
+                        row_masks(backend, t, py0, rows);
+                        for (py, &m) in (py0..).zip(rows.iter()) {
+                            if m == 0 {
+                                continue;
+                            }
+                            let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                            if gather {
+                                let zr = t.depth_row(py);
+                                or_mask_reporting(row, x0, m, |base, fresh| {
+                                    raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                });
+                            } else {
+                                or_mask(row, x0, m);
+                            }
+                        }
+                        py0 += rows.len() as u32;
                     }
                 }
                 for c in cells.iter_mut() {
@@ -254,6 +363,192 @@ impl OccluderRasterizer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::Camera;
+    use crate::scene::{Mesh, SceneBuilder};
+    use glam::{Mat4, Quat, Vec3};
+    use proptest::prelude::*;
+
+    fn cube() -> Mesh {
+        let p: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+            .collect();
+        let faces = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ];
+        let tris = faces
+            .iter()
+            .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+            .collect();
+        Mesh::new("cube", p, tris).unwrap()
+    }
+
+    /// Random boxes of every size (slivers to huge), plus a soup of random
+    /// triangles (tiny, sliver and huge) around the origin.
+    fn random_scene(seed: u64, n: usize) -> Scene {
+        let mut state = seed | 1;
+        let mut rnd = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let mut b = SceneBuilder::new("random");
+        let m = b.add_mesh(cube());
+        for i in 0..n {
+            let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+            let mut side = || [0.002, 0.05, 0.5, 1.0, 2.0, 6.0, 300.0][(rnd() * 7.0) as usize % 7] * (0.5 + rnd());
+            let scale = Vec3::new(side(), side(), side());
+            let rot = Quat::from_euler(glam::EulerRot::YXZ, rnd() * 3.0, rnd() * 3.0, rnd() * 3.0);
+            b.add_object(
+                format!("o{i}"),
+                m,
+                Mat4::from_scale_rotation_translation(scale, rot, pos),
+            )
+            .unwrap();
+        }
+        for o in 0..n / 2 + 1 {
+            let (mut p, mut tris) = (Vec::new(), Vec::new());
+            let c = Vec3::new(rnd() * 30.0 - 15.0, rnd() * 10.0 - 5.0, rnd() * 30.0 - 15.0);
+            for t in 0..4 {
+                let size = [0.01, 0.1, 0.3, 1.0, 3.0, 10.0, 40.0, 2000.0][(rnd() * 8.0) as usize % 8];
+                let sliver = rnd() < 0.3;
+                for k in 0..3 {
+                    let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * size;
+                    // A sliver's third vertex lies almost on the line of the first two.
+                    p.push(if sliver && k == 2 {
+                        (p[p.len() - 1] + p[p.len() - 2]) * 0.5 + d * 1e-3
+                    } else {
+                        c + d
+                    });
+                }
+                tris.push([3 * t, 3 * t + 1, 3 * t + 2]);
+            }
+            let soup = b.add_mesh(Mesh::new(format!("soup{o}"), p, tris).unwrap());
+            b.add_object(format!("soup{o}"), soup, Mat4::IDENTITY).unwrap();
+        }
+        b.build().unwrap()
+    }
+
+    /// Coverage and depth cells from `backend`.
+    fn run(
+        backend: RasterBackend,
+        scene: &Scene,
+        db: &OccluderDb,
+        ids: &[u32],
+        camera: &Camera,
+        cells: Option<(u32, u32)>,
+    ) -> (CoverageBuffer, Vec<u32>) {
+        let mut cov = CoverageBuffer::default();
+        let mut deb = cells.map(|(c, r)| DepthEstimationBuffer::new(camera.width, camera.height, c, r));
+        OccluderRasterizer::with_backend(backend).rasterize(&mut cov, scene, db, ids, camera, deb.as_mut());
+        let cells = deb.map_or(Vec::new(), |d| d.cells().iter().map(|c| c.to_bits()).collect());
+        (cov, cells)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+        /// Every backend the CPU supports gives bit-identical coverage and depth
+        /// cells to the scalar path.
+        #[test]
+        fn backends_match_scalar(
+            seed in any::<u64>(), n in 1usize..30,
+            eye in (-12.0f32..12.0, -3.0f32..4.0, -12.0f32..12.0),
+            look in (-1.0f32..1.0, -0.5f32..0.5, -1.0f32..1.0),
+            viewport in 0usize..5, size in (1u32..300, 1u32..300), cells in proptest::option::of((1u32..70, 1u32..70)),
+        ) {
+            let scene = random_scene(seed, n);
+            let (w, h) = [(1000, 750), (37, 29), (97, 61), (64, 1), size][viewport];
+            let eye = Vec3::new(eye.0, eye.1, eye.2);
+            let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 1000.0, w, h);
+            prop_assume!(camera.validate().is_ok());
+            let db = OccluderDb::all(&scene);
+            let ids: Vec<u32> = (0..scene.objects().len() as u32).collect();
+            let (want, want_cells) = run(RasterBackend::Scalar, &scene, &db, &ids, &camera, cells);
+            for backend in RasterBackend::supported() {
+                let (got, got_cells) = run(backend, &scene, &db, &ids, &camera, cells);
+                prop_assert_eq!((got.width(), got.height()), (w, h));
+                prop_assert!(got.bits() == want.bits(), "{:?}: coverage differs from scalar", backend);
+                prop_assert!(got_cells == want_cells, "{:?}: depth cells differ from scalar", backend);
+            }
+        }
+    }
+
+    /// Names the backends the proptest above compares (see `--nocapture`), and
+    /// checks the detected one is among them.
+    #[test]
+    fn supported_backends_are_exercised() {
+        let supported = RasterBackend::supported();
+        eprintln!(
+            "raster backends compared with scalar: {:?}; detected {:?}; active {:?}",
+            supported,
+            RasterBackend::detect(),
+            RasterBackend::active()
+        );
+        assert!(supported.contains(&RasterBackend::detect()));
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(
+            supported.contains(&RasterBackend::Avx2),
+            is_x86_feature_detected!("avx2")
+        );
+        let scene = random_scene(7, 20);
+        let camera = Camera::new(
+            Vec3::new(0.5, 1.0, 15.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            1.1,
+            0.1,
+            100.0,
+            1000,
+            750,
+        );
+        let db = OccluderDb::all(&scene);
+        let ids: Vec<u32> = (0..scene.objects().len() as u32).collect();
+        let (want, want_cells) = run(RasterBackend::Scalar, &scene, &db, &ids, &camera, Some((64, 64)));
+        assert!(want.covered() > 0);
+        for backend in supported {
+            let (got, got_cells) = run(backend, &scene, &db, &ids, &camera, Some((64, 64)));
+            assert!(got.bits() == want.bits() && got_cells == want_cells, "{backend:?}");
+        }
+    }
+
+    #[test]
+    fn or_mask_matches_set_span() {
+        for x in 0..130u32 {
+            for n in 1..=64u32.min(192 - x) {
+                for mask in [u64::MAX >> (64 - n), 1 | 1 << (n - 1), 0b1011 & (u64::MAX >> (64 - n))] {
+                    let mut a = [0x0f0f_0000_0000_f0f0u64; 3];
+                    let mut b = a;
+                    let mut got = Vec::new();
+                    let mut want = Vec::new();
+                    or_mask_reporting(&mut a, x, mask, |base, f| got.push((base, f)));
+                    let mut c = [0x0f0f_0000_0000_f0f0u64; 3];
+                    or_mask(&mut c, x, mask);
+                    for k in 0..n {
+                        if mask >> k & 1 == 1 {
+                            set_span_reporting(&mut b, x + k, x + k + 1, |base, f| want.push((base, f)));
+                        }
+                    }
+                    assert_eq!(a, b, "x {x} n {n} mask {mask:x}");
+                    assert_eq!(c, b, "x {x} n {n} mask {mask:x}");
+                    // Per word, the reported fresh bits are the same.
+                    let merge = |v: Vec<(u32, u64)>| {
+                        let mut m = std::collections::BTreeMap::new();
+                        for (base, f) in v {
+                            *m.entry(base).or_insert(0u64) |= f;
+                        }
+                        m
+                    };
+                    assert_eq!(got.len(), merge(got.clone()).len(), "one report per word");
+                    assert_eq!(merge(got), merge(want));
+                }
+            }
+        }
+    }
 
     #[test]
     fn set_span_sets_exactly_the_range() {

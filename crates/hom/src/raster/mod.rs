@@ -7,7 +7,16 @@
 //! sample on it. Triangles are clipped against the near plane in homogeneous
 //! space, and against a guard band only where fixed point would overflow.
 
+//!
+//! The occluder rasterizer fills rows with a [`RasterBackend`] chosen once at
+//! run time: a vector kernel where the CPU has one (AVX2, SSE2), else the
+//! scalar path, which defines the result; all backends cover bit-identical
+//! samples. Set `HOM_FORCE_SCALAR=1` in the environment to force the scalar
+//! path, or pick one with [`OccluderRasterizer::with_backend`].
+
 mod coverage;
 pub mod setup;
+mod simd;
 
 pub use coverage::{CoverageBuffer, OccluderRasterizer};
+pub use simd::{RasterBackend, FORCE_SCALAR_ENV, MASK_MAX};
