@@ -15,7 +15,11 @@ fn sampled_builtin_walks_have_no_false_culls() {
         path.frames = path.frames.iter().copied().step_by(12).collect();
         for culler_name in ["frustum", "hom"] {
             let mut culler = cullers::make(culler_name, &scene).unwrap();
-            let options = WalkOptions { oracle: true, baseline: false, ..WalkOptions::default() };
+            let options = WalkOptions {
+                oracle: true,
+                baseline: false,
+                ..WalkOptions::default()
+            };
             let result = walk(&mut scene, &path, culler.as_mut(), &renderer, &options, |_| {}).unwrap();
             for f in &result.frames {
                 let oracle = f.oracle.as_ref().unwrap();

@@ -332,7 +332,16 @@ fn random_scenes_are_really_culled() {
 fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
     for seed in 0..20u64 {
         let scene = random_scene(seed * 104_729 + 3, 30, seed % 3 == 0);
-        let camera = Camera::new(Vec3::new(1.5, 2.0, 14.0), Vec3::new(0.0, -0.5, 0.0), Vec3::Y, 1.1, 0.1, 100.0, 101, 77);
+        let camera = Camera::new(
+            Vec3::new(1.5, 2.0, 14.0),
+            Vec3::new(0.0, -0.5, 0.0),
+            Vec3::Y,
+            1.1,
+            0.1,
+            100.0,
+            101,
+            77,
+        );
         let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
         let db = OccluderDb::all(&scene);
         let mut cov = CoverageBuffer::default();
@@ -340,7 +349,10 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
         OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera, Some(&mut deb));
         let renderer = Renderer::new(1).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
-        let item_only = hom_render::RenderOptions { shading: hom_render::Shading::ItemOnly, ..Default::default() };
+        let item_only = hom_render::RenderOptions {
+            shading: hom_render::Shading::ItemOnly,
+            ..Default::default()
+        };
         renderer.render(&scene, &ids, &camera, &item_only, &mut fb);
         let (cols, _) = deb.size();
         let (cw, ch) = deb.cell_size();
@@ -352,7 +364,11 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
                     continue;
                 }
                 let cell = deb.cells()[((y / ch) * cols + x / cw) as usize];
-                assert!(cell >= fb.depth()[i], "seed {seed} sample {x},{y}: cell {cell} nearer than {}", fb.depth()[i]);
+                assert!(
+                    cell >= fb.depth()[i],
+                    "seed {seed} sample {x},{y}: cell {cell} nearer than {}",
+                    fb.depth()[i]
+                );
                 covered_cells += 1;
             }
         }
