@@ -50,6 +50,7 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
     };
 
     check_glb_header(&bytes).map_err(&malformed)?;
+    check_position_accessors(&bytes).map_err(&malformed)?;
     let gltf = Gltf::from_slice(&bytes).map_err(|e| match e {
         // Already says "invalid glTF: path: problem; …".
         ::gltf::Error::Validation(_) => malformed(e.to_string()),
@@ -78,6 +79,36 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
             "GLB header declares {length} bytes, but the file has {} (truncated or corrupt)",
             bytes.len()
         ));
+    }
+    Ok(())
+}
+
+/// gltf-json 1.4's validator indexes `accessors[POSITION]` without a bounds
+/// check and panics on a file whose POSITION names a missing accessor (found by
+/// the mutation test), so those indices are checked here first.
+fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
+    let glb;
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        glb = ::gltf::Glb::from_slice(bytes).map_err(|e| format!("invalid GLB: {e}"))?;
+        &glb.json
+    } else {
+        bytes
+    };
+    let root: serde_json::Value = serde_json::from_slice(json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+    let accessors = root.get("accessors").and_then(|a| a.as_array()).map_or(0, |a| a.len());
+    let meshes = root.get("meshes").and_then(|m| m.as_array()).into_iter().flatten();
+    for (m, mesh) in meshes.enumerate() {
+        let primitives = mesh.get("primitives").and_then(|p| p.as_array()).into_iter().flatten();
+        for (p, primitive) in primitives.enumerate() {
+            let position = primitive.get("attributes").and_then(|a| a.get("POSITION"));
+            if let Some(index) = position.and_then(|i| i.as_u64()) {
+                if index >= accessors as u64 {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}]: POSITION accessor {index} does not exist ({accessors} accessors)"
+                    ));
+                }
+            }
+        }
     }
     Ok(())
 }

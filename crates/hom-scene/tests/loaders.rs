@@ -641,6 +641,11 @@ fn gltf_bad_indices_and_ranges_are_typed_errors() {
     let mut d = good();
     d["accessors"][1]["bufferView"] = json!(9);
     cases.push(("missing view", d));
+    // Regression (found by glb_random_mutations_never_panic): gltf-json's validator
+    // panicked on a POSITION accessor index past the end of `accessors`.
+    let mut d = good();
+    d["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(7);
+    cases.push(("POSITION accessor missing", d));
     let mut d = good();
     d["accessors"][0]["componentType"] = json!(5123);
     cases.push(("positions not float", d));
