@@ -1,6 +1,6 @@
 //! The cullers `hom walk --culler NAME` can run, by name.
 
-use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, NoCuller};
+use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, HzbConfig, HzbCuller, NoCuller};
 use hom::scene::Scene;
 
 /// Names and one-line descriptions of the available cullers.
@@ -8,6 +8,10 @@ pub const CULLERS: &[(&str, &str)] = &[
     ("none", "draw every object"),
     ("frustum", "view-frustum culling over the BVH (the baseline)"),
     ("hom", "hierarchical occlusion maps (Zhang et al. 1997), conservative"),
+    (
+        "hzb",
+        "hierarchical Z-buffer (Greene et al. 1993) with HOM's occluder selection, conservative",
+    ),
 ];
 
 /// The best culler hom has; `hom demo` uses it.
@@ -18,12 +22,14 @@ pub fn make(name: &str, scene: &Scene) -> Option<Box<dyn Culler>> {
     make_with(name, scene, &HomConfig::for_scene(scene))
 }
 
-/// Like [`make`], with the HOM culler's settings given.
+/// Like [`make`], with the HOM culler's settings given (the HZB culler takes
+/// their occluder selection and database settings).
 pub fn make_with(name: &str, scene: &Scene, hom: &HomConfig) -> Option<Box<dyn Culler>> {
     match name {
         "none" => Some(Box::new(NoCuller)),
         "frustum" => Some(Box::new(FrustumCuller::new(scene))),
         "hom" => Some(Box::new(HomCuller::new(scene, hom.clone()))),
+        "hzb" => Some(Box::new(HzbCuller::new(scene, HzbConfig::from_hom(hom)))),
         _ => None,
     }
 }

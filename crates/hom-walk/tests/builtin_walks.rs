@@ -1,4 +1,4 @@
-//! Every built-in scene's walkthrough, sampled: frustum and HOM culling (default,
+//! Every built-in scene's walkthrough, sampled: frustum, HOM and HZB culling (default,
 //! conservative settings) never drop an object the oracle sees.
 
 use hom_render::Renderer;
@@ -13,7 +13,7 @@ fn sampled_builtin_walks_have_no_false_culls() {
         // Every 12th frame at a reduced size keeps this quick; `hom bench` walks every frame at full size.
         let mut path = built.path.with_viewport(320, 240);
         path.frames = path.frames.iter().copied().step_by(12).collect();
-        for culler_name in ["frustum", "hom"] {
+        for culler_name in ["frustum", "hom", "hzb"] {
             let mut culler = cullers::make(culler_name, &scene).unwrap();
             let options = WalkOptions {
                 oracle: true,

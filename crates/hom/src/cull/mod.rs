@@ -6,9 +6,11 @@
 
 mod frustum;
 pub mod hom;
+pub mod hzb;
 
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
+pub use hzb::{HzbConfig, HzbCuller};
 
 use crate::geom::{Camera, CameraError};
 use crate::scene::Scene;

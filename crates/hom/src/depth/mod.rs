@@ -1,5 +1,8 @@
-//! Depth for occlusion tests: the depth estimation buffer and the single Z plane.
+//! Depth for occlusion tests: the depth estimation buffer, the single Z plane,
+//! and the hierarchical Z-buffer's Z-pyramid.
 
 pub mod estimation_buffer;
+pub mod hzb;
 
 pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane, DEPTH_MARGIN};
+pub use hzb::{ZLevel, ZPyramid, ZTestStats};

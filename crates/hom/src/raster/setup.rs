@@ -113,7 +113,7 @@ fn scan_span(mut e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
     (lo < hi).then_some((lo, hi))
 }
 
-/// As [`scan_span`], solving `e[i] + step[i] * k >= 0` exactly per edge.
+/// As `scan_span`, solving `e[i] + step[i] * k >= 0` exactly per edge.
 #[inline]
 pub fn divide_span(e: [i64; 3], step: [i64; 3], n: u32) -> Option<(u32, u32)> {
     let mut lo: i64 = 0;

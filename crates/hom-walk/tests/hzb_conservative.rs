@@ -1,0 +1,177 @@
+//! The hierarchical Z-buffer culler (Greene et al. 1993; the HOM paper's
+//! section 7.2 variation) never culls an object the oracle sees, and the
+//! occluder rasterizer's per-sample depth is the reference renderer's depth.
+
+use hom::cull::{CullOutput, Culler, HzbConfig, HzbCuller};
+use hom::geom::Camera;
+use hom::glam::{Mat4, Quat, Vec3};
+use hom::occluders::{OccluderDb, OccluderDbConfig};
+use hom::raster::OccluderRasterizer;
+use hom::scene::{Mesh, Motion, Scene, SceneBuilder};
+use hom_render::{Framebuffer, Renderer, NO_OBJECT};
+use proptest::prelude::*;
+
+fn cube() -> Mesh {
+    let p: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+        .collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let tris = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
+    Mesh::new("cube", p, tris).unwrap()
+}
+
+/// Every object may be an occluder: the strongest test of the depth logic.
+fn permissive() -> HzbConfig {
+    let mut c = HzbConfig {
+        occluder_db: OccluderDbConfig {
+            min_size: 0.0,
+            max_triangles: u32::MAX,
+            min_fill: 0.0,
+            redundancy_margin: -1.0,
+        },
+        ..HzbConfig::default()
+    };
+    c.selection.budget = 60;
+    c
+}
+
+/// Culls with `culler` and checks every object the oracle sees is kept.
+fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut HzbCuller) -> CullOutput {
+    let renderer = Renderer::new(1).unwrap();
+    let mut out = CullOutput::default();
+    culler.cull(scene, camera, &mut out).unwrap();
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
+    for (id, &n) in counts.iter().enumerate() {
+        if n > 0 {
+            assert!(
+                out.visible.binary_search(&(id as u32)).is_ok(),
+                "object {id} owns {n} pixels but was culled (occluded: {})",
+                out.occluded.contains(&(id as u32))
+            );
+        }
+    }
+    out
+}
+
+fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
+    let mut state = seed | 1;
+    let mut rnd = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut b = SceneBuilder::new("random");
+    let m = b.add_mesh(cube());
+    for i in 0..n {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let scale = Vec3::new(0.2 + rnd() * 5.0, 0.2 + rnd() * 4.0, 0.2 + rnd() * 5.0);
+        let rot = Quat::from_rotation_y(rnd() * 3.0);
+        let t = Mat4::from_scale_rotation_translation(scale, rot, pos);
+        if dynamic && i % 2 == 0 {
+            let motion = Motion {
+                velocity: Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 4.0,
+                region: hom::geom::Aabb::new(pos - 3.0, pos + 3.0),
+                spin_axis: Vec3::Y,
+                spin_rate: rnd() * 2.0,
+            };
+            b.add_dynamic_object(format!("o{i}"), m, t, motion).unwrap();
+        } else {
+            b.add_object(format!("o{i}"), m, t).unwrap();
+        }
+    }
+    b.build().unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
+    #[test]
+    fn hzb_never_culls_what_the_oracle_sees(
+        seed in any::<u64>(), n in 1usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
+        look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), dynamic in any::<bool>(), time in 0.0f32..5.0,
+        size in (8u32..120, 8u32..90),
+    ) {
+        let mut scene = random_scene(seed, n, dynamic);
+        scene.set_time(time);
+        let eye = Vec3::new(eye.0, eye.1, eye.2);
+        let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, size.0, size.1);
+        prop_assume!(camera.validate().is_ok());
+        let mut culler = HzbCuller::new(&scene, permissive());
+        // Two frames, so the second uses the feedback (hole filling) of the first.
+        assert_no_false_culls(&scene, &camera, &mut culler);
+        culler.frame_done(Some(1.0));
+        assert_no_false_culls(&scene, &camera, &mut culler);
+    }
+}
+
+/// The property test above is only meaningful if culling happens.
+#[test]
+fn random_scenes_are_really_culled() {
+    let (mut occluded, mut total) = (0, 0);
+    for seed in 0..60u64 {
+        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
+        let eye = Vec3::new(0.0, 0.5, 13.0);
+        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        let mut culler = HzbCuller::new(&scene, permissive());
+        let out = assert_no_false_culls(&scene, &camera, &mut culler);
+        occluded += out.occluded.len();
+        total += scene.objects().len();
+    }
+    assert!(
+        occluded * 20 > total,
+        "only {occluded} of {total} objects occlusion-culled"
+    );
+}
+
+/// The rasterizer's per-sample depth equals the renderer's depth buffer
+/// wherever the renderer drew an occluder, and is infinite elsewhere.
+#[test]
+fn per_sample_depth_equals_the_renderers_depth_buffer() {
+    for seed in 0..20u64 {
+        let scene = random_scene(seed * 104_729 + 3, 30, seed % 3 == 0);
+        let camera = Camera::new(
+            Vec3::new(1.5, 2.0, 14.0),
+            Vec3::new(0.0, -0.5, 0.0),
+            Vec3::Y,
+            1.1,
+            0.1,
+            100.0,
+            101,
+            77,
+        );
+        let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
+        let db = OccluderDb::all(&scene);
+        let mut depth = Vec::new();
+        OccluderRasterizer::default().rasterize_depth(&mut depth, &scene, &db, &ids, &camera);
+        assert_eq!(depth.len(), (camera.width * camera.height) as usize);
+        let renderer = Renderer::new(2).unwrap();
+        let mut fb = Framebuffer::new(camera.width, camera.height);
+        let item_only = hom_render::RenderOptions {
+            shading: hom_render::Shading::ItemOnly,
+            ..Default::default()
+        };
+        renderer.render(&scene, &ids, &camera, &item_only, &mut fb);
+        let mut drawn = 0;
+        for (i, &d) in depth.iter().enumerate() {
+            if fb.items()[i] == NO_OBJECT {
+                // Not drawn: uncovered (or only covered at or beyond the far plane).
+                assert!(d >= 1.0, "seed {seed} sample {i}: depth {d} where nothing was drawn");
+                continue;
+            }
+            assert_eq!(d, fb.depth()[i], "seed {seed} sample {i}");
+            drawn += 1;
+        }
+        assert!(drawn > 0, "seed {seed}: the occluders cover something");
+    }
+}
