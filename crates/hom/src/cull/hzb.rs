@@ -25,9 +25,10 @@
 
 use super::frustum::refit_if_dynamic;
 use super::hom::find_worst_hole;
+use super::traversal::{occluded_share, Traversal};
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::{ZPyramid, ZTestStats};
-use crate::geom::{project_points, Aabb, Camera, Containment, Footprint, Frustum};
+use crate::geom::{Aabb, Camera, Frustum};
 use crate::map::Pyramid;
 use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
 use crate::raster::OccluderRasterizer;
@@ -197,93 +198,30 @@ impl Culler for HzbCuller {
         out.time("zpyramid", || zpyramid.build(w, h, depth));
 
         // 4. Traversal: frustum → Z-pyramid, front to back.
-        is_occluder.fill(false);
-        for &id in &occluders {
-            is_occluder[id as usize] = true;
-        }
         let mut visible = std::mem::take(&mut out.visible);
         let mut occluded = std::mem::take(&mut out.occluded);
         let mut stats = ZTestStats::default();
-        let mut box_tests = 0u64;
         let zpyramid = &*zpyramid;
-        out.time("traversal", || {
-            let mut stack: Vec<(u32, bool)> = vec![(0, false)];
-            if bvh.is_empty() {
-                stack.clear();
-            }
-            while let Some((index, inside)) = stack.pop() {
-                let node = &bvh.nodes()[index as usize];
-                box_tests += 1;
-                let containment = if inside {
-                    Containment::Inside
-                } else {
-                    frustum.test_aabb(&node.bounds)
-                };
-                if containment == Containment::Outside {
-                    continue;
-                }
-                let inside = containment == Containment::Inside;
-                if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
-                    if zpyramid.is_behind(&r, &mut stats) {
-                        // Only objects in the frustum count as occlusion-culled.
-                        let items = bvh.subtree_items(node).iter().copied();
-                        occluded.extend(items.filter(|&id| {
-                            !is_occluder[id as usize]
-                                && (inside || frustum.test_aabb(&boxes[id as usize]) != Containment::Outside)
-                        }));
-                        continue;
-                    }
-                }
-                if node.is_leaf() {
-                    for &id in bvh.leaf_items(node) {
-                        let o = scene.object(id);
-                        box_tests += 1;
-                        if is_occluder[id as usize] {
-                            visible.push(id);
-                            continue;
-                        }
-                        let (c, corners) = if o.is_dynamic() {
-                            (frustum.test_obb(&o.obb), o.obb.corners())
-                        } else if inside {
-                            (Containment::Inside, o.aabb.corners())
-                        } else {
-                            (frustum.test_aabb(&boxes[id as usize]), o.aabb.corners())
-                        };
-                        if c == Containment::Outside {
-                            continue;
-                        }
-                        match project_points(&corners, &view_proj, w, h) {
-                            Footprint::Rect(r) if zpyramid.is_behind(&r, &mut stats) => occluded.push(id),
-                            _ => visible.push(id),
-                        }
-                    }
-                } else {
-                    // Push the farther child first so the nearer one is visited first.
-                    let (a, b) = (node.first, node.first + 1);
-                    let da = bvh.nodes()[a as usize].bounds.distance_squared(camera.eye);
-                    let db_ = bvh.nodes()[b as usize].bounds.distance_squared(camera.eye);
-                    let (near, far) = if da <= db_ { (a, b) } else { (b, a) };
-                    stack.push((far, inside));
-                    stack.push((near, inside));
-                }
-            }
-            visible.sort_unstable();
-            occluded.sort_unstable();
-        });
-        // Occluders in an occluded subtree were skipped there but are still drawn.
-        for &id in &occluders {
-            if visible.binary_search(&id).is_err() {
-                let pos = visible.partition_point(|&v| v < id);
-                visible.insert(pos, id);
-            }
-        }
-        let tris = |ids: &[u32]| ids.iter().map(|&i| scene.object(i).triangles as u64).sum::<u64>();
-        let (tv, to) = (tris(&visible), tris(&occluded));
-        self.culled_pct = if tv + to > 0 {
-            100.0 * to as f32 / (tv + to) as f32
-        } else {
-            0.0
+        let traversal = Traversal {
+            scene,
+            bvh,
+            boxes,
+            frustum: &frustum,
+            view_proj,
+            width: w,
+            height: h,
+            eye: camera.eye,
+            occluders: &occluders,
         };
+        let box_tests = out.time("traversal", || {
+            traversal.run(
+                is_occluder,
+                |r| zpyramid.is_behind(r, &mut stats),
+                &mut visible,
+                &mut occluded,
+            )
+        });
+        self.culled_pct = occluded_share(scene, &visible, &occluded);
         out.visible = visible;
         out.occluded = occluded;
         out.occluders = occluders;

@@ -7,6 +7,7 @@
 mod frustum;
 pub mod hom;
 pub mod hzb;
+mod traversal;
 
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
