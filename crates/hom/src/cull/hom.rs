@@ -20,7 +20,7 @@
 //! contained in the object they stand for; and transparent occluders.
 
 use super::frustum::refit_if_dynamic;
-use super::traversal::{occluded_share, Traversal};
+use super::traversal::{count_occluders, occluded_share, Traversal};
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{DepthEstimationBuffer, SingleZPlane};
 use crate::geom::{project_box_clipped, Aabb, Camera, Frustum, ScreenRect};
@@ -401,12 +401,7 @@ impl Culler for HomCuller {
         out.count("box_tests", box_tests);
         out.count("overlap_pixels", overlap.pixels);
         out.count("levels_visited", overlap.levels);
-        out.count("occluders", sel.selected as u64);
-        out.count("occluder_triangles", drawn);
-        out.count("hole_fillers", sel.hole_fillers as u64);
-        out.count("queued_occluders", sel.queued as u64);
-        out.count("budget", sel.budget as u64);
-        out.count("candidates", sel.candidates as u64);
+        count_occluders(out, &sel, drawn);
         Ok(())
     }
 

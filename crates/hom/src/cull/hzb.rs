@@ -25,7 +25,7 @@
 
 use super::frustum::refit_if_dynamic;
 use super::hom::find_worst_hole;
-use super::traversal::{occluded_share, Traversal};
+use super::traversal::{count_occluders, occluded_share, Traversal};
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::{ZPyramid, ZTestStats};
 use crate::geom::{Aabb, Camera, Frustum};
@@ -228,12 +228,7 @@ impl Culler for HzbCuller {
         out.count("box_tests", box_tests);
         out.count("zpyramid_texels", stats.texels);
         out.count("zpyramid_descents", stats.descents);
-        out.count("occluders", sel.selected as u64);
-        out.count("occluder_triangles", drawn);
-        out.count("hole_fillers", sel.hole_fillers as u64);
-        out.count("queued_occluders", sel.queued as u64);
-        out.count("budget", sel.budget as u64);
-        out.count("candidates", sel.candidates as u64);
+        count_occluders(out, &sel, drawn);
         Ok(())
     }
 

@@ -4,7 +4,9 @@
 //! subtree; boxes straddling the near plane are never image-tested; this
 //! frame's occluders are always drawn.
 
+use super::CullOutput;
 use crate::geom::{project_points, Aabb, Containment, Footprint, Frustum, ScreenRect};
+use crate::occluders::SelectionStats;
 use crate::scene::Scene;
 use crate::spatial::Bvh;
 use glam::{Mat4, Vec3};
@@ -117,4 +119,14 @@ pub(crate) fn occluded_share(scene: &Scene, visible: &[u32], occluded: &[u32]) -
     } else {
         0.0
     }
+}
+
+/// The counters every occluder-based culler reports about its occluders.
+pub(crate) fn count_occluders(out: &mut CullOutput, sel: &SelectionStats, occluder_triangles: u64) {
+    out.count("occluders", sel.selected as u64);
+    out.count("occluder_triangles", occluder_triangles);
+    out.count("hole_fillers", sel.hole_fillers as u64);
+    out.count("queued_occluders", sel.queued as u64);
+    out.count("budget", sel.budget as u64);
+    out.count("candidates", sel.candidates as u64);
 }
