@@ -1,0 +1,89 @@
+//! Scenes, configurations and the oracle check shared by the culler tests.
+#![allow(dead_code)] // each test binary uses its own subset
+
+use hom::cull::{CullOutput, Culler};
+use hom::geom::Camera;
+use hom::glam::{Mat4, Quat, Vec3};
+use hom::occluders::OccluderDbConfig;
+use hom::scene::{Mesh, Motion, Scene, SceneBuilder};
+use hom_render::{Framebuffer, Renderer};
+
+/// A unit cube centred on the origin.
+pub fn cube() -> Mesh {
+    let p: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+        .collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let tris = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
+    Mesh::new("cube", p, tris).unwrap()
+}
+
+/// Every object may be an occluder: the strongest test of the depth and overlap logic.
+pub fn permissive_occluders() -> OccluderDbConfig {
+    OccluderDbConfig {
+        min_size: 0.0,
+        max_triangles: u32::MAX,
+        min_fill: 0.0,
+        redundancy_margin: -1.0,
+    }
+}
+
+/// Culls with `culler` and checks every object the oracle sees is kept.
+pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Culler) -> CullOutput {
+    let renderer = Renderer::new(1).unwrap();
+    let mut out = CullOutput::default();
+    culler.cull(scene, camera, &mut out).unwrap();
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
+    for (id, &n) in counts.iter().enumerate() {
+        if n > 0 {
+            assert!(
+                out.visible.binary_search(&(id as u32)).is_ok(),
+                "object {id} owns {n} pixels but was culled (occluded: {})",
+                out.occluded.contains(&(id as u32))
+            );
+        }
+    }
+    out
+}
+
+/// A random scene of `n` boxes (half of them moving when `dynamic`).
+pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
+    let mut state = seed | 1;
+    let mut rnd = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let mut b = SceneBuilder::new("random");
+    let m = b.add_mesh(cube());
+    for i in 0..n {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let scale = Vec3::new(0.2 + rnd() * 5.0, 0.2 + rnd() * 4.0, 0.2 + rnd() * 5.0);
+        let rot = Quat::from_rotation_y(rnd() * 3.0);
+        let t = Mat4::from_scale_rotation_translation(scale, rot, pos);
+        if dynamic && i % 2 == 0 {
+            let motion = Motion {
+                velocity: Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 4.0,
+                region: hom::geom::Aabb::new(pos - 3.0, pos + 3.0),
+                spin_axis: Vec3::Y,
+                spin_rate: rnd() * 2.0,
+            };
+            b.add_dynamic_object(format!("o{i}"), m, t, motion).unwrap();
+        } else {
+            b.add_object(format!("o{i}"), m, t).unwrap();
+        }
+    }
+    b.build().unwrap()
+}
