@@ -189,8 +189,29 @@ struct RenderArgs {
     false_colour: bool,
 }
 
+/// What `hom bench` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum BenchKind {
+    /// Walkthroughs of scenes with several cullers side by side.
+    Walk,
+    /// The occluder rasterizer and rectangle tests on the Masked Occlusion Culling inputs.
+    Raster,
+}
+
 #[derive(Args)]
 struct BenchArgs {
+    /// `walk` (scenes × cullers) or `raster` (the rasterizer on the MOC inputs in --data).
+    #[arg(value_enum, default_value = "walk")]
+    kind: BenchKind,
+    /// raster: the folder with the .mocscene/.mocrec/.res inputs.
+    #[arg(long, default_value = "../shared/bench-data/moc")]
+    data: PathBuf,
+    /// raster: runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    runs: usize,
+    /// raster: comma-separated thread counts to render with.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    raster_threads: Vec<usize>,
     /// Comma-separated built-in scene names or files (default: every built-in scene).
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
@@ -510,6 +531,9 @@ fn demo(a: DemoArgs) -> Result<()> {
 }
 
 fn bench(a: BenchArgs) -> Result<()> {
+    if a.kind == BenchKind::Raster {
+        return bench_raster(a);
+    }
     let scenes: Vec<String> = if a.scenes.is_empty() {
         hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| n.to_string()).collect()
     } else {
@@ -537,6 +561,28 @@ fn bench(a: BenchArgs) -> Result<()> {
     let chart = a.json.with_file_name("stages.png");
     pictures::plot_stage_breakdown(&chart, &report.stage_bars())?;
     println!("json: {}\nstage chart: {}", a.json.display(), chart.display());
+    Ok(())
+}
+
+fn bench_raster(a: BenchArgs) -> Result<()> {
+    let options = hom_walk::raster_bench::RasterBenchOptions {
+        data: a.data,
+        runs: a.runs,
+        threads: a.raster_threads,
+    };
+    let report = hom_walk::raster_bench::run_raster_bench(&options, |what| {
+        if std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+            eprintln!("{what}");
+        }
+    })?;
+    print!("{}", report.table());
+    let json = a.json.with_file_name("raster.json");
+    if let Some(dir) = json.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let text = serde_json::to_string_pretty(&report).context("serializing the raster bench report")?;
+    std::fs::write(&json, text).with_context(|| format!("writing {}", json.display()))?;
+    println!("json: {}", json.display());
     Ok(())
 }
 

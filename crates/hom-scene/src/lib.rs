@@ -10,6 +10,7 @@ pub mod camera_path;
 mod error;
 pub mod export;
 pub mod gltf;
+pub mod moc;
 pub mod obj;
 
 pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED};

@@ -3,6 +3,8 @@
 
 pub mod estimation_buffer;
 pub mod hzb;
+pub mod tiled;
 
 pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane, DEPTH_MARGIN};
 pub use hzb::{ZLevel, ZPyramid, ZTestStats};
+pub use tiled::TiledZBuffer;

@@ -17,6 +17,8 @@
 mod coverage;
 pub mod setup;
 mod simd;
+mod tiled;
 
 pub use coverage::{CoverageBuffer, OccluderRasterizer};
+pub use tiled::{TiledRasterizer, TiledStats};
 pub use simd::{RasterBackend, FORCE_SCALAR_ENV, MASK_MAX};

@@ -11,7 +11,7 @@ pub const SUBPIXEL_BITS: u32 = 8;
 /// One pixel in fixed point.
 pub const ONE: i64 = 1 << SUBPIXEL_BITS;
 /// Half a pixel in fixed point (pixel centres).
-const HALF: i64 = ONE / 2;
+pub(crate) const HALF: i64 = ONE / 2;
 
 /// Guard band: after clipping, screen coordinates stay within about
 /// `±GUARD_PX` pixels of the viewport centre, so snapped coordinates fit in
@@ -297,10 +297,50 @@ impl Vertex {
     }
 }
 
-/// Clips, projects and sets up a triangle of prepared vertices, pushing 0 or
-/// more rasterizable triangles (a fan when clipped) onto `out`.
+/// Which triangles a setup keeps, by their winding in normalized device
+/// coordinates (x right, y up). hom's own scenes are two-sided; the Masked
+/// Occlusion Culling benchmark inputs cull one winding.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum FaceCull {
+    /// Keep both windings (two-sided; the renderer's rule).
+    #[default]
+    None,
+    /// Drop triangles that are clockwise in NDC.
+    Clockwise,
+    /// Drop triangles that are counter-clockwise in NDC.
+    CounterClockwise,
+}
+
+/// How [`setup_triangle_with`] sets a triangle up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct SetupRule {
+    /// Which windings to drop.
+    pub cull: FaceCull,
+    /// Cover only samples the *unsnapped* triangle surely covers, and write
+    /// depths no nearer than its own: edges move inwards by a bound on the
+    /// snapping error and depth moves back by the plane's change over that
+    /// distance. For truths that do not snap (the Masked Occlusion Culling
+    /// reference answers); off for the renderer's own rule.
+    pub inner: bool,
+}
+
+/// Clips, projects and sets up a two-sided triangle of prepared vertices,
+/// pushing 0 or more rasterizable triangles (a fan when clipped) onto `out`.
 /// Returns how many were pushed.
 pub fn setup_triangle(v: [&Vertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> usize {
+    setup_triangle_with(v, vp, SetupRule::default(), item, colour, out)
+}
+
+/// [`setup_triangle`] under `rule`: dropping the triangles `rule.cull` names
+/// (a clipped triangle's fan keeps its winding, so it is culled as a whole).
+pub fn setup_triangle_with(
+    v: [&Vertex; 3],
+    vp: &Viewport,
+    rule: SetupRule,
+    item: u32,
+    colour: [u8; 4],
+    out: &mut Vec<Tri>,
+) -> usize {
     let (c0, c1, c2) = (v[0].code, v[1].code, v[2].code);
     if (c0 | c1 | c2) & BAD_BIT != 0 || c0 & c1 & c2 & 0x3f != 0 {
         // Unusable, or wholly outside one frustum plane (behind near, beyond far, off a side).
@@ -308,7 +348,7 @@ pub fn setup_triangle(v: [&Vertex; 3], vp: &Viewport, item: u32, colour: [u8; 4]
     }
     let near = (c0 | c1 | c2) & NEAR_BIT != 0;
     if !near && (c0 | c1 | c2) & GUARD_BIT == 0 {
-        return usize::from(setup_screen([v[0].s, v[1].s, v[2].s], vp, item, colour, out));
+        return usize::from(setup_screen([v[0].s, v[1].s, v[2].s], vp, rule, item, colour, out));
     }
     let mut a = Poly {
         v: [DVec4::ZERO; MAX_POLY],
@@ -345,16 +385,30 @@ pub fn setup_triangle(v: [&Vertex; 3], vp: &Viewport, item: u32, colour: [u8; 4]
     }
     let mut pushed = 0;
     for i in 1..a.n - 1 {
-        pushed += usize::from(setup_screen([s[0], s[i], s[i + 1]], vp, item, colour, out));
+        pushed += usize::from(setup_screen([s[0], s[i], s[i + 1]], vp, rule, item, colour, out));
     }
     pushed
 }
 
-/// Sets up one snapped screen triangle; false if it covers no pixel centre.
-fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4], out: &mut Vec<Tri>) -> bool {
+/// Sets up one snapped screen triangle; false if it covers no pixel centre
+/// or `cull` drops it.
+fn setup_screen(
+    v: [ScreenVertex; 3],
+    vp: &Viewport,
+    rule: SetupRule,
+    item: u32,
+    colour: [u8; 4],
+    out: &mut Vec<Tri>,
+) -> bool {
     let [v0, mut v1, mut v2] = v;
     let area = (v1.x - v0.x) * (v2.y - v0.y) - (v2.x - v0.x) * (v1.y - v0.y);
-    if area == 0 {
+    // Screen y points down, so counter-clockwise in NDC is a negative area here.
+    let dropped = match rule.cull {
+        FaceCull::None => false,
+        FaceCull::Clockwise => area > 0,
+        FaceCull::CounterClockwise => area < 0,
+    };
+    if area == 0 || dropped {
         return false;
     }
     if area < 0 {
@@ -373,6 +427,10 @@ fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4],
     if x0 >= x1 || y0 >= y1 {
         return false;
     }
+    // Inner rule: each true vertex lies within one fixed-point unit (snapping
+    // plus f32 projection error) of its snapped position per axis, which moves
+    // an edge function by at most 3 (W + H) + 4 inside the box (W, H in units).
+    let inner_bias = if rule.inner { 3 * ((max_x - min_x) + (max_y - min_y)) + 4 } else { 0 };
     let mut a = [0i64; 3];
     let mut b = [0i64; 3];
     let mut c = [0i64; 3];
@@ -385,7 +443,7 @@ fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4],
         let top_left = ea > 0 || (ea == 0 && eb > 0);
         a[i] = ea;
         b[i] = eb;
-        c[i] = -(ea * p.x + eb * p.y) - i64::from(!top_left);
+        c[i] = -(ea * p.x + eb * p.y) - i64::from(!top_left) - inner_bias;
     }
     // Depth plane through the snapped vertices (pixel units), evaluated at pixel
     // centres relative to the first covered pixel for precision.
@@ -396,7 +454,12 @@ fn setup_screen(v: [ScreenVertex; 3], vp: &Viewport, item: u32, colour: [u8; 4],
     let inv_det = 1.0 / (dx1 * dy2 - dx2 * dy1);
     let dzdx = (dz1 * dy2 - dz2 * dy1) * inv_det;
     let dzdy = (dz2 * dx1 - dz1 * dx2) * inv_det;
-    let zref = z0 + dzdx * (x0 as f64 + 0.5 - x0f) + dzdy * (y0 as f64 + 0.5 - y0f);
+    let mut zref = z0 + dzdx * (x0 as f64 + 0.5 - x0f) + dzdy * (y0 as f64 + 0.5 - y0f);
+    if rule.inner {
+        // The plane through the true vertices differs by at most its change over
+        // a few units of vertex displacement, plus f32 rounding.
+        zref += (dzdx.abs() + dzdy.abs()) * (4.0 / ONE as f64) + zref.abs() * f64::from(f32::EPSILON) * 4.0;
+    }
     out.push(Tri {
         a,
         b,

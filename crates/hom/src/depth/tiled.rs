@@ -1,0 +1,283 @@
+//! A z-buffer stored in 8×8-sample tiles, each with its farthest depth, and
+//! a max-pyramid above the tiles: the hierarchical Z-buffer (Greene, Kass and
+//! Miller 1993) laid out for a rasterizer that rejects whole tiles, and hom's
+//! depth representation in `hom bench raster`.
+//!
+//! It holds the same information as a row-major depth image plus
+//! [`super::ZPyramid`] (levels 0–2 live inside the tiles, level 3 is the tile
+//! maxima, the levels above are stored), and [`TiledZBuffer::is_behind`]
+//! answers exactly what [`super::ZPyramid::is_behind`] answers for the same
+//! depths (tested). Depth is clip `z / w`, nearer is smaller;
+//! `f32::INFINITY` marks a sample no occluder covers and samples past the
+//! viewport's edge hold `f32::NEG_INFINITY` (nothing there can be seen).
+
+use super::DEPTH_MARGIN;
+use crate::geom::ScreenRect;
+
+/// Tile side in samples.
+pub const TILE: u32 = 8;
+/// Samples per tile.
+pub const TILE_SAMPLES: usize = (TILE * TILE) as usize;
+
+/// A tiled z-buffer with per-tile farthest depth and a pyramid above; see the module docs.
+#[derive(Clone, Debug, Default)]
+pub struct TiledZBuffer {
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    /// Tile-major: tile `(tx, ty)` holds samples `[(ty * tiles_x + tx) * 64..][..64]`, row-major inside.
+    samples: Vec<f32>,
+    /// Farthest depth of each tile's samples, row-major over tiles.
+    tile_max: Vec<f32>,
+    /// Levels above the tiles: `upper[k]` has texels of `2^(k+1)` tiles a side.
+    upper: Vec<(u32, u32, Vec<f32>)>,
+}
+
+impl TiledZBuffer {
+    /// Clears to "nothing covered" at `width` × `height` (each side 1..=16384).
+    ///
+    /// # Panics
+    /// If a side is 0 or above 16384.
+    pub fn clear(&mut self, width: u32, height: u32) {
+        assert!((1..=16384).contains(&width) && (1..=16384).contains(&height), "viewport {width}x{height}");
+        self.width = width;
+        self.height = height;
+        self.tiles_x = width.div_ceil(TILE);
+        self.tiles_y = height.div_ceil(TILE);
+        let n = (self.tiles_x * self.tiles_y) as usize;
+        self.samples.clear();
+        self.samples.resize(n * TILE_SAMPLES, f32::INFINITY);
+        self.tile_max.clear();
+        self.tile_max.resize(n, f32::INFINITY);
+        self.upper.clear();
+        // Samples past the right and bottom edges.
+        if width % TILE != 0 || height % TILE != 0 {
+            for ty in 0..self.tiles_y {
+                for tx in 0..self.tiles_x {
+                    let t = (ty * self.tiles_x + tx) as usize * TILE_SAMPLES;
+                    for j in 0..TILE {
+                        for i in 0..TILE {
+                            if tx * TILE + i >= width || ty * TILE + j >= height {
+                                self.samples[t + (j * TILE + i) as usize] = f32::NEG_INFINITY;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Width in samples.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in samples.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Tiles across and down.
+    pub fn tiles(&self) -> (u32, u32) {
+        (self.tiles_x, self.tiles_y)
+    }
+
+    /// Depth at sample `(x, y)`.
+    ///
+    /// # Panics
+    /// If `(x, y)` is outside the viewport.
+    pub fn depth(&self, x: u32, y: u32) -> f32 {
+        assert!(x < self.width && y < self.height, "sample {x},{y} outside {}x{}", self.width, self.height);
+        self.samples[Self::index(self.tiles_x, x, y)]
+    }
+
+    #[inline]
+    fn index(tiles_x: u32, x: u32, y: u32) -> usize {
+        ((y / TILE * tiles_x + x / TILE) as usize) * TILE_SAMPLES + ((y % TILE) * TILE + x % TILE) as usize
+    }
+
+    /// The depth as a row-major `width` × `height` image.
+    pub fn to_row_major(&self, out: &mut Vec<f32>) {
+        out.clear();
+        out.reserve((self.width * self.height) as usize);
+        for y in 0..self.height {
+            for x in 0..self.width {
+                out.push(self.samples[Self::index(self.tiles_x, x, y)]);
+            }
+        }
+    }
+
+    /// Farthest depth of each tile, row-major over tiles.
+    pub fn tile_max(&self) -> &[f32] {
+        &self.tile_max
+    }
+
+    /// The samples (tile-major) and tile maxima, for the rasterizer; drops the
+    /// levels above the tiles, which no longer match.
+    pub(crate) fn parts_mut(&mut self) -> (&mut [f32], &mut [f32]) {
+        self.upper.clear();
+        (&mut self.samples, &mut self.tile_max)
+    }
+
+    /// Builds the levels above the tiles (call after rendering, before [`TiledZBuffer::is_behind`]).
+    pub fn build_pyramid(&mut self) {
+        self.upper.clear();
+        let (mut w, mut h) = (self.tiles_x, self.tiles_y);
+        while w > 1 || h > 1 {
+            let src = self.upper.last().map_or(&self.tile_max[..], |l| &l.2[..]);
+            let (nw, nh) = (w.div_ceil(2), h.div_ceil(2));
+            let mut dst = Vec::with_capacity((nw * nh) as usize);
+            for y in 0..nh {
+                for x in 0..nw {
+                    let mut m = f32::NEG_INFINITY;
+                    for (cx, cy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
+                        if cx < w && cy < h {
+                            m = m.max(src[(cy * w + cx) as usize]);
+                        }
+                    }
+                    dst.push(m);
+                }
+            }
+            self.upper.push((nw, nh, dst));
+            (w, h) = (nw, nh);
+        }
+    }
+
+    /// True when every sample of `r` holds an occluder nearer than `r.z_near`
+    /// by more than [`DEPTH_MARGIN`]. Starts at the finest level (tiles or
+    /// above) where the rectangle touches at most 2×2 texels and descends
+    /// where a texel is not behind, down to the samples of a tile. An empty
+    /// rectangle is behind. `r` must lie within the viewport.
+    ///
+    /// # Panics
+    /// If the pyramid was not built since the last render ([`TiledZBuffer::build_pyramid`])
+    /// and the rectangle spans more than 2×2 tiles.
+    pub fn is_behind(&self, r: &ScreenRect) -> bool {
+        if r.is_empty() {
+            return true;
+        }
+        debug_assert!(r.x1 <= self.width && r.y1 <= self.height, "{r:?} outside the viewport");
+        let (t0x, t0y, t1x, t1y) = (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE, (r.y1 - 1) / TILE);
+        // Level 0 here is the tiles; level k + 1 is upper[k].
+        let mut k = 0;
+        while (t1x >> k) - (t0x >> k) > 1 || (t1y >> k) - (t0y >> k) > 1 {
+            k += 1;
+        }
+        assert!(k == 0 || k <= self.upper.len(), "TiledZBuffer::build_pyramid was not called");
+        self.region_behind(k, r, [t0x, t0y, t1x, t1y])
+    }
+
+    /// Whether every texel of level `k` (0 = tiles) over tile range `t` (inclusive) is behind `r`.
+    fn region_behind(&self, k: usize, r: &ScreenRect, t: [u32; 4]) -> bool {
+        let z = r.z_near;
+        let (w, texels) = if k == 0 {
+            (self.tiles_x, &self.tile_max[..])
+        } else {
+            let l = &self.upper[k - 1];
+            (l.0, &l.2[..])
+        };
+        for ty in t[1] >> k..=t[3] >> k {
+            for tx in t[0] >> k..=t[2] >> k {
+                if z > texels[(ty * w + tx) as usize] + DEPTH_MARGIN {
+                    continue;
+                }
+                let behind = if k == 0 {
+                    self.tile_behind(tx, ty, r)
+                } else {
+                    // This texel's tiles, within the rectangle's.
+                    let sub = [
+                        t[0].max(tx << k),
+                        t[1].max(ty << k),
+                        t[2].min(((tx + 1) << k) - 1),
+                        t[3].min(((ty + 1) << k) - 1),
+                    ];
+                    self.region_behind(k - 1, r, sub)
+                };
+                if !behind {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Whether every sample of tile `(tx, ty)` inside `r` is behind `r.z_near`.
+    fn tile_behind(&self, tx: u32, ty: u32, r: &ScreenRect) -> bool {
+        let tile = &self.samples[(ty * self.tiles_x + tx) as usize * TILE_SAMPLES..][..TILE_SAMPLES];
+        let (x0, x1) = (r.x0.max(tx * TILE) - tx * TILE, r.x1.min((tx + 1) * TILE) - tx * TILE);
+        let (y0, y1) = (r.y0.max(ty * TILE) - ty * TILE, r.y1.min((ty + 1) * TILE) - ty * TILE);
+        (y0..y1).all(|j| {
+            tile[(j * TILE + x0) as usize..(j * TILE + x1) as usize]
+                .iter()
+                .all(|&d| r.z_near > d + DEPTH_MARGIN)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::depth::{ZPyramid, ZTestStats};
+    use proptest::prelude::*;
+
+    /// A tiled buffer holding the row-major `depth`, with each tile's max.
+    fn tiled(w: u32, h: u32, depth: &[f32]) -> TiledZBuffer {
+        let mut t = TiledZBuffer::default();
+        t.clear(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                t.samples[TiledZBuffer::index(t.tiles_x, x, y)] = depth[(y * w + x) as usize];
+            }
+        }
+        for (i, m) in t.tile_max.iter_mut().enumerate() {
+            *m = t.samples[i * TILE_SAMPLES..][..TILE_SAMPLES]
+                .iter()
+                .fold(f32::NEG_INFINITY, |a, &b| a.max(b));
+        }
+        t.build_pyramid();
+        t
+    }
+
+    proptest! {
+        #[test]
+        fn is_behind_equals_the_z_pyramid(
+            w in 1u32..90, h in 1u32..90, seed in any::<u64>(),
+            a in (0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0), z in 0.0f32..1.2,
+        ) {
+            let mut s = seed | 1;
+            let d: Vec<f32> = (0..w * h).map(|_| {
+                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
+                if s % 9 == 0 { f32::INFINITY } else { (s >> 40) as f32 / (1u64 << 24) as f32 * 0.5 }
+            }).collect();
+            let t = tiled(w, h, &d);
+            let mut back = Vec::new();
+            t.to_row_major(&mut back);
+            prop_assert_eq!(&back, &d);
+            let mut p = ZPyramid::default();
+            p.build(w, h, &d);
+            let (xa, xb) = ((a.0 * w as f32) as u32, (a.1 * w as f32) as u32);
+            let (ya, yb) = ((a.2 * h as f32) as u32, (a.3 * h as f32) as u32);
+            let r = ScreenRect { x0: xa.min(xb), x1: (xa.max(xb) + 1).min(w), y0: ya.min(yb), y1: (ya.max(yb) + 1).min(h), z_near: z, z_far: z };
+            prop_assert_eq!(t.is_behind(&r), p.is_behind(&r, &mut ZTestStats::default()), "{:?}", r);
+        }
+    }
+
+    #[test]
+    fn samples_past_the_edge_hide_nothing_and_block_nothing() {
+        let mut t = TiledZBuffer::default();
+        t.clear(10, 3);
+        assert_eq!(t.tiles(), (2, 1));
+        assert_eq!(t.depth(9, 2), f32::INFINITY);
+        let r = ScreenRect {
+            x0: 0,
+            y0: 0,
+            x1: 10,
+            y1: 3,
+            z_near: 0.5,
+            z_far: 0.5,
+        };
+        t.build_pyramid();
+        assert!(!t.is_behind(&r), "an empty buffer hides nothing");
+    }
+}
