@@ -9,9 +9,11 @@
 //! and MOC's (`*_moc_*.res`). Recorded game frames (`.mocrec`) are rendered
 //! at their own resolution and at 256×256. Times are medians over the runs.
 
-use hom::depth::TiledZBuffer;
-use hom::raster::setup::SetupRule;
-use hom::raster::TiledRasterizer;
+use hom::depth::{DepthEstimationBuffer, TiledZBuffer};
+use hom::geom::ScreenRect;
+use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
+use hom::raster::setup::{SetupRule, Tri};
+use hom::raster::{CoverageBuffer, OccluderRasterizer, TiledRasterizer};
 use hom_scene::moc::{self, MocRecording, MocScene};
 use hom_scene::LoadError;
 use serde::Serialize;
@@ -127,10 +129,53 @@ pub struct RasterRow {
     pub tiles_drawn: u64,
     /// Tiles and blocks of tiles skipped by depth, last run.
     pub rejected: u64,
+    /// Median time to render the occlusion map from the same set-up
+    /// triangles (coverage, pyramid, depth estimation cells), ms.
+    pub map_ms: f64,
     /// MOC AVX2 and AVX-512 single-thread render times, ms (README), where measured.
     pub peer_ms: Option<(f64, f64)>,
-    /// Query answers (scenes only, first thread count only).
+    /// Query answers on the tiled z-buffer (scenes only, first thread count only).
     pub queries: Option<QueryScore>,
+    /// Query answers on the occlusion map and depth estimation buffer (HOM).
+    pub map_queries: Option<QueryScore>,
+}
+
+/// HOM's representation of the same occluders: an occlusion map (exact
+/// coverage counts, conservative thresholds) and a depth estimation buffer
+/// whose cells hold the farthest first-cover depth (`hom::cull::hom`'s default).
+pub struct OcclusionMap {
+    coverage: CoverageBuffer,
+    pyramid: Pyramid,
+    thresholds: Thresholds,
+    depth: DepthEstimationBuffer,
+}
+
+impl OcclusionMap {
+    /// Renders the set-up triangles `tris` at `width` × `height`.
+    pub fn render(raster: &mut OccluderRasterizer, tris: &[Tri], width: u32, height: u32) -> OcclusionMap {
+        let mut coverage = CoverageBuffer::default();
+        let mut depth = DepthEstimationBuffer::new(width, height, 64, 64);
+        raster.rasterize_triangles(&mut coverage, tris, width, height, Some(&mut depth));
+        let mut pyramid = Pyramid::new(width, height, width.max(height).div_ceil(256), 4);
+        pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row());
+        let thresholds = Thresholds::conservative(&pyramid, 0.0);
+        OcclusionMap {
+            coverage,
+            pyramid,
+            thresholds,
+            depth,
+        }
+    }
+
+    /// HOM's test: behind every depth cell under `r`, and `r` wholly opaque in the map.
+    pub fn is_behind(&self, r: &ScreenRect) -> bool {
+        self.depth.is_behind(r) && rect_covered(&self.pyramid, &self.thresholds, r, &mut OverlapStats::default())
+    }
+
+    /// Samples covered by an occluder.
+    pub fn covered(&self) -> u64 {
+        self.coverage.covered()
+    }
 }
 
 /// The whole run.
@@ -168,7 +213,7 @@ fn time_render(
     (width, height): (u32, u32),
     threads: usize,
     runs: usize,
-) -> Result<(RasterRow, TiledZBuffer), RasterBenchError> {
+) -> Result<(RasterRow, TiledZBuffer, OcclusionMap), RasterBenchError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -193,6 +238,17 @@ fn time_render(
             total.push(ms(t0));
         }
     });
+    let mut occ = OccluderRasterizer::new();
+    let mut map_times = Vec::new();
+    let map = pool.install(|| {
+        let mut map = None;
+        for _ in 0..runs {
+            let t0 = Instant::now();
+            map = Some(OcclusionMap::render(&mut occ, raster.triangles(), width, height));
+            map_times.push(ms(t0));
+        }
+        map.expect("at least one run")
+    });
     let triangles = batches.iter().map(|b| b.1.len()).sum();
     let total_ms = median(total);
     let peer = PEER_RENDER_MS
@@ -211,10 +267,12 @@ fn time_render(
         triangles_per_s: triangles as f64 / (total_ms / 1e3),
         tiles_drawn: stats.tiles_drawn,
         rejected: stats.tiles_rejected + stats.blocks_rejected,
+        map_ms: median(map_times),
         peer_ms: peer,
         queries: None,
+        map_queries: None,
     };
-    Ok((row, zb))
+    Ok((row, zb, map))
 }
 
 fn answers(path: &Path, expected: usize) -> Result<Option<Vec<bool>>, RasterBenchError> {
@@ -237,10 +295,10 @@ fn score_queries(
     data: &Path,
     input: &str,
     scene: &MocScene,
-    zb: &TiledZBuffer,
+    (w, h): (u32, u32),
+    is_behind: impl Fn(&ScreenRect) -> bool,
     runs: usize,
 ) -> Result<Option<QueryScore>, RasterBenchError> {
-    let (w, h) = (zb.width(), zb.height());
     let Some(exact) = answers(&data.join(format!("{input}_exact_{w}x{h}.res")), scene.rects.len())? else {
         return Ok(None);
     };
@@ -250,20 +308,11 @@ fn score_queries(
     for _ in 0..runs {
         ours.clear();
         let t0 = Instant::now();
-        ours.extend(
-            scene
-                .rects
-                .iter()
-                .map(|r| zb.is_behind(&r.footprint(w, h, scene.near_w))),
-        );
+        ours.extend(scene.rects.iter().map(|r| is_behind(&r.footprint(w, h, scene.near_w))));
         times.push(ms(t0));
     }
-    let count = |got: &[bool], want_hidden: bool| {
-        got.iter()
-            .zip(&exact)
-            .filter(|&(&g, &e)| g && e == want_hidden)
-            .count()
-    };
+    let count =
+        |got: &[bool], want_hidden: bool| got.iter().zip(&exact).filter(|&(&g, &e)| g && e == want_hidden).count();
     let peer_ms = (w, h) == (1920, 1080);
     Ok(Some(QueryScore {
         hidden: exact.iter().filter(|&&e| e).count(),
@@ -272,10 +321,7 @@ fn score_queries(
         peer_found: peer.as_deref().map(|p| count(p, true)),
         peer_wrong_occluded: peer.as_deref().map(|p| count(p, false)),
         ms: median(times),
-        peer_ms: PEER_QUERY_MS
-            .iter()
-            .find(|p| peer_ms && p.0 == input)
-            .map(|p| p.1),
+        peer_ms: PEER_QUERY_MS.iter().find(|p| peer_ms && p.0 == input).map(|p| p.1),
     }))
 }
 
@@ -327,9 +373,11 @@ pub fn run_raster_bench(
         };
         for &res in &resolutions {
             for (k, &threads) in options.threads.iter().enumerate() {
-                let (mut row, zb) = time_render(&input, &batches, res, threads, options.runs)?;
+                let (mut row, zb, map) = time_render(&input, &batches, res, threads, options.runs)?;
                 if let (Some(s), 0) = (&scene, k) {
-                    row.queries = score_queries(&options.data, &input, s, &zb, options.runs)?;
+                    let (data, runs) = (&options.data, options.runs);
+                    row.queries = score_queries(data, &input, s, res, |r| zb.is_behind(r), runs)?;
+                    row.map_queries = score_queries(data, &input, s, res, |r| map.is_behind(r), runs)?;
                 }
                 progress(&format!(
                     "{input} {}x{} {} thread(s): {:.2} ms",
@@ -351,17 +399,19 @@ impl RasterBenchReport {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "| input | resolution | triangles | threads | setup ms | render ms | total ms | Mtri/s | MOC AVX2 ms | MOC AVX-512 ms | total ÷ AVX-512 |"
+            "| input | resolution | triangles | threads | setup ms | z render ms | z total ms | Mtri/s | map ms | MOC AVX2 ms | MOC AVX-512 ms | z total ÷ AVX-512 |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
         for r in &self.rows {
             let (p2, p5, ratio) = match r.peer_ms {
-                Some((a, b)) if r.threads == 1 => (format!("{a:.2}"), format!("{b:.2}"), format!("{:.2}", r.total_ms / b)),
+                Some((a, b)) if r.threads == 1 => {
+                    (format!("{a:.2}"), format!("{b:.2}"), format!("{:.2}", r.total_ms / b))
+                }
                 _ => (String::new(), String::new(), String::new()),
             };
             let _ = writeln!(
                 s,
-                "| {} | {}×{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {p2} | {p5} | {ratio} |",
+                "| {} | {}×{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {p2} | {p5} | {ratio} |",
                 r.input,
                 r.width,
                 r.height,
@@ -371,16 +421,19 @@ impl RasterBenchReport {
                 r.render_ms,
                 r.total_ms,
                 r.triangles_per_s / 1e6,
+                r.map_ms,
             );
         }
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "| input | resolution | hidden (exact) | hom wrong occluded | hom found | MOC wrong occluded | MOC found | hom query ms | MOC query ms |"
+            "| input | resolution | hidden (exact) | z wrong occluded | z found | map wrong occluded | map found | MOC wrong occluded | MOC found | z query ms | map query ms | MOC query ms |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
         for r in &self.rows {
-            let Some(q) = &r.queries else { continue };
+            let (Some(q), Some(m)) = (&r.queries, &r.map_queries) else {
+                continue;
+            };
             let pct = |n: usize| {
                 if q.hidden == 0 {
                     "-".to_string()
@@ -390,16 +443,19 @@ impl RasterBenchReport {
             };
             let _ = writeln!(
                 s,
-                "| {} | {}×{} | {} | {} | {} | {} | {} | {:.2} | {} |",
+                "| {} | {}×{} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {} |",
                 r.input,
                 r.width,
                 r.height,
                 q.hidden,
                 q.wrong_occluded,
                 pct(q.found),
+                m.wrong_occluded,
+                pct(m.found),
                 q.peer_wrong_occluded.map_or(String::new(), |n| n.to_string()),
                 q.peer_found.map_or(String::new(), pct),
                 q.ms,
+                m.ms,
                 q.peer_ms.map_or(String::new(), |m| format!("{m:.2}")),
             );
         }

@@ -40,7 +40,10 @@ impl TiledZBuffer {
     /// # Panics
     /// If a side is 0 or above 16384.
     pub fn clear(&mut self, width: u32, height: u32) {
-        assert!((1..=16384).contains(&width) && (1..=16384).contains(&height), "viewport {width}x{height}");
+        assert!(
+            (1..=16384).contains(&width) && (1..=16384).contains(&height),
+            "viewport {width}x{height}"
+        );
         self.width = width;
         self.height = height;
         self.tiles_x = width.div_ceil(TILE);
@@ -88,7 +91,12 @@ impl TiledZBuffer {
     /// # Panics
     /// If `(x, y)` is outside the viewport.
     pub fn depth(&self, x: u32, y: u32) -> f32 {
-        assert!(x < self.width && y < self.height, "sample {x},{y} outside {}x{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "sample {x},{y} outside {}x{}",
+            self.width,
+            self.height
+        );
         self.samples[Self::index(self.tiles_x, x, y)]
     }
 
@@ -131,7 +139,12 @@ impl TiledZBuffer {
             for y in 0..nh {
                 for x in 0..nw {
                     let mut m = f32::NEG_INFINITY;
-                    for (cx, cy) in [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)] {
+                    for (cx, cy) in [
+                        (2 * x, 2 * y),
+                        (2 * x + 1, 2 * y),
+                        (2 * x, 2 * y + 1),
+                        (2 * x + 1, 2 * y + 1),
+                    ] {
                         if cx < w && cy < h {
                             m = m.max(src[(cy * w + cx) as usize]);
                         }
@@ -158,13 +171,21 @@ impl TiledZBuffer {
             return true;
         }
         debug_assert!(r.x1 <= self.width && r.y1 <= self.height, "{r:?} outside the viewport");
+        // Most visible rectangles are visible at their centre: one read.
+        let (cx, cy) = ((r.x0 + r.x1 - 1) / 2, (r.y0 + r.y1 - 1) / 2);
+        if r.z_near <= self.samples[Self::index(self.tiles_x, cx, cy)] + DEPTH_MARGIN {
+            return false;
+        }
         let (t0x, t0y, t1x, t1y) = (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE, (r.y1 - 1) / TILE);
         // Level 0 here is the tiles; level k + 1 is upper[k].
         let mut k = 0;
         while (t1x >> k) - (t0x >> k) > 1 || (t1y >> k) - (t0y >> k) > 1 {
             k += 1;
         }
-        assert!(k == 0 || k <= self.upper.len(), "TiledZBuffer::build_pyramid was not called");
+        assert!(
+            k == 0 || k <= self.upper.len(),
+            "TiledZBuffer::build_pyramid was not called"
+        );
         self.region_behind(k, r, [t0x, t0y, t1x, t1y])
     }
 
@@ -181,6 +202,16 @@ impl TiledZBuffer {
             for tx in t[0] >> k..=t[2] >> k {
                 if z > texels[(ty * w + tx) as usize] + DEPTH_MARGIN {
                     continue;
+                }
+                // A texel wholly inside the rectangle has its farthest sample
+                // inside too: the rectangle is not behind, without descending.
+                let side = TILE << k;
+                let inside = r.x0 <= tx * side
+                    && r.y0 <= ty * side
+                    && r.x1 >= ((tx + 1) * side).min(self.width)
+                    && r.y1 >= ((ty + 1) * side).min(self.height);
+                if inside {
+                    return false;
                 }
                 let behind = if k == 0 {
                     self.tile_behind(tx, ty, r)

@@ -332,16 +332,43 @@ impl OccluderRasterizer {
         camera: &Camera,
         depth: Option<&mut DepthEstimationBuffer>,
     ) -> u64 {
-        coverage.reset(camera.width, camera.height);
         let submitted = self.setup(scene, db, ids, camera);
+        self.fill(coverage, camera.width, camera.height, depth);
+        submitted
+    }
 
+    /// [`OccluderRasterizer::rasterize`] for triangles already set up for a
+    /// `width` × `height` viewport (by [`crate::raster::setup`], for example
+    /// through [`crate::raster::TiledRasterizer::setup`]), in the given order.
+    pub fn rasterize_triangles(
+        &mut self,
+        coverage: &mut CoverageBuffer,
+        tris: &[Tri],
+        width: u32,
+        height: u32,
+        depth: Option<&mut DepthEstimationBuffer>,
+    ) {
+        self.tris.clear();
+        self.tris.extend_from_slice(tris);
+        self.fill(coverage, width, height, depth);
+    }
+
+    /// Covers the samples of `self.tris` (and gathers depth cells) at `width` × `height`.
+    fn fill(
+        &mut self,
+        coverage: &mut CoverageBuffer,
+        width: u32,
+        height: u32,
+        depth: Option<&mut DepthEstimationBuffer>,
+    ) {
+        coverage.reset(width, height);
         // Bands of rows: one row of depth cells each when gathering depth, so
         // every band writes only its own cells.
         let (cols, band_rows, cell_w) = match depth.as_deref() {
             Some(d) => (d.size().0 as usize, d.cell_size().1, d.cell_size().0),
             None => (0, BAND_ROWS, 1),
         };
-        let bands = camera.height.div_ceil(band_rows) as usize;
+        let bands = height.div_ceil(band_rows) as usize;
         self.bins.resize_with(bands, Vec::new);
         self.bins.truncate(bands);
         for bin in &mut self.bins {
@@ -424,7 +451,6 @@ impl OccluderRasterizer {
                     }
                 }
             });
-        submitted
     }
 }
 

@@ -17,8 +17,9 @@
 mod coverage;
 pub mod setup;
 mod simd;
+mod simd_tiles;
 mod tiled;
 
 pub use coverage::{CoverageBuffer, OccluderRasterizer};
-pub use tiled::{TiledRasterizer, TiledStats};
 pub use simd::{RasterBackend, FORCE_SCALAR_ENV, MASK_MAX};
+pub use tiled::{TiledRasterizer, TiledStats};

@@ -430,7 +430,11 @@ fn setup_screen(
     // Inner rule: each true vertex lies within one fixed-point unit (snapping
     // plus f32 projection error) of its snapped position per axis, which moves
     // an edge function by at most 3 (W + H) + 4 inside the box (W, H in units).
-    let inner_bias = if rule.inner { 3 * ((max_x - min_x) + (max_y - min_y)) + 4 } else { 0 };
+    let inner_bias = if rule.inner {
+        3 * ((max_x - min_x) + (max_y - min_y)) + 4
+    } else {
+        0
+    };
     let mut a = [0i64; 3];
     let mut b = [0i64; 3];
     let mut c = [0i64; 3];

@@ -20,6 +20,8 @@
 //! any thread count.
 
 use super::setup::{setup_triangle_with, SetupRule, Tri, Vertex, Viewport, HALF, ONE};
+use super::simd::RasterBackend;
+use super::simd_tiles::TileKernel;
 use crate::depth::tiled::{TiledZBuffer, TILE, TILE_SAMPLES};
 use glam::Vec4;
 use rayon::prelude::*;
@@ -63,12 +65,28 @@ pub struct TiledRasterizer {
     verts: Vec<Vertex>,
     tris: Vec<Tri>,
     bins: Vec<Vec<u32>>,
+    backend: RasterBackend,
 }
 
 impl TiledRasterizer {
-    /// An empty rasterizer.
+    /// An empty rasterizer using [`RasterBackend::active`].
     pub fn new() -> TiledRasterizer {
         TiledRasterizer::default()
+    }
+
+    /// An empty rasterizer using `backend`; every backend writes the same depths.
+    ///
+    /// # Panics
+    /// If the CPU does not support `backend`.
+    pub fn with_backend(backend: RasterBackend) -> TiledRasterizer {
+        assert!(
+            backend.is_supported(),
+            "raster backend {backend:?} is not supported by this CPU"
+        );
+        TiledRasterizer {
+            backend,
+            ..TiledRasterizer::default()
+        }
     }
 
     /// Forgets the triangles set up so far.
@@ -128,7 +146,7 @@ impl TiledRasterizer {
                 self.bins[band as usize].push(i as u32);
             }
         }
-        let tris = &self.tris;
+        let (tris, backend) = (&self.tris, self.backend);
         let (samples, maxima) = zb.parts_mut();
         let band_tiles = (tiles_x * BAND_TILES) as usize;
         let stats = samples
@@ -138,6 +156,7 @@ impl TiledRasterizer {
             .enumerate()
             .map(|(band, ((samples, maxima), bin))| {
                 let band = Band {
+                    backend,
                     ty0: band as u32 * BAND_TILES,
                     tiles_x,
                     width,
@@ -159,6 +178,7 @@ impl TiledRasterizer {
 
 /// One band of tile rows being filled.
 struct Band {
+    backend: RasterBackend,
     /// First tile row.
     ty0: u32,
     tiles_x: u32,
@@ -264,16 +284,17 @@ impl Band {
                             stats.tiles_rejected += 1;
                             continue;
                         }
-                        let tile: &mut [f32; TILE_SAMPLES] =
-                            (&mut samples[ti * TILE_SAMPLES..][..TILE_SAMPLES]).try_into().expect("tile");
-                        let drawn = match tile_edges(t, px, py) {
+                        let tile: &mut [f32; TILE_SAMPLES] = (&mut samples[ti * TILE_SAMPLES..][..TILE_SAMPLES])
+                            .try_into()
+                            .expect("tile");
+                        let far = match tile_edges(t, px, py) {
                             Ok(None) => continue,
-                            Ok(Some(e)) => draw_tile(t, &e, px, py, self.width, self.height, tile),
+                            Ok(Some(e)) => tile_kernel(t, &e, px, py, self.width, self.height).run(self.backend, tile),
                             Err(()) => draw_tile_wide(t, px, py, self.width, self.height, tile),
                         };
                         stats.tiles_drawn += 1;
-                        if drawn {
-                            maxima[ti] = tile.iter().fold(f32::NEG_INFINITY, |m, &d| m.max(d));
+                        if let Some(far) = far {
+                            maxima[ti] = far;
                             changed = true;
                         }
                     }
@@ -287,45 +308,27 @@ impl Band {
     }
 }
 
-/// Depth test and write of the tile at `(px, py)` with `i32` edge functions;
-/// true when a sample changed. The depth at a sample is the renderer's formula.
+/// The kernel inputs of the tile at `(px, py)` with `i32` edge functions.
 #[inline]
-fn draw_tile(t: &Tri, e: &TileEdges, px: u32, py: u32, width: u32, height: u32, tile: &mut [f32; TILE_SAMPLES]) -> bool {
-    const N: usize = TILE as usize;
-    let (x0, y0) = (u32::from(t.x0), u32::from(t.y0));
-    let cols = (width - px).min(TILE) as usize;
-    let rows = (height - py).min(TILE) as usize;
-    // Column terms: dzdx·(x − x0) and the edges' x steps; both exact per lane.
-    let mut dz = [0.0f32; N];
-    let mut ex = [[0i32; N]; 3];
-    let mut live = [false; N];
-    for i in 0..N {
-        dz[i] = t.dzdx * (px + i as u32).wrapping_sub(x0) as i32 as f32;
-        for k in 0..3 {
-            ex[k][i] = e.e[k] + e.step_x[k] * i as i32;
-        }
-        live[i] = i < cols;
+fn tile_kernel(t: &Tri, e: &TileEdges, px: u32, py: u32, width: u32, height: u32) -> TileKernel {
+    // Offsets before the box are negative; those samples are outside an edge
+    // anyway, so only the exact formula for covered ones matters.
+    TileKernel {
+        e: e.e,
+        step_x: e.step_x,
+        step_y: e.step_y,
+        cols: (width - px).min(TILE) as i32,
+        rows: (height - py).min(TILE) as usize,
+        dx0: px as i32 - i32::from(t.x0),
+        dy0: py as i32 - i32::from(t.y0),
+        zref: t.zref,
+        dzdx: t.dzdx,
+        dzdy: t.dzdy,
     }
-    let mut changed = false;
-    for j in 0..rows {
-        // Rows above the triangle's box have negative offsets; their samples are
-        // outside an edge anyway, so only the exact formula for covered ones matters.
-        let zr = t.zref + t.dzdy * (py + j as u32).wrapping_sub(y0) as i32 as f32;
-        let ey = [0, 1, 2].map(|k| e.step_y[k] * j as i32);
-        let row: &mut [f32; N] = (&mut tile[j * N..][..N]).try_into().expect("row");
-        for i in 0..N {
-            let inside = ((ex[0][i] + ey[0]) | (ex[1][i] + ey[1]) | (ex[2][i] + ey[2])) >= 0;
-            let z = (zr + dz[i]).max(0.0);
-            let write = inside & live[i] & (z < row[i]);
-            row[i] = if write { z } else { row[i] };
-            changed |= write;
-        }
-    }
-    changed
 }
 
-/// [`draw_tile`] with `i64` edge functions, for triangles too large for `i32`.
-fn draw_tile_wide(t: &Tri, px: u32, py: u32, width: u32, height: u32, tile: &mut [f32; TILE_SAMPLES]) -> bool {
+/// A tile with `i64` edge functions, for triangles too large for `i32`.
+fn draw_tile_wide(t: &Tri, px: u32, py: u32, width: u32, height: u32, tile: &mut [f32; TILE_SAMPLES]) -> Option<f32> {
     let (x0, y0) = (u32::from(t.x0), u32::from(t.y0));
     let mut changed = false;
     for j in 0..(height - py).min(TILE) {
@@ -344,7 +347,7 @@ fn draw_tile_wide(t: &Tri, px: u32, py: u32, width: u32, height: u32, tile: &mut
             }
         }
     }
-    changed
+    changed.then(|| tile.iter().fold(f32::NEG_INFINITY, |m, &d| m.max(d)))
 }
 
 #[cfg(test)]
@@ -408,16 +411,18 @@ mod tests {
         ) {
             let cull = [FaceCull::None, FaceCull::Clockwise, FaceCull::CounterClockwise][cull as usize];
             let (v, t) = soup(seed, n);
-            let mut r = TiledRasterizer::new();
-            r.setup(&v, &t, SetupRule { cull, inner: seed % 2 == 0 }, w, h);
             let mut zb = TiledZBuffer::default();
+            for backend in RasterBackend::supported() {
+            let mut r = TiledRasterizer::with_backend(backend);
+            r.setup(&v, &t, SetupRule { cull, inner: seed % 2 == 0 }, w, h);
             zb.clear(w, h);
             r.render(&mut zb);
             let mut got = Vec::new();
             zb.to_row_major(&mut got);
             let expect = brute_force(r.triangles(), w, h);
             for (i, (g, e)) in got.iter().zip(&expect).enumerate() {
-                prop_assert!(g == e, "sample {},{}: tiled {} brute force {}", i as u32 % w, i as u32 / w, g, e);
+                prop_assert!(g == e, "{:?} sample {},{}: tiled {} brute force {}", backend, i as u32 % w, i as u32 / w, g, e);
+            }
             }
             // Every tile's maximum is its farthest sample.
             let (tx, _) = zb.tiles();

@@ -1,0 +1,180 @@
+//! Vector kernels of the tiled depth rasterizer ([`super::tiled`]): the depth
+//! test and write of one 8×8 tile. Like [`super::simd`], this is a place for
+//! `unsafe` and `std::arch`; the scalar kernel in `tiled.rs` defines the
+//! result and every kernel here equals it bit for bit (property tests): the
+//! edge values are the same `i32` sums, the depth the same two `f32`
+//! roundings (`zr + dz`), the clamp at 0 the same for every non-NaN depth.
+
+use super::simd::RasterBackend;
+
+/// One tile's inputs: the triangle's planes relative to the tile's first sample.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TileKernel {
+    /// Edge values at the tile's first sample (exact `i32`, see `tiled.rs`).
+    pub e: [i32; 3],
+    /// Edge steps per column.
+    pub step_x: [i32; 3],
+    /// Edge steps per row.
+    pub step_y: [i32; 3],
+    /// Columns inside the viewport (1..=8).
+    pub cols: i32,
+    /// Rows inside the viewport (1..=8).
+    pub rows: usize,
+    /// Column of the tile's first sample minus the triangle's first column.
+    pub dx0: i32,
+    /// Row of the tile's first sample minus the triangle's first row.
+    pub dy0: i32,
+    /// The triangle's depth plane: `zref + dzdy·dy + dzdx·dx`, rounded as the renderer rounds.
+    pub zref: f32,
+    /// Depth step per column.
+    pub dzdx: f32,
+    /// Depth step per row.
+    pub dzdy: f32,
+}
+
+impl TileKernel {
+    /// Depth at row `j` of the tile, column 0 of the triangle (the renderer's `depth_row`).
+    #[inline(always)]
+    fn zr(&self, j: usize) -> f32 {
+        self.zref + self.dzdy * (self.dy0 + j as i32) as f32
+    }
+
+    /// The scalar kernel: the semantics. When a sample changed, the tile's new
+    /// farthest depth (over its rows inside the viewport; the rest hold
+    /// `NEG_INFINITY`).
+    pub(crate) fn run_scalar(&self, tile: &mut [f32; 64]) -> Option<f32> {
+        let mut changed = false;
+        for j in 0..self.rows {
+            let zr = self.zr(j);
+            for i in 0..self.cols as usize {
+                let at = |q: usize| self.e[q] + self.step_x[q] * i as i32 + self.step_y[q] * j as i32;
+                let z = (zr + self.dzdx * (self.dx0 + i as i32) as f32).max(0.0);
+                let d = &mut tile[j * 8 + i];
+                if (at(0) | at(1) | at(2)) >= 0 && z < *d {
+                    *d = z;
+                    changed = true;
+                }
+            }
+        }
+        changed.then(|| tile[..self.rows * 8].iter().fold(f32::NEG_INFINITY, |m, &d| m.max(d)))
+    }
+
+    /// Runs the kernel of `backend` (the scalar one where the CPU lacks it).
+    #[inline]
+    pub(crate) fn run(&self, backend: RasterBackend, tile: &mut [f32; 64]) -> Option<f32> {
+        match backend {
+            #[cfg(target_arch = "x86_64")]
+            RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+                // SAFETY: AVX2 is available (checked above; the check is cached by std).
+                unsafe { x86::run_avx2(self, tile) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            RasterBackend::Scalar => self.run_scalar(tile),
+            #[cfg(target_arch = "x86_64")]
+            _ => x86::run_sse2(self, tile),
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => self.run_scalar(tile),
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::TileKernel;
+    use std::arch::x86_64::*;
+
+    /// SSE2 (x86-64 baseline): a row is two vectors of four samples.
+    pub(super) fn run_sse2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+        // SAFETY: SSE2 is part of x86-64; loads and stores are unaligned and
+        // stay within the tile (8 lanes per row, rows <= 8).
+        unsafe {
+            let lanes = [_mm_setr_epi32(0, 1, 2, 3), _mm_setr_epi32(4, 5, 6, 7)];
+            let mut e = [[_mm_setzero_si128(); 2]; 3];
+            let mut live = [_mm_setzero_si128(); 2];
+            let mut dz = [_mm_setzero_ps(); 2];
+            for h in 0..2 {
+                for (eq, (&e0, &sx)) in e.iter_mut().zip(k.e.iter().zip(&k.step_x)) {
+                    // SSE2 has no 32-bit multiply; the products are exact (see tiled.rs).
+                    let m = [0, 1, 2, 3].map(|l| sx * (4 * h as i32 + l));
+                    eq[h] = _mm_add_epi32(_mm_set1_epi32(e0), _mm_setr_epi32(m[0], m[1], m[2], m[3]));
+                }
+                live[h] = _mm_cmpgt_epi32(_mm_set1_epi32(k.cols), lanes[h]);
+                let dx = _mm_add_epi32(_mm_set1_epi32(k.dx0), lanes[h]);
+                dz[h] = _mm_mul_ps(_mm_set1_ps(k.dzdx), _mm_cvtepi32_ps(dx));
+            }
+            let sy = k.step_y.map(|s| _mm_set1_epi32(s));
+            let zero = _mm_setzero_ps();
+            let mut changed = 0;
+            let mut far = _mm_set1_ps(f32::NEG_INFINITY);
+            for j in 0..k.rows {
+                let zr = _mm_set1_ps(k.zr(j));
+                for h in 0..2 {
+                    let m = _mm_or_si128(_mm_or_si128(e[0][h], e[1][h]), e[2][h]);
+                    let inside = _mm_and_si128(live[h], _mm_cmpgt_epi32(m, _mm_set1_epi32(-1)));
+                    let z = _mm_max_ps(_mm_add_ps(zr, dz[h]), zero);
+                    let p = tile.as_mut_ptr().add(j * 8 + 4 * h);
+                    let d = _mm_loadu_ps(p);
+                    let write = _mm_and_ps(_mm_castsi128_ps(inside), _mm_cmplt_ps(z, d));
+                    let new = _mm_or_ps(_mm_and_ps(write, z), _mm_andnot_ps(write, d));
+                    _mm_storeu_ps(p, new);
+                    far = _mm_max_ps(far, new);
+                    changed |= _mm_movemask_ps(write);
+                }
+                for (eq, &s) in e.iter_mut().zip(&sy) {
+                    for v in eq.iter_mut() {
+                        *v = _mm_add_epi32(*v, s);
+                    }
+                }
+            }
+            (changed != 0).then(|| {
+                let m = _mm_max_ps(far, _mm_shuffle_ps::<0b01_00_11_10>(far, far));
+                _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
+            })
+        }
+    }
+
+    /// AVX2: a row is one vector of eight samples.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn run_avx2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+        // SAFETY: loads and stores are unaligned and stay within the tile.
+        unsafe {
+            let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            let mut e = [0, 1, 2].map(|q| {
+                _mm256_add_epi32(
+                    _mm256_set1_epi32(k.e[q]),
+                    _mm256_mullo_epi32(_mm256_set1_epi32(k.step_x[q]), lanes),
+                )
+            });
+            let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k.cols), lanes);
+            let dx = _mm256_add_epi32(_mm256_set1_epi32(k.dx0), lanes);
+            let dz = _mm256_mul_ps(_mm256_set1_ps(k.dzdx), _mm256_cvtepi32_ps(dx));
+            let sy = k.step_y.map(|s| _mm256_set1_epi32(s));
+            let zero = _mm256_setzero_ps();
+            let mut changed = 0;
+            let mut far = _mm256_set1_ps(f32::NEG_INFINITY);
+            for j in 0..k.rows {
+                let m = _mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]);
+                let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(m, _mm256_set1_epi32(-1)));
+                let z = _mm256_max_ps(_mm256_add_ps(_mm256_set1_ps(k.zr(j)), dz), zero);
+                let p = tile.as_mut_ptr().add(j * 8);
+                let d = _mm256_loadu_ps(p);
+                let write = _mm256_and_ps(_mm256_castsi256_ps(inside), _mm256_cmp_ps::<_CMP_LT_OQ>(z, d));
+                let new = _mm256_blendv_ps(d, z, write);
+                _mm256_storeu_ps(p, new);
+                far = _mm256_max_ps(far, new);
+                changed |= _mm256_movemask_ps(write);
+                for q in 0..3 {
+                    e[q] = _mm256_add_epi32(e[q], sy[q]);
+                }
+            }
+            (changed != 0).then(|| {
+                let m = _mm_max_ps(_mm256_castps256_ps128(far), _mm256_extractf128_ps::<1>(far));
+                let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
+                _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
+            })
+        }
+    }
+}
