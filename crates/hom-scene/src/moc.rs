@@ -214,9 +214,7 @@ impl<'a> Reader<'a> {
     fn count(&mut self, raw: i64, size: usize, what: &str) -> Result<usize, Malformed> {
         let left = (self.bytes.len() - self.pos) as i64;
         if raw < 0 || raw.saturating_mul(size as i64) > left {
-            return Err(self.fail(format!(
-                "{what} count {raw} does not fit in the {left} bytes left"
-            )));
+            return Err(self.fail(format!("{what} count {raw} does not fit in the {left} bytes left")));
         }
         Ok(raw as usize)
     }
@@ -394,7 +392,8 @@ fn parse_draw(r: &mut Reader, near_w: f32) -> Result<Option<MocDraw>, Malformed>
             Some(m) => m * Vec4::new(x, y, zw, 1.0),
             None => Vec4::new(x, y, 0.0, zw),
         };
-        let v = clip_vertex(clip.x, clip.y, clip.w, near_w).ok_or_else(|| r.fail(format!("vertex {i} is not finite")))?;
+        let v =
+            clip_vertex(clip.x, clip.y, clip.w, near_w).ok_or_else(|| r.fail(format!("vertex {i} is not finite")))?;
         vertices.push(v);
     }
     Ok(Some(MocDraw {
@@ -483,7 +482,10 @@ mod tests {
         for v in [0i32, 3, 12] {
             b.extend(v.to_le_bytes());
         }
-        for f in [[-1.0f32, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]].iter().flatten() {
+        for f in [[-1.0f32, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]]
+            .iter()
+            .flatten()
+        {
             b.extend(f.to_le_bytes());
         }
         b.extend(1i32.to_le_bytes());

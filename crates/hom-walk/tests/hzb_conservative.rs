@@ -6,10 +6,11 @@ mod common;
 
 use common::{assert_no_false_culls, permissive_occluders, random_scene};
 use hom::cull::{Culler, HzbConfig, HzbCuller};
+use hom::depth::TiledZBuffer;
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occluders::OccluderDb;
-use hom::raster::OccluderRasterizer;
+use hom::raster::{OccluderRasterizer, TiledRasterizer};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use proptest::prelude::*;
 
@@ -84,6 +85,18 @@ fn per_sample_depth_equals_the_renderers_depth_buffer() {
         let mut depth = Vec::new();
         OccluderRasterizer::default().rasterize_depth(&mut depth, &scene, &db, &ids, &camera);
         assert_eq!(depth.len(), (camera.width * camera.height) as usize);
+        // The HZB culler's tiled rasterizer (rejection, vector kernels) gives the same depth.
+        let mut raster = TiledRasterizer::new();
+        raster.setup_occluders(&scene, &db, &ids, &camera);
+        let mut zb = TiledZBuffer::default();
+        zb.clear(camera.width, camera.height);
+        raster.render(&mut zb);
+        let mut tiled = Vec::new();
+        zb.to_row_major(&mut tiled);
+        assert!(
+            tiled == depth,
+            "seed {seed}: tiled depth differs from the row-major raster"
+        );
         let renderer = Renderer::new(2).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
         let item_only = hom_render::RenderOptions {

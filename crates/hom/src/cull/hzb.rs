@@ -5,10 +5,13 @@
 //! of occlusion maps plus a depth estimation buffer, so a comparison of the
 //! two isolates the representation.
 //!
-//! Per frame: select occluders → rasterize their per-sample depth (the
-//! renderer's own depth formula, `f32::INFINITY` where uncovered) → build the
-//! [`ZPyramid`] (farthest depth per texel) → traverse the BVH front to back,
-//! culling a node or object when its screen rectangle is behind the pyramid.
+//! Per frame: select occluders → rasterize their per-sample depth into a
+//! [`TiledZBuffer`] (the renderer's own depth formula, `f32::INFINITY` where
+//! uncovered; occluders hidden by nearer ones are rejected a tile or a block
+//! at a time) with its pyramid of farthest depths above → traverse the BVH
+//! front to back, culling a node or object when its screen rectangle is
+//! behind the pyramid. (The row-major [`crate::depth::ZPyramid`] is the
+//! reference the tiled buffer is tested against.)
 //!
 //! # Conservative
 //! A box is culled only when every sample of its rectangle holds an occluder
@@ -27,11 +30,11 @@ use super::frustum::refit_if_dynamic;
 use super::hom::find_worst_hole;
 use super::traversal::{count_occluders, occluded_share, Traversal};
 use super::{CullError, CullOutput, Culler, HomConfig};
-use crate::depth::{ZPyramid, ZTestStats};
+use crate::depth::TiledZBuffer;
 use crate::geom::{Aabb, Camera, Frustum};
 use crate::map::Pyramid;
 use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
-use crate::raster::OccluderRasterizer;
+use crate::raster::TiledRasterizer;
 use crate::scene::Scene;
 use crate::spatial::{Bvh, BvhConfig};
 
@@ -66,10 +69,8 @@ pub struct HzbCuller {
     boxes: Vec<Aabb>,
     db: OccluderDb,
     selector: OccluderSelector,
-    raster: OccluderRasterizer,
-    depth: Vec<f32>,
-    viewport: (u32, u32),
-    zpyramid: ZPyramid,
+    raster: TiledRasterizer,
+    zbuffer: TiledZBuffer,
     is_occluder: Vec<bool>,
     culled_pct: f32,
 }
@@ -86,10 +87,8 @@ impl HzbCuller {
             bvh,
             boxes,
             db,
-            raster: OccluderRasterizer::default(),
-            depth: Vec::new(),
-            viewport: (0, 0),
-            zpyramid: ZPyramid::default(),
+            raster: TiledRasterizer::new(),
+            zbuffer: TiledZBuffer::default(),
             is_occluder: vec![false; scene.objects().len()],
             culled_pct: 0.0,
         }
@@ -105,9 +104,9 @@ impl HzbCuller {
         &mut self.db
     }
 
-    /// The last frame's Z-pyramid.
-    pub fn zpyramid(&self) -> &ZPyramid {
-        &self.zpyramid
+    /// The last frame's occluder depth and its pyramid.
+    pub fn zbuffer(&self) -> &TiledZBuffer {
+        &self.zbuffer
     }
 
     /// The current settings.
@@ -117,17 +116,18 @@ impl HzbCuller {
 
     /// The worst hole of the last frame's occluder coverage (see the module docs).
     fn worst_hole(&self) -> Option<Hole> {
-        let (w, h) = self.viewport;
-        if w == 0 || h == 0 || self.depth.len() != (w * h) as usize {
+        let zb = &self.zbuffer;
+        let (w, h) = (zb.width(), zb.height());
+        if w == 0 || h == 0 {
             return None;
         }
         let defaults = HomConfig::default();
         let block = w.max(h).div_ceil(defaults.map_size.max(1)).clamp(1, 64);
         let wpr = (w as usize).div_ceil(64);
         let mut bits = vec![0u64; wpr * h as usize];
-        for (y, row) in self.depth.chunks(w as usize).enumerate() {
-            for (x, &d) in row.iter().enumerate() {
-                if d.is_finite() {
+        for y in 0..h as usize {
+            for x in 0..w as usize {
+                if zb.depth(x as u32, y as u32).is_finite() {
                     bits[y * wpr + x / 64] |= 1 << (x % 64);
                 }
             }
@@ -146,7 +146,10 @@ impl Culler for HzbCuller {
     fn config(&self) -> Vec<(&'static str, String)> {
         let c = &self.config;
         vec![
-            ("depth", "per-sample Z-pyramid (max of 2x2)".to_string()),
+            (
+                "depth",
+                "per-sample tiled z-buffer, pyramid of farthest depth".to_string(),
+            ),
             ("selection", format!("{:?}", c.selection.mode)),
             ("budget", c.selection.budget.to_string()),
             ("adaptive_budget", c.selection.adaptive.to_string()),
@@ -179,29 +182,28 @@ impl Culler for HzbCuller {
         });
 
         // 2. Occluder depth per output sample.
-        self.viewport = (w, h);
         let Self {
             raster,
-            depth,
+            zbuffer,
             db,
-            zpyramid,
             bvh,
             is_occluder,
             boxes,
             ..
         } = self;
+        // (The pyramid above the tiles is built by the render.)
         let drawn = out.time("raster", || {
-            raster.rasterize_depth(depth, scene, db, &occluders, camera)
+            zbuffer.clear(w, h);
+            raster.clear();
+            let drawn = raster.setup_occluders(scene, db, &occluders, camera);
+            raster.render(zbuffer);
+            drawn
         });
 
-        // 3. The Z-pyramid.
-        out.time("zpyramid", || zpyramid.build(w, h, depth));
-
-        // 4. Traversal: frustum → Z-pyramid, front to back.
+        // 3. Traversal: frustum → Z-pyramid, front to back.
         let mut visible = std::mem::take(&mut out.visible);
         let mut occluded = std::mem::take(&mut out.occluded);
-        let mut stats = ZTestStats::default();
-        let zpyramid = &*zpyramid;
+        let zbuffer = &*zbuffer;
         let traversal = Traversal {
             scene,
             bvh,
@@ -214,20 +216,13 @@ impl Culler for HzbCuller {
             occluders: &occluders,
         };
         let box_tests = out.time("traversal", || {
-            traversal.run(
-                is_occluder,
-                |r| zpyramid.is_behind(r, &mut stats),
-                &mut visible,
-                &mut occluded,
-            )
+            traversal.run(is_occluder, |r| zbuffer.is_behind(r), &mut visible, &mut occluded)
         });
         self.culled_pct = occluded_share(scene, &visible, &occluded);
         out.visible = visible;
         out.occluded = occluded;
         out.occluders = occluders;
         out.count("box_tests", box_tests);
-        out.count("zpyramid_texels", stats.texels);
-        out.count("zpyramid_descents", stats.descents);
         count_occluders(out, &sel, drawn);
         Ok(())
     }

@@ -158,6 +158,60 @@ fn raise_cells(cells: &mut [f32], cell_w: u32, base: u32, fresh: u64, z: impl Fn
     }
 }
 
+/// Sets up every triangle of the occluders `ids` (their stand-in meshes
+/// where they have one), nearest occluder first, onto `tris`.
+/// Returns the number of occluder triangles submitted.
+pub(crate) fn setup_occluders(
+    scene: &Scene,
+    db: &OccluderDb,
+    ids: &[u32],
+    camera: &Camera,
+    tris: &mut Vec<Tri>,
+) -> u64 {
+    let vp = Viewport::new(camera.width, camera.height);
+    let view_proj = camera.view_proj();
+    // Triangle setup, in parallel over occluders, concatenated nearest first.
+    let mut order = ids.to_vec();
+    let eye = camera.eye;
+    let near = |id: &u32| scene.object(*id).aabb.distance_squared(eye);
+    order.sort_by(|a, b| near(a).total_cmp(&near(b)).then(a.cmp(b)));
+    let ids = &order[..];
+    let stand_ins: Vec<Option<&crate::scene::Mesh>> = ids
+        .iter()
+        .map(|&id| {
+            db.occluders()
+                .binary_search_by_key(&id, |o| o.object)
+                .ok()
+                .and_then(|i| db.occluders()[i].stand_in.as_deref())
+        })
+        .collect();
+    let per_object: Vec<Vec<Tri>> = ids
+        .par_iter()
+        .zip(stand_ins.par_iter())
+        .map(|(&id, stand_in)| {
+            let o = scene.object(id);
+            let mesh = stand_in.unwrap_or_else(|| scene.mesh_of(o));
+            let mvp = view_proj * o.transform;
+            let verts: Vec<Vertex> = mesh
+                .positions()
+                .iter()
+                .map(|p| Vertex::new(mvp * p.extend(1.0), &vp))
+                .collect();
+            let mut out = Vec::with_capacity(mesh.triangle_count());
+            for t in mesh.triangles() {
+                let [a, b, c] = t.map(|i| &verts[i as usize]);
+                setup_triangle([a, b, c], &vp, 0, [0; 4], &mut out);
+            }
+            out
+        })
+        .collect();
+    let submitted = ids.iter().map(|&id| scene.object(id).triangles as u64).sum();
+    for v in per_object {
+        tris.extend(v);
+    }
+    submitted
+}
+
 /// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 16;
 
@@ -207,53 +261,10 @@ impl OccluderRasterizer {
         self.backend
     }
 
-    /// Sets up every triangle of the occluders `ids` (their stand-in meshes
-    /// where they have one), nearest occluder first, into `self.tris`.
-    /// Returns the number of occluder triangles submitted.
+    /// Sets up the occluders' triangles into `self.tris`; see [`setup_occluders`].
     fn setup(&mut self, scene: &Scene, db: &OccluderDb, ids: &[u32], camera: &Camera) -> u64 {
-        let vp = Viewport::new(camera.width, camera.height);
-        let view_proj = camera.view_proj();
-        // Triangle setup, in parallel over occluders, concatenated nearest first.
-        let mut order = ids.to_vec();
-        let eye = camera.eye;
-        let near = |id: &u32| scene.object(*id).aabb.distance_squared(eye);
-        order.sort_by(|a, b| near(a).total_cmp(&near(b)).then(a.cmp(b)));
-        let ids = &order[..];
-        let stand_ins: Vec<Option<&crate::scene::Mesh>> = ids
-            .iter()
-            .map(|&id| {
-                db.occluders()
-                    .binary_search_by_key(&id, |o| o.object)
-                    .ok()
-                    .and_then(|i| db.occluders()[i].stand_in.as_deref())
-            })
-            .collect();
-        let per_object: Vec<Vec<Tri>> = ids
-            .par_iter()
-            .zip(stand_ins.par_iter())
-            .map(|(&id, stand_in)| {
-                let o = scene.object(id);
-                let mesh = stand_in.unwrap_or_else(|| scene.mesh_of(o));
-                let mvp = view_proj * o.transform;
-                let verts: Vec<Vertex> = mesh
-                    .positions()
-                    .iter()
-                    .map(|p| Vertex::new(mvp * p.extend(1.0), &vp))
-                    .collect();
-                let mut out = Vec::with_capacity(mesh.triangle_count());
-                for t in mesh.triangles() {
-                    let [a, b, c] = t.map(|i| &verts[i as usize]);
-                    setup_triangle([a, b, c], &vp, 0, [0; 4], &mut out);
-                }
-                out
-            })
-            .collect();
-        let submitted = ids.iter().map(|&id| scene.object(id).triangles as u64).sum();
         self.tris.clear();
-        for v in per_object {
-            self.tris.extend(v);
-        }
-        submitted
+        setup_occluders(scene, db, ids, camera, &mut self.tris)
     }
 
     /// Fills `depth` (row-major, `camera.width` × `camera.height`) with the

@@ -19,10 +19,14 @@
 //! cannot make nearer. Bands are independent, so the result is the same for
 //! any thread count.
 
+use super::coverage::setup_occluders;
 use super::setup::{setup_triangle_with, SetupRule, Tri, Vertex, Viewport, HALF, ONE};
 use super::simd::RasterBackend;
 use super::simd_tiles::TileKernel;
 use crate::depth::tiled::{TiledZBuffer, TILE, TILE_SAMPLES};
+use crate::geom::Camera;
+use crate::occluders::OccluderDb;
+use crate::scene::Scene;
 use glam::Vec4;
 use rayon::prelude::*;
 
@@ -126,6 +130,14 @@ impl TiledRasterizer {
         for c in chunks {
             self.tris.extend(c);
         }
+    }
+
+    /// Sets up the triangles of the occluders `ids` of `scene` (their stand-in
+    /// meshes where they have one) for `camera`, two-sided, as the renderer
+    /// does, appending to the triangles to render. Returns the number of
+    /// occluder triangles submitted.
+    pub fn setup_occluders(&mut self, scene: &Scene, db: &OccluderDb, ids: &[u32], camera: &Camera) -> u64 {
+        setup_occluders(scene, db, ids, camera, &mut self.tris)
     }
 
     /// Renders the triangles set up so far into `zb` (which keeps what it
