@@ -247,31 +247,58 @@ mod x86 {
     use super::low_bits;
     use std::arch::x86_64::*;
 
+    /// For a box `n` samples wide (`n` capped at `L`): lane `j`'s row `j / n`
+    /// and sample `j % n` within the row, as `i64` lanes (entry 0 unused).
+    const fn lane_index<const L: usize, const T: usize>() -> [([i64; L], [i64; L]); T] {
+        let mut t = [([0; L], [0; L]); T];
+        let mut n = 1;
+        while n < T {
+            let mut j = 0;
+            while j < L {
+                t[n].0[j] = (j / n) as i64;
+                t[n].1[j] = (j % n) as i64;
+                j += 1;
+            }
+            n += 1;
+        }
+        t
+    }
+
+    /// `(a * b) mod 2^64` per lane from 32×32 → 64-bit multiplies, for `a`'s
+    /// lanes in `0..2^32`: `a * b_lo + ((a * b_hi) << 32)`.
+    macro_rules! mul_small {
+        ($mul_epu32:ident, $add:ident, $slli:ident, $srli:ident, $a:expr, $b:expr) => {{
+            let (a, b) = ($a, $b);
+            $add($mul_epu32(a, b), $slli::<32>($mul_epu32(a, $srli::<32>(b))))
+        }};
+    }
+
     /// The row-mask kernel every vector backend shares (see the module docs),
     /// expanded inside each backend's `target_feature` function so that its
-    /// intrinsics inline. Arguments: the lane count; `e`, `s`, `dy`, `n`, `out`
-    /// as in [`super::row_masks`]; then closures `set([i64; LANES]) -> V` (lane
-    /// 0 first), `splat(i64) -> V`, `add(V, V) -> V` (wrapping `i64` lanes) and
-    /// `covered(V, V, V) -> u64` (bit `j` set iff all three edge values of lane
-    /// `j` are `>= 0`; no bits above the lanes).
+    /// intrinsics inline. Arguments: the lane count `L`; `e`, `s`, `dy`, `n`,
+    /// `out` as in [`super::row_masks`]; then closures `load(&[i64; L]) -> V`
+    /// (lane 0 first), `splat(i64) -> V`, `add(V, V) -> V` (wrapping `i64`
+    /// lanes), `mul(V, V) -> V` (wrapping `i64` product, first operand's lanes
+    /// in `0..2^32`) and `covered(V, V, V) -> u64` (bit `j` set iff all three
+    /// edge values of lane `j` are `>= 0`; no bits above the lanes). Expects a
+    /// `LANE_INDEX: [([i64; L], [i64; L]); L + 1]` in scope ([`lane_index`]).
     ///
     /// Lanes outside the box or past the last row may wrap; their bits are
     /// never stored.
     macro_rules! kernel {
-        ($lanes:expr, $e:expr, $s:expr, $dy:expr, $n:expr, $out:expr, $set:expr, $splat:expr, $add:expr, $covered:expr) => {{
+        ($lanes:expr, $e:expr, $s:expr, $dy:expr, $n:expr, $out:expr, $load:expr, $splat:expr, $add:expr, $mul:expr, $covered:expr) => {{
             const L: usize = $lanes;
             let (e, s, dy, n, out): ([i64; 3], [i64; 3], [i64; 3], u32, &mut [u64]) = ($e, $s, $dy, $n, $out);
-            let (set, splat, add, covered) = ($set, $splat, $add, $covered);
+            let (load, splat, add, mul, covered) = ($load, $splat, $add, $mul, $covered);
             let valid = low_bits(n);
             // Lane j starts at sample j % n of row j / n (a later row only when
-            // rows are packed or the box is narrower than a vector).
-            let start = |i: usize| {
-                set(std::array::from_fn::<i64, L, _>(|j| {
-                    let (row, k) = (j as u32 / n, j as u32 % n);
-                    e[i].wrapping_add(dy[i].wrapping_mul(i64::from(row)))
-                        .wrapping_add(s[i].wrapping_mul(i64::from(k)))
-                }))
-            };
+            // rows are packed or the box is narrower than a vector): vector
+            // arithmetic on constant lane indices, as exact (mod 2^64) as the
+            // scalar wrapping loop, and far cheaper per call than 2 * L scalar
+            // multiplies and L inserts per edge.
+            let table = &LANE_INDEX[(n as usize).min(L)];
+            let (rows, ks) = (load(&table.0), load(&table.1));
+            let start = |i: usize| add(add(splat(e[i]), mul(rows, splat(dy[i]))), mul(ks, splat(s[i])));
             let (mut r0, mut r1, mut r2) = (start(0), start(1), start(2));
             if n as usize <= L {
                 // At most one vector per row: `p` whole rows per vector.
@@ -341,6 +368,7 @@ mod x86 {
         // SAFETY: this function is compiled with AVX-512F and its caller
         // guarantees the CPU supports it; the intrinsics only touch registers.
         unsafe {
+            static LANE_INDEX: [([i64; 8], [i64; 8]); 9] = lane_index();
             let zero = _mm512_setzero_si512();
             kernel!(
                 8,
@@ -349,9 +377,18 @@ mod x86 {
                 dy,
                 n,
                 out,
-                |v: [i64; 8]| _mm512_set_epi64(v[7], v[6], v[5], v[4], v[3], v[2], v[1], v[0]),
+                // SAFETY: reads the 8 `i64` of a valid array reference (unaligned load).
+                |v: &[i64; 8]| _mm512_loadu_si512(v.as_ptr().cast()),
                 |x: i64| _mm512_set1_epi64(x),
                 |a: __m512i, b: __m512i| _mm512_add_epi64(a, b),
+                |a: __m512i, b: __m512i| mul_small!(
+                    _mm512_mul_epu32,
+                    _mm512_add_epi64,
+                    _mm512_slli_epi64,
+                    _mm512_srli_epi64,
+                    a,
+                    b
+                ),
                 |c0: __m512i, c1: __m512i, c2: __m512i| {
                     // 0xFE: a | b | c.
                     let any = _mm512_ternarylogic_epi64::<0xFE>(c0, c1, c2);
@@ -371,6 +408,7 @@ mod x86 {
         // SAFETY: this function is compiled with AVX2 and its caller guarantees
         // the CPU supports it; the intrinsics only touch registers.
         unsafe {
+            static LANE_INDEX: [([i64; 4], [i64; 4]); 5] = lane_index();
             kernel!(
                 4,
                 e,
@@ -378,9 +416,18 @@ mod x86 {
                 dy,
                 n,
                 out,
-                |v: [i64; 4]| _mm256_set_epi64x(v[3], v[2], v[1], v[0]),
+                // SAFETY: reads the 4 `i64` of a valid array reference (unaligned load).
+                |v: &[i64; 4]| _mm256_loadu_si256(v.as_ptr().cast()),
                 |x: i64| _mm256_set1_epi64x(x),
                 |a: __m256i, b: __m256i| _mm256_add_epi64(a, b),
+                |a: __m256i, b: __m256i| mul_small!(
+                    _mm256_mul_epu32,
+                    _mm256_add_epi64,
+                    _mm256_slli_epi64,
+                    _mm256_srli_epi64,
+                    a,
+                    b
+                ),
                 |c0: __m256i, c1: __m256i, c2: __m256i| {
                     // Sign bits: set where some edge is negative (sample outside).
                     let any = _mm256_or_si256(_mm256_or_si256(c0, c1), c2);
@@ -393,8 +440,8 @@ mod x86 {
     /// Row masks, 2 samples per 128-bit vector of `i64` lanes (see [`super::row_masks`]).
     ///
     /// SSE4.1 adds nothing the sign-bit test needs (`ptest`, `pblendvb` and
-    /// `pcmpeqq` do not beat SSE2's `por` + `movmskpd` here); the target
-    /// feature lets the compiler build the start lanes with `pinsrq`.
+    /// `pcmpeqq` do not beat SSE2's `por` + `movmskpd` here); it is the
+    /// shared kernel with 2 lanes.
     ///
     /// # Safety
     /// The CPU must support SSE4.1.
@@ -404,6 +451,7 @@ mod x86 {
         // SAFETY: this function is compiled with SSE4.1 and its caller
         // guarantees the CPU supports it; the intrinsics only touch registers.
         unsafe {
+            static LANE_INDEX: [([i64; 2], [i64; 2]); 3] = lane_index();
             kernel!(
                 2,
                 e,
@@ -411,9 +459,11 @@ mod x86 {
                 dy,
                 n,
                 out,
-                |v: [i64; 2]| _mm_set_epi64x(v[1], v[0]),
+                // SAFETY: reads the 2 `i64` of a valid array reference (unaligned load).
+                |v: &[i64; 2]| _mm_loadu_si128(v.as_ptr().cast()),
                 |x: i64| _mm_set1_epi64x(x),
                 |a: __m128i, b: __m128i| _mm_add_epi64(a, b),
+                |a: __m128i, b: __m128i| mul_small!(_mm_mul_epu32, _mm_add_epi64, _mm_slli_epi64, _mm_srli_epi64, a, b),
                 |c0: __m128i, c1: __m128i, c2: __m128i| {
                     // Sign bits: set where some edge is negative (sample outside).
                     let any = _mm_or_si128(_mm_or_si128(c0, c1), c2);
@@ -587,6 +637,74 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Kernel-only timing (not a check; the criterion bench `kernels` times the
+    /// whole rasterizer): median ns per row of `row_masks` over random boxes of
+    /// three shapes, each backend in turn, runs interleaved.
+    /// `cargo test -p hom --release kernel_timing -- --ignored --nocapture`
+    #[test]
+    #[ignore = "timing, not a check"]
+    fn kernel_timing() {
+        use std::time::Instant;
+        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut rnd = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let (w, h) = (1024u32, 1024u32);
+        // (name, box width range, box height range)
+        let shapes = [
+            ("thin (1-4 wide)", 1.0, 4.0, 20.0, 200.0),
+            ("mid (5-16 wide)", 5.0, 16.0, 5.0, 60.0),
+            ("wide (17-64 wide)", 17.0, 64.0, 5.0, 60.0),
+        ];
+        for (name, w0, w1, h0, h1) in shapes {
+            let mut tris = Vec::new();
+            while tris.len() < 2000 {
+                let (bw, bh) = (w0 + rnd() * (w1 - w0), h0 + rnd() * (h1 - h0));
+                let (cx, cy) = (50.0 + rnd() * 900.0, 50.0 + rnd() * 900.0);
+                let p = [0, 1, 2].map(|_| (cx + (rnd() - 0.5) * bw, cy + (rnd() - 0.5) * bh));
+                let t = setup_px(p, w, h);
+                tris.extend(t.into_iter().filter(|t| u32::from(t.x1 - t.x0) <= MASK_MAX));
+            }
+            let rows: usize = tris.iter().map(|t| usize::from(t.y1 - t.y0)).sum();
+            let mut out = [0u64; 32];
+            let mut times: Vec<Vec<f64>> = vec![Vec::new(); RasterBackend::ALL.len()];
+            let mut sink = 0u64;
+            for _ in 0..15 {
+                for (bi, b) in RasterBackend::ALL
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(_, b)| b.is_supported())
+                {
+                    let start = Instant::now();
+                    for t in &tris {
+                        let (mut py, y1) = (u32::from(t.y0), u32::from(t.y1));
+                        while py < y1 {
+                            let n = ((y1 - py) as usize).min(32);
+                            row_masks(b, t, py, &mut out[..n]);
+                            sink = sink.wrapping_add(out[0] ^ out[n - 1]);
+                            py += n as u32;
+                        }
+                    }
+                    times[bi].push(start.elapsed().as_secs_f64() * 1e9 / rows as f64);
+                }
+            }
+            let line: Vec<String> = RasterBackend::ALL
+                .into_iter()
+                .zip(times.iter_mut())
+                .filter(|(_, t)| !t.is_empty())
+                .map(|(b, t)| {
+                    t.sort_by(f64::total_cmp);
+                    format!("{} {:.2}", b.name(), t[t.len() / 2])
+                })
+                .collect();
+            eprintln!("{name}, {rows} rows: ns/row: {} (sink {})", line.join(", "), sink % 2);
+        }
+        report_untested("kernel_timing");
     }
 
     #[test]
