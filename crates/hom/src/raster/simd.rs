@@ -121,7 +121,12 @@ impl RasterBackend {
         *ACTIVE.get_or_init(|| {
             let force = std::env::var_os(FORCE_SCALAR_ENV);
             let name = std::env::var_os(BACKEND_ENV);
-            let (backend, warning) = choose(force.as_deref(), name.as_deref(), RasterBackend::detect());
+            let (backend, warning) = choose(
+                force.as_deref(),
+                name.as_deref(),
+                RasterBackend::detect(),
+                RasterBackend::is_supported,
+            );
             if let Some(w) = warning {
                 eprintln!("{w}");
             }
@@ -157,9 +162,15 @@ impl Default for RasterBackend {
 }
 
 /// What [`RasterBackend::active`] decides from the values of
-/// [`FORCE_SCALAR_ENV`] and [`BACKEND_ENV`], given the detected backend: the
-/// backend, and a warning to print when the name is unusable.
-fn choose(force: Option<&OsStr>, name: Option<&OsStr>, detected: RasterBackend) -> (RasterBackend, Option<String>) {
+/// [`FORCE_SCALAR_ENV`] and [`BACKEND_ENV`], given the detected backend and
+/// which backends the CPU supports: the backend, and a warning to print when
+/// the name is unusable.
+fn choose(
+    force: Option<&OsStr>,
+    name: Option<&OsStr>,
+    detected: RasterBackend,
+    supported: impl Fn(RasterBackend) -> bool,
+) -> (RasterBackend, Option<String>) {
     if force.is_some_and(|v| !v.is_empty() && v != "0") {
         return (RasterBackend::Scalar, None);
     }
@@ -168,7 +179,7 @@ fn choose(force: Option<&OsStr>, name: Option<&OsStr>, detected: RasterBackend) 
     };
     let shown = name.to_string_lossy();
     let warning = match name.to_str().and_then(RasterBackend::from_name) {
-        Some(b) if b.is_supported() => return (b, None),
+        Some(b) if supported(b) => return (b, None),
         Some(_) => format!(
             "hom: {BACKEND_ENV}={shown}: this CPU does not support it; using {}",
             detected.name()
@@ -636,7 +647,8 @@ mod tests {
     /// whole rasterizer): median ns per row of `row_masks` over random boxes of
     /// three shapes, called per 16-row band, each backend in turn, runs
     /// interleaved.
-    /// `cargo test -p hom --release kernel_timing -- --ignored --nocapture`
+    /// `cargo test -p hom kernel_timing -- --ignored --nocapture` (the test
+    /// profile is optimized).
     #[test]
     #[ignore = "timing, not a check"]
     fn kernel_timing() {
@@ -736,29 +748,44 @@ mod tests {
     #[test]
     fn environment_choice() {
         let os = |s: &'static str| Some(OsStr::new(s));
-        let det = RasterBackend::detect();
-        assert_eq!(choose(None, None, det), (det, None));
-        assert_eq!(choose(os(""), os(""), det), (det, None));
-        assert_eq!(choose(os("0"), None, det), (det, None));
-        assert_eq!(choose(os("1"), None, det), (RasterBackend::Scalar, None));
-        assert_eq!(choose(os("yes"), os("avx2"), det), (RasterBackend::Scalar, None));
-        assert_eq!(choose(os("0"), os("scalar"), det), (RasterBackend::Scalar, None));
+        // A CPU with everything, and one without AVX-512 (detects AVX2).
+        let all = |_: RasterBackend| true;
+        let no512 = |b: RasterBackend| b != RasterBackend::Avx512;
+        let (top, avx2) = (RasterBackend::Avx512, RasterBackend::Avx2);
+        assert_eq!(choose(None, None, top, all), (top, None));
+        assert_eq!(choose(os(""), os(""), top, all), (top, None));
+        assert_eq!(choose(os("0"), None, top, all), (top, None));
+        assert_eq!(choose(os("1"), None, top, all), (RasterBackend::Scalar, None));
+        assert_eq!(choose(os("yes"), os("avx2"), top, all), (RasterBackend::Scalar, None));
+        assert_eq!(choose(os("0"), os("scalar"), top, all), (RasterBackend::Scalar, None));
         for b in RasterBackend::ALL {
-            let (got, warning) = choose(None, Some(OsStr::new(b.name())), det);
-            if b.is_supported() {
-                assert_eq!((got, warning), (b, None));
-            } else {
-                assert_eq!(got, det);
-                assert!(warning.unwrap().contains("does not support"));
-            }
+            assert_eq!(choose(None, Some(OsStr::new(b.name())), top, all), (b, None));
         }
-        let (got, warning) = choose(None, os("sse2"), det);
-        assert_eq!(got, det);
+        assert_eq!(choose(None, os("Sse41"), avx2, no512), (RasterBackend::Sse41, None));
+        let (got, warning) = choose(None, os("avx512"), avx2, no512);
+        assert_eq!(got, avx2);
+        let warning = warning.unwrap();
+        assert!(
+            warning.contains("does not support") && warning.ends_with("using avx2"),
+            "{warning}"
+        );
+        let (got, warning) = choose(None, os("sse2"), top, all);
+        assert_eq!(got, top);
         let warning = warning.unwrap();
         assert!(
             warning.contains("HOM_RASTER_BACKEND=sse2") && warning.contains("avx512"),
             "{warning}"
         );
         assert!(!warning.contains('\n'));
+        // The real CPU: a supported name is taken as is.
+        for b in RasterBackend::supported() {
+            let got = choose(
+                None,
+                Some(OsStr::new(b.name())),
+                RasterBackend::detect(),
+                RasterBackend::is_supported,
+            );
+            assert_eq!(got, (b, None));
+        }
     }
 }
