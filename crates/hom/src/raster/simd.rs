@@ -18,7 +18,7 @@
 //! - a box at most one vector wide takes one vector per row;
 //! - a wider box steps along the row vector by vector. (Stopping once past
 //!   the covered samples, which are contiguous, was tried: its mispredicted
-//!   branches made 5–64-wide boxes 1.3–1.8× slower.)
+//!   branches made 5–64-wide boxes 1.1–1.7× slower.)
 //!
 //! | backend | lanes | covered bits of a vector |
 //! |---|---|---|
@@ -370,7 +370,8 @@ mod x86 {
     #[allow(unused_unsafe)] // intrinsics are safe here from Rust 1.87 on
     pub(super) unsafe fn row_masks_avx512(e: [i64; 3], s: [i64; 3], dy: [i64; 3], n: u32, out: &mut [u64]) {
         // SAFETY: this function is compiled with AVX-512F and its caller
-        // guarantees the CPU supports it; the intrinsics only touch registers.
+        // guarantees the CPU supports it; the intrinsics touch only registers,
+        // but for the loads of the constant lane-index table commented below.
         unsafe {
             static LANE_INDEX: [([i64; 8], [i64; 8]); 9] = lane_index();
             let zero = _mm512_setzero_si512();
@@ -410,7 +411,8 @@ mod x86 {
     #[allow(unused_unsafe)] // intrinsics are safe here from Rust 1.87 on
     pub(super) unsafe fn row_masks_avx2(e: [i64; 3], s: [i64; 3], dy: [i64; 3], n: u32, out: &mut [u64]) {
         // SAFETY: this function is compiled with AVX2 and its caller guarantees
-        // the CPU supports it; the intrinsics only touch registers.
+        // the CPU supports it; the intrinsics touch only registers,
+        // but for the loads of the constant lane-index table commented below.
         unsafe {
             static LANE_INDEX: [([i64; 4], [i64; 4]); 5] = lane_index();
             kernel!(
@@ -453,7 +455,8 @@ mod x86 {
     #[allow(unused_unsafe)] // intrinsics are safe here from Rust 1.87 on
     pub(super) unsafe fn row_masks_sse41(e: [i64; 3], s: [i64; 3], dy: [i64; 3], n: u32, out: &mut [u64]) {
         // SAFETY: this function is compiled with SSE4.1 and its caller
-        // guarantees the CPU supports it; the intrinsics only touch registers.
+        // guarantees the CPU supports it; the intrinsics touch only registers,
+        // but for the loads of the constant lane-index table commented below.
         unsafe {
             static LANE_INDEX: [([i64; 2], [i64; 2]); 3] = lane_index();
             kernel!(
