@@ -48,7 +48,7 @@ fn random_case(rng: &mut Rng) -> (Scene, Camera) {
                 ]
             })
             .collect();
-        let transform = if rng.next_u64() % 2 == 0 {
+        let transform = if rng.next_u64().is_multiple_of(2) {
             Mat4::IDENTITY
         } else {
             let axis = rng.vec3(-1.0, 1.0).try_normalize().unwrap_or(Vec3::Y);

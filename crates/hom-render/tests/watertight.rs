@@ -134,7 +134,7 @@ fn jittered_tilted_grid_covers_every_pixel_once() {
         let mut rng = Rng(seed * 0x9e37_79b9);
         let g = grid(10, 7, |_, _| {
             let q = |r: &mut Rng| f64::from((r.next_u64() % 9) as u32) * 0.25 - 1.0;
-            if rng.next_u64() % 3 == 0 {
+            if rng.next_u64().is_multiple_of(3) {
                 (q(&mut rng), q(&mut rng))
             } else {
                 (f64::from(rng.range(-1.0, 1.0)), f64::from(rng.range(-1.0, 1.0)))

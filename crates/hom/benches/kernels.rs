@@ -11,9 +11,11 @@
 //!   rectangles, and 10k occludee tests.
 //! - `raster`: the occluder coverage rasterizer on the frame's selected
 //!   occluders, with and without the rasterized depth estimation buffer, once
-//!   per raster backend the CPU supports (`[scalar]`, `[sse2]`, `[avx2]`).
+//!   per raster backend the CPU supports (`[scalar]`, `[sse41]`, `[avx2]`,
+//!   `[avx512]`; the ones it lacks are named on stderr and skipped).
 //!
 //! `cargo bench -p hom --bench kernels -- --warm-up-time 1 --measurement-time 2`
+//! (append `raster` for the raster group alone)
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use hom::depth::DepthEstimationBuffer;
@@ -227,6 +229,14 @@ fn raster(c: &mut Criterion, frame: &Frame) {
         RasterBackend::detect(),
         RasterBackend::active()
     );
+    let skipped: Vec<&str> = RasterBackend::ALL
+        .into_iter()
+        .filter(|b| !b.is_supported())
+        .map(|b| b.name())
+        .collect();
+    if !skipped.is_empty() {
+        eprintln!("raster: skipped (CPU lacks them): {}", skipped.join(", "));
+    }
     for backend in RasterBackend::supported() {
         let mut rasterizer = OccluderRasterizer::with_backend(backend);
         let name = backend.name();

@@ -235,7 +235,8 @@ impl Default for OccluderRasterizer {
 
 impl OccluderRasterizer {
     /// A rasterizer using [`RasterBackend::active`] (the fastest backend the CPU
-    /// supports, or `Scalar` under `HOM_FORCE_SCALAR=1`).
+    /// supports, the one `HOM_RASTER_BACKEND` names, or `Scalar` under
+    /// `HOM_FORCE_SCALAR=1`).
     pub fn new() -> OccluderRasterizer {
         OccluderRasterizer::default()
     }
@@ -595,11 +596,22 @@ mod tests {
             RasterBackend::active()
         );
         assert!(supported.contains(&RasterBackend::detect()));
+        let untested: Vec<&str> = RasterBackend::ALL
+            .into_iter()
+            .filter(|b| !supported.contains(b))
+            .map(|b| b.name())
+            .collect();
+        if !untested.is_empty() {
+            eprintln!("raster backends not tested (CPU lacks them): {}", untested.join(", "));
+        }
         #[cfg(target_arch = "x86_64")]
-        assert_eq!(
-            supported.contains(&RasterBackend::Avx2),
-            is_x86_feature_detected!("avx2")
-        );
+        for (b, feature) in [
+            (RasterBackend::Sse41, is_x86_feature_detected!("sse4.1")),
+            (RasterBackend::Avx2, is_x86_feature_detected!("avx2")),
+            (RasterBackend::Avx512, is_x86_feature_detected!("avx512f")),
+        ] {
+            assert_eq!(supported.contains(&b), feature, "{b:?}");
+        }
         let scene = random_scene(7, 20);
         let camera = Camera::new(
             Vec3::new(0.5, 1.0, 15.0),

@@ -9,10 +9,12 @@
 
 //!
 //! The occluder rasterizer fills rows with a [`RasterBackend`] chosen once at
-//! run time: a vector kernel where the CPU has one (AVX2, SSE2), else the
-//! scalar path, which defines the result; all backends cover bit-identical
-//! samples. Set `HOM_FORCE_SCALAR=1` in the environment to force the scalar
-//! path, or pick one with [`OccluderRasterizer::with_backend`].
+//! run time: the widest vector kernel the CPU has (AVX-512, AVX2, SSE4.1),
+//! else the scalar path, which defines the result; all backends cover
+//! bit-identical samples. In the environment, `HOM_RASTER_BACKEND=scalar|sse41|avx2|avx512`
+//! picks one ([`BACKEND_ENV`]) and `HOM_FORCE_SCALAR=1` forces the scalar path
+//! ([`FORCE_SCALAR_ENV`], which wins); in code,
+//! [`OccluderRasterizer::with_backend`].
 
 mod coverage;
 pub mod setup;
@@ -21,5 +23,5 @@ mod simd_tiles;
 mod tiled;
 
 pub use coverage::{CoverageBuffer, OccluderRasterizer};
-pub use simd::{RasterBackend, FORCE_SCALAR_ENV, MASK_MAX};
+pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV, MASK_MAX};
 pub use tiled::{TiledRasterizer, TiledStats};

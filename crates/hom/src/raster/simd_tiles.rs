@@ -64,12 +64,18 @@ impl TileKernel {
     pub(crate) fn run(&self, backend: RasterBackend, tile: &mut [f32; 64]) -> Option<f32> {
         match backend {
             #[cfg(target_arch = "x86_64")]
+            RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+                // SAFETY: AVX-512F is available (checked above; the check is cached by std).
+                unsafe { x86::run_avx512(self, tile) }
+            }
+            #[cfg(target_arch = "x86_64")]
             RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
                 // SAFETY: AVX2 is available (checked above; the check is cached by std).
                 unsafe { x86::run_avx2(self, tile) }
             }
             #[cfg(target_arch = "x86_64")]
             RasterBackend::Scalar => self.run_scalar(tile),
+            // SSE4.1 adds nothing this kernel uses: the SSE2 kernel serves it.
             #[cfg(target_arch = "x86_64")]
             _ => x86::run_sse2(self, tile),
             #[cfg(not(target_arch = "x86_64"))]
@@ -175,6 +181,55 @@ mod x86 {
                 let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
                 _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
             })
+        }
+    }
+
+    /// AVX-512F: a vector is two rows of eight samples; masks in mask registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn run_avx512(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+        // SAFETY: loads and stores are unaligned 16-float accesses at rows
+        // 2p, 2p + 1 with 2p < rows <= 8, so within the tile.
+        unsafe {
+            let col = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
+            let row = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1);
+            let mut e = [0, 1, 2].map(|q| {
+                let x = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_x[q]), col);
+                let y = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_y[q]), row);
+                _mm512_add_epi32(_mm512_set1_epi32(k.e[q]), _mm512_add_epi32(x, y))
+            });
+            let sy2 = k.step_y.map(|s| _mm512_set1_epi32(2 * s));
+            let live = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32(k.cols), col);
+            let dx = _mm512_add_epi32(_mm512_set1_epi32(k.dx0), col);
+            let dz = _mm512_mul_ps(_mm512_set1_ps(k.dzdx), _mm512_cvtepi32_ps(dx));
+            let zero = _mm512_setzero_ps();
+            let mut changed: __mmask16 = 0;
+            let mut far = _mm512_set1_ps(f32::NEG_INFINITY);
+            for p in (0..k.rows).step_by(2) {
+                // The second row of the last pair may lie past the viewport.
+                let rows: __mmask16 = if p + 1 < k.rows { 0xffff } else { 0x00ff };
+                let zr = _mm512_mask_blend_ps(
+                    0xff00,
+                    _mm512_set1_ps(k.zr(p)),
+                    _mm512_set1_ps(if p + 1 < k.rows { k.zr(p + 1) } else { 0.0 }),
+                );
+                let m = _mm512_ternarylogic_epi32::<0xfe>(e[0], e[1], e[2]); // e0 | e1 | e2
+                let inside = _mm512_mask_cmpge_epi32_mask(live & rows, m, _mm512_setzero_si512());
+                let z = _mm512_max_ps(_mm512_add_ps(zr, dz), zero);
+                let ptr = tile.as_mut_ptr().add(p * 8);
+                let d = _mm512_loadu_ps(ptr);
+                let write = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(inside, z, d);
+                let new = _mm512_mask_blend_ps(write, d, z);
+                _mm512_storeu_ps(ptr, new);
+                far = _mm512_max_ps(far, new);
+                changed |= write;
+                for (v, s) in e.iter_mut().zip(&sy2) {
+                    *v = _mm512_add_epi32(*v, *s);
+                }
+            }
+            (changed != 0).then(|| _mm512_reduce_max_ps(far))
         }
     }
 }
