@@ -55,7 +55,7 @@ impl TiledZBuffer {
         self.tile_max.resize(n, f32::INFINITY);
         self.upper.clear();
         // Samples past the right and bottom edges.
-        if width % TILE != 0 || height % TILE != 0 {
+        if !width.is_multiple_of(TILE) || !height.is_multiple_of(TILE) {
             for ty in 0..self.tiles_y {
                 for tx in 0..self.tiles_x {
                     let t = (ty * self.tiles_x + tx) as usize * TILE_SAMPLES;
