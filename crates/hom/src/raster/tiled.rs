@@ -33,7 +33,7 @@ use rayon::prelude::*;
 /// Tile rows per band (each band is filled by one thread).
 const BAND_TILES: u32 = 4;
 /// Tiles per block side: blocks are `BAND_TILES` × `BLOCK_TILES` tiles.
-const BLOCK_TILES: u32 = 4;
+const BLOCK_TILES: u32 = 8;
 /// Triangles set up per parallel task.
 const SETUP_CHUNK: usize = 2048;
 /// Relative slack on a plane's depth bound: covers the few `f32` roundings
@@ -306,8 +306,9 @@ impl Band {
                         };
                         stats.tiles_drawn += 1;
                         if let Some(far) = far {
+                            // Maxima only fall: the block's changes only if this tile held it.
+                            changed |= maxima[ti] == blocks[b as usize];
                             maxima[ti] = far;
-                            changed = true;
                         }
                     }
                 }
