@@ -120,3 +120,14 @@ fn walk_report_has_header_frames_and_summary_with_no_false_culls() {
     assert_eq!(lines[7]["false_culls"], 0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn raster_bench_without_inputs_is_a_one_line_error() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-raster-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let o = hom(&["bench", "raster", "--data", dir.to_str().unwrap()]);
+    assert_clean_failure(&o, "no .mocscene");
+    let o = hom(&["bench", "raster", "--data", "/no/such/folder"]);
+    assert_clean_failure(&o, "/no/such/folder");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
