@@ -5,7 +5,41 @@
 //! edge values are the same `i32` sums, the depth the same two `f32`
 //! roundings (`zr + dz`), the clamp at 0 the same for every non-NaN depth.
 
+use super::setup::Tri;
 use super::simd::RasterBackend;
+use super::tiled::{Band, TiledStats};
+
+/// Fills one band with the kernel of `backend` (the scalar one where the CPU
+/// lacks it). The vector entry points compile the whole band loop with their
+/// target feature, so the kernel inlines into it.
+pub(crate) fn render_band(
+    backend: RasterBackend,
+    band: &Band,
+    tris: &[Tri],
+    bin: &[u32],
+    samples: &mut [f32],
+    maxima: &mut [f32],
+) -> TiledStats {
+    match backend {
+        #[cfg(target_arch = "x86_64")]
+        RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
+            // SAFETY: AVX-512F is available (checked above; the check is cached by std).
+            unsafe { x86::band_avx512(band, tris, bin, samples, maxima) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
+            // SAFETY: AVX2 is available (checked above).
+            unsafe { x86::band_avx2(band, tris, bin, samples, maxima) }
+        }
+        #[cfg(target_arch = "x86_64")]
+        RasterBackend::Scalar => band.render(tris, bin, samples, maxima, TileKernel::run_scalar),
+        // SSE4.1 adds nothing this kernel uses: the SSE2 kernel serves it.
+        #[cfg(target_arch = "x86_64")]
+        _ => band.render(tris, bin, samples, maxima, x86::run_sse2),
+        #[cfg(not(target_arch = "x86_64"))]
+        _ => band.render(tris, bin, samples, maxima, TileKernel::run_scalar),
+    }
+}
 
 /// One tile's inputs: the triangle's planes relative to the tile's first sample.
 #[derive(Clone, Copy, Debug)]
@@ -42,6 +76,7 @@ impl TileKernel {
     /// The scalar kernel: the semantics. When a sample changed, the tile's new
     /// farthest depth (over its rows inside the viewport; the rest hold
     /// `NEG_INFINITY`).
+    #[inline(always)]
     pub(crate) fn run_scalar(&self, tile: &mut [f32; 64]) -> Option<f32> {
         let mut changed = false;
         for j in 0..self.rows {
@@ -58,38 +93,35 @@ impl TileKernel {
         }
         changed.then(|| tile[..self.rows * 8].iter().fold(f32::NEG_INFINITY, |m, &d| m.max(d)))
     }
-
-    /// Runs the kernel of `backend` (the scalar one where the CPU lacks it).
-    #[inline]
-    pub(crate) fn run(&self, backend: RasterBackend, tile: &mut [f32; 64]) -> Option<f32> {
-        match backend {
-            #[cfg(target_arch = "x86_64")]
-            RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
-                // SAFETY: AVX-512F is available (checked above; the check is cached by std).
-                unsafe { x86::run_avx512(self, tile) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
-                // SAFETY: AVX2 is available (checked above; the check is cached by std).
-                unsafe { x86::run_avx2(self, tile) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            RasterBackend::Scalar => self.run_scalar(tile),
-            // SSE4.1 adds nothing this kernel uses: the SSE2 kernel serves it.
-            #[cfg(target_arch = "x86_64")]
-            _ => x86::run_sse2(self, tile),
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => self.run_scalar(tile),
-        }
-    }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::TileKernel;
+    use super::{Band, TileKernel, TiledStats, Tri};
     use std::arch::x86_64::*;
 
+    /// The band loop compiled with AVX2, its kernel inlined.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn band_avx2(b: &Band, t: &[Tri], bin: &[u32], s: &mut [f32], m: &mut [f32]) -> TiledStats {
+        // SAFETY: this function only runs where AVX2 is available.
+        b.render(t, bin, s, m, |k, tile| unsafe { run_avx2(k, tile) })
+    }
+
+    /// The band loop compiled with AVX-512F, its kernel inlined.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn band_avx512(b: &Band, t: &[Tri], bin: &[u32], s: &mut [f32], m: &mut [f32]) -> TiledStats {
+        // SAFETY: this function only runs where AVX-512F is available.
+        b.render(t, bin, s, m, |k, tile| unsafe { run_avx512(k, tile) })
+    }
+
     /// SSE2 (x86-64 baseline): a row is two vectors of four samples.
+    #[inline(always)]
     pub(super) fn run_sse2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
         // SAFETY: SSE2 is part of x86-64; loads and stores are unaligned and
         // stay within the tile (8 lanes per row, rows <= 8).
@@ -143,8 +175,9 @@ mod x86 {
     ///
     /// # Safety
     /// The CPU must support AVX2.
+    #[inline]
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn run_avx2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+    unsafe fn run_avx2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
         // SAFETY: loads and stores are unaligned and stay within the tile.
         unsafe {
             let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -188,8 +221,9 @@ mod x86 {
     ///
     /// # Safety
     /// The CPU must support AVX-512F.
+    #[inline]
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn run_avx512(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+    unsafe fn run_avx512(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
         // SAFETY: loads and stores are unaligned 16-float accesses at rows
         // 2p, 2p + 1 with 2p < rows <= 8, so within the tile.
         unsafe {

@@ -22,7 +22,7 @@
 use super::coverage::setup_occluders;
 use super::setup::{setup_triangle_with, SetupRule, Tri, Vertex, Viewport, HALF, ONE};
 use super::simd::RasterBackend;
-use super::simd_tiles::TileKernel;
+use super::simd_tiles::{render_band, TileKernel};
 use crate::depth::tiled::{TiledZBuffer, TILE, TILE_SAMPLES};
 use crate::geom::Camera;
 use crate::occluders::OccluderDb;
@@ -168,13 +168,12 @@ impl TiledRasterizer {
             .enumerate()
             .map(|(band, ((samples, maxima), bin))| {
                 let band = Band {
-                    backend,
                     ty0: band as u32 * BAND_TILES,
                     tiles_x,
                     width,
                     height,
                 };
-                band.render(tris, bin, samples, maxima)
+                render_band(backend, &band, tris, bin, samples, maxima)
             })
             .reduce(TiledStats::default, |mut a, b| {
                 a += b;
@@ -189,8 +188,7 @@ impl TiledRasterizer {
 }
 
 /// One band of tile rows being filled.
-struct Band {
-    backend: RasterBackend,
+pub(crate) struct Band {
     /// First tile row.
     ty0: u32,
     tiles_x: u32,
@@ -257,7 +255,18 @@ fn plane_floor(t: &Tri, xa: u32, xb: u32, ya: u32, yb: u32) -> f32 {
 }
 
 impl Band {
-    fn render(&self, tris: &[Tri], bin: &[u32], samples: &mut [f32], maxima: &mut [f32]) -> TiledStats {
+    /// Draws the triangles `bin` (indices into `tris`) into this band's tiles,
+    /// testing each tile with `kernel`. Inlined into each backend's entry
+    /// point (`simd_tiles::render_band`), which compiles it with its features.
+    #[inline(always)]
+    pub(crate) fn render(
+        &self,
+        tris: &[Tri],
+        bin: &[u32],
+        samples: &mut [f32],
+        maxima: &mut [f32],
+        kernel: impl Fn(&TileKernel, &mut [f32; TILE_SAMPLES]) -> Option<f32>,
+    ) -> TiledStats {
         let mut stats = TiledStats::default();
         let rows = (maxima.len() as u32) / self.tiles_x;
         let blocks_x = self.tiles_x.div_ceil(BLOCK_TILES);
@@ -301,7 +310,7 @@ impl Band {
                             .expect("tile");
                         let far = match tile_edges(t, px, py) {
                             Ok(None) => continue,
-                            Ok(Some(e)) => tile_kernel(t, &e, px, py, self.width, self.height).run(self.backend, tile),
+                            Ok(Some(e)) => kernel(&tile_kernel(t, &e, px, py, self.width, self.height), tile),
                             Err(()) => draw_tile_wide(t, px, py, self.width, self.height, tile),
                         };
                         stats.tiles_drawn += 1;
