@@ -150,12 +150,23 @@ pub struct OcclusionMap {
     depth: DepthEstimationBuffer,
 }
 
+/// The nearest depth of `t`'s plane over its bounding box.
+fn nearest(t: &Tri) -> f32 {
+    let (w, h) = (f32::from(t.x1 - t.x0 - 1), f32::from(t.y1 - t.y0 - 1));
+    t.zref + (t.dzdx * w).min(0.0) + (t.dzdy * h).min(0.0)
+}
+
 impl OcclusionMap {
-    /// Renders the set-up triangles `tris` at `width` × `height`.
+    /// Renders the set-up triangles `tris` at `width` × `height`, nearest
+    /// first as HOM draws its occluders (so that a depth cell's first cover is
+    /// mostly the nearest).
     pub fn render(raster: &mut OccluderRasterizer, tris: &[Tri], width: u32, height: u32) -> OcclusionMap {
         let mut coverage = CoverageBuffer::default();
         let mut depth = DepthEstimationBuffer::new(width, height, 64, 64);
-        raster.rasterize_triangles(&mut coverage, tris, width, height, Some(&mut depth));
+        let mut order: Vec<(f32, u32)> = tris.iter().zip(0..).map(|(t, i)| (nearest(t), i)).collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let sorted: Vec<Tri> = order.iter().map(|&(_, i)| tris[i as usize]).collect();
+        raster.rasterize_triangles(&mut coverage, &sorted, width, height, Some(&mut depth));
         let mut pyramid = Pyramid::new(width, height, width.max(height).div_ceil(256), 4);
         pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row());
         let thresholds = Thresholds::conservative(&pyramid, 0.0);
