@@ -1,0 +1,71 @@
+//! Quake 3 maps from the fetched cache (`scripts/fetch-scenes.sh --tests-only`).
+//! Skips, saying why, when the cache is missing.
+
+use hom_scene::bsp::{self, BspOptions};
+use std::path::PathBuf;
+
+fn cache() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../.cache/scenes/debian/usr/share/games")
+}
+
+#[test]
+fn openarena_maps_load_with_sane_counts_and_spawns_in_clusters() {
+    let pk3 = cache().join("openarena/baseoa/pak1-maps.pk3");
+    if !pk3.exists() {
+        eprintln!(
+            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+            pk3.display()
+        );
+        return;
+    }
+    let maps = bsp::pk3_maps(&pk3).unwrap();
+    assert!(maps.len() >= 5, "{maps:?}");
+    for name in [
+        "oa_dm1",
+        "oa_dm2",
+        "oa_dm4",
+        "oa_ctf2",
+        "aggressor",
+        "oa_dm5",
+        "ctf_inyard",
+    ] {
+        let options = BspOptions {
+            map: Some(name.into()),
+            ..BspOptions::default()
+        };
+        let t = std::time::Instant::now();
+        let m = bsp::load(&pk3, &options).unwrap_or_else(|e| panic!("{e}"));
+        let s = &m.scene;
+        let see_through = s.objects().iter().filter(|o| !o.occluder).count();
+        let b = s.bounds();
+        println!(
+            "{name}: {} objects ({see_through} see-through), {} triangles, {} spawns, {} clusters, bounds {:?}..{:?} ({:.2} s)",
+            s.objects().len(),
+            s.triangle_count(),
+            m.spawns.len(),
+            m.cluster_count(),
+            b.min,
+            b.max,
+            t.elapsed().as_secs_f32()
+        );
+        assert!(s.objects().len() >= 5 && s.objects().len() < 5000, "{name}");
+        assert!(s.triangle_count() > 2_000 && s.triangle_count() < 2_000_000, "{name}");
+        // Metres: a deathmatch arena is tens of metres across, not thousands.
+        let size = b.extent().max_element();
+        assert!(size > 10.0 && size < 500.0, "{name}: {size} m");
+        assert!(m.spawns.len() >= 2, "{name}");
+        if m.cluster_count() == 0 {
+            println!("{name}: no visibility data (everything visible)");
+        }
+        for sp in &m.spawns {
+            let eye = sp.origin + glam::Vec3::Y * m.eye_height;
+            assert!(m.cluster_of(sp.origin).is_some(), "{name}: spawn {sp:?} in no cluster");
+            assert!(m.cluster_of(eye).is_some(), "{name}: eye above {sp:?} in no cluster");
+        }
+        let path = m.camera_path().unwrap();
+        path.validate(name).unwrap();
+        assert!(path.frames.len() > 30);
+        assert_eq!(m.object_clusters.len(), s.objects().len());
+        assert!(m.object_clusters.iter().filter(|c| !c.is_empty()).count() * 10 >= s.objects().len() * 9);
+    }
+}
