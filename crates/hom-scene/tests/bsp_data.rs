@@ -69,3 +69,44 @@ fn openarena_maps_load_with_sane_counts_and_spawns_in_clusters() {
         assert!(m.object_clusters.iter().filter(|c| !c.is_empty()).count() * 10 >= s.objects().len() * 9);
     }
 }
+
+/// Every map of every fetched pk3 (the full fetch) loads, or fails with a typed error
+/// that is printed. Run with `--nocapture` for the table.
+#[test]
+fn every_fetched_map_loads_or_says_why() {
+    let pk3s = [
+        "openarena/baseoa/pak1-maps.pk3",
+        "openarena/baseoa/pak6-patch088.pk3",
+        "openarena/baseoa/z_oacmp-volume1-v3.pk3",
+        "nexuiz/data/data.pk3",
+    ];
+    let mut failures = Vec::new();
+    for rel in pk3s {
+        let pk3 = cache().join(rel);
+        if !pk3.exists() {
+            eprintln!("skipping {rel}: missing; run scripts/fetch-scenes.sh");
+            continue;
+        }
+        for name in bsp::pk3_maps(&pk3).unwrap() {
+            let options = BspOptions {
+                map: Some(name.clone()),
+                ..BspOptions::default()
+            };
+            match bsp::load(&pk3, &options) {
+                Ok(m) => println!(
+                    "{rel}:{name}: {} objects, {} triangles, {} spawns, {} clusters, {} spawns outside clusters",
+                    m.scene.objects().len(),
+                    m.scene.triangle_count(),
+                    m.spawns.len(),
+                    m.cluster_count(),
+                    m.spawns.iter().filter(|s| m.cluster_of(s.origin).is_none()).count()
+                ),
+                Err(e) => {
+                    println!("{rel}:{name}: ERROR {e}");
+                    failures.push(e.to_string());
+                }
+            }
+        }
+    }
+    println!("{} failures", failures.len());
+}
