@@ -173,6 +173,17 @@ pub enum BspError {
     /// The pk3 holds no `maps/*.bsp`.
     #[error("the pk3 holds no maps/*.bsp")]
     NoMaps,
+    /// Every face of the world model is skipped (sky, tool shaders) or there is none.
+    #[error(
+        "the world model has no drawable faces (no objects): every face is sky, a tool shader, a billboard, or missing"
+    )]
+    NoGeometry,
+    /// The generated geometry is invalid (coordinates so large that patch tessellation overflows).
+    #[error("geometry: {source}")]
+    BadGeometry {
+        /// Cause.
+        source: hom::scene::SceneError,
+    },
     /// The options are out of range.
     #[error("bad options: {message}")]
     BadOptions {

@@ -825,7 +825,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             clusters.sort_unstable();
             clusters.dedup();
             object_clusters.push(clusters);
-            let scene_err = |e: hom::scene::SceneError| BspError::BadOptions { message: e.to_string() };
+            let scene_err = |source| BspError::BadGeometry { source };
             let mesh = compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
             let mesh = builder.add_mesh(mesh);
             let id = builder
@@ -834,9 +834,10 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             builder.set_occluder(id, !see_through);
         }
     }
-    let scene = builder.build().map_err(|e| BspError::BadOptions {
-        message: format!("{e} (every face is skipped or none exists)"),
-    })?;
+    if builder.object_count() == 0 {
+        return Err(BspError::NoGeometry);
+    }
+    let scene = builder.build().map_err(|source| BspError::BadGeometry { source })?;
     Ok(BspMap {
         scene,
         spawns,
