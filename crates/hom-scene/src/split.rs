@@ -7,8 +7,10 @@
 //! bounded size: the *pieces* (triangles, or the faces of a BSP map) are split
 //! recursively at the median of their centroids along the longest axis of the
 //! centroids' bounding box until a group holds at most
-//! [`SplitOptions::max_triangles`] triangles and its bounding box is at most
-//! [`SplitOptions::max_extent`] on every side (or is a single piece).
+//! [`SplitOptions::max_triangles`] triangles and its pieces' centroids lie within
+//! [`SplitOptions::max_extent`] on every axis (or it is a single piece). The
+//! centroids, not the pieces' full bounds, so that one long triangle (a floor)
+//! does not shatter everything around it into single pieces.
 //!
 //! **Order (the object ids):** groups come out in depth-first order of the split
 //! tree, the half with the smaller coordinates first; within a group the pieces
@@ -25,8 +27,8 @@ pub struct SplitOptions {
     pub enabled: bool,
     /// Most triangles in one object (a single piece with more stays whole). At least 1.
     pub max_triangles: usize,
-    /// Longest side of an object's bounding box, metres (a single piece that is
-    /// bigger stays whole). Infinity disables the size limit.
+    /// Largest spread of an object's piece centroids along any axis, metres (its
+    /// box may be bigger by the size of its pieces). Infinity disables the size limit.
     pub max_extent: f32,
 }
 
@@ -66,18 +68,14 @@ pub fn group_pieces(pieces: &[Piece], options: &SplitOptions) -> Vec<Vec<u32>> {
     let mut stack = vec![all];
     while let Some(mut group) = stack.pop() {
         let triangles: usize = group.iter().map(|&i| pieces[i as usize].triangles).sum();
-        let bounds = group
-            .iter()
-            .fold(Aabb::EMPTY, |b, &i| b.union(pieces[i as usize].bounds));
-        let extent = bounds.extent().max_element();
-        let small = triangles <= options.max_triangles.max(1) && extent <= options.max_extent;
+        let cbounds = Aabb::from_points(group.iter().map(|&i| centroid(i)));
+        let e = cbounds.extent();
+        let small = triangles <= options.max_triangles.max(1) && e.max_element() <= options.max_extent;
         if group.len() <= 1 || small {
             group.sort_unstable();
             out.push(group);
             continue;
         }
-        let cbounds = Aabb::from_points(group.iter().map(|&i| centroid(i)));
-        let e = cbounds.extent();
         let axis = if e.x >= e.y && e.x >= e.z {
             0
         } else if e.y >= e.z {
@@ -185,7 +183,7 @@ mod tests {
         };
         let parts = split_mesh(&mesh, &by_size).unwrap();
         assert!(parts.len() >= 10);
-        assert!(parts.iter().all(|m| m.bounds().extent().max_element() <= 10.0));
+        assert!(parts.iter().all(|m| m.bounds().extent().max_element() <= 11.0));
         // Deterministic.
         assert_eq!(parts, split_mesh(&mesh, &by_size).unwrap());
     }

@@ -813,7 +813,8 @@ fn a_single_big_obj_object_is_split_unless_turned_off() {
     assert_eq!(scene.triangle_count(), 3200);
     assert!(scene.objects().len() >= 7, "{}", scene.objects().len());
     assert!(scene.objects().iter().all(|o| o.triangles <= 512));
-    assert!(scene.objects().iter().all(|o| o.aabb.extent().max_element() <= 16.0));
+    // Centroids within 16 m, so boxes within 17 m for unit quads.
+    assert!(scene.objects().iter().all(|o| o.aabb.extent().max_element() <= 17.0));
     assert_eq!(names(&scene)[0], "ground_0");
     // Same file, same objects.
     let again = load_obj_text(&text).unwrap();
