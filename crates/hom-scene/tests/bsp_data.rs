@@ -70,8 +70,53 @@ fn openarena_maps_load_with_sane_counts_and_spawns_in_clusters() {
     }
 }
 
-/// Every map of every fetched pk3 (the full fetch) loads, or fails with a typed error
-/// that is printed. Run with `--nocapture` for the table.
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 300, failure_persistence: None, ..Default::default() })]
+
+    /// A real map with flipped bytes and huge u32 values: an error or a map, never a panic.
+    #[test]
+    fn mutated_real_map_never_panics(
+        flips in proptest::collection::vec((proptest::prelude::any::<proptest::sample::Index>(), 1u8..), 1..16),
+        words in proptest::collection::vec((proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u32>()), 0..4),
+    ) {
+        let Some(original) = real_map() else { return Ok(()); };
+        let mut b = original.clone();
+        for (at, v) in flips {
+            let i = at.index(b.len());
+            b[i] ^= v;
+        }
+        for (at, v) in words {
+            let i = at.index(b.len() / 4) * 4;
+            b[i..i + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        let _ = bsp::parse(&b, "mutant", &BspOptions::default());
+    }
+}
+
+/// oa_dm4's bytes, read once; `None` (with a message) when the cache is missing.
+fn real_map() -> Option<&'static Vec<u8>> {
+    static MAP: std::sync::OnceLock<Option<Vec<u8>>> = std::sync::OnceLock::new();
+    MAP.get_or_init(|| {
+        let pk3 = cache().join("openarena/baseoa/pak1-maps.pk3");
+        if !pk3.exists() {
+            eprintln!(
+                "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+                pk3.display()
+            );
+            return None;
+        }
+        let file = std::fs::File::open(&pk3).unwrap();
+        let options = BspOptions {
+            map: Some("oa_dm4".into()),
+            ..BspOptions::default()
+        };
+        Some(bsp::read_pk3(std::io::BufReader::new(file), &options).unwrap().1)
+    })
+    .as_ref()
+}
+
+/// Every map of every fetched pk3 (the full fetch: 140 maps, OpenArena and Nexuiz)
+/// loads, with every spawn point in a cluster. Run with `--nocapture` for the table.
 #[test]
 fn every_fetched_map_loads_or_says_why() {
     let pk3s = [
@@ -93,14 +138,20 @@ fn every_fetched_map_loads_or_says_why() {
                 ..BspOptions::default()
             };
             match bsp::load(&pk3, &options) {
-                Ok(m) => println!(
-                    "{rel}:{name}: {} objects, {} triangles, {} spawns, {} clusters, {} spawns outside clusters",
-                    m.scene.objects().len(),
-                    m.scene.triangle_count(),
-                    m.spawns.len(),
-                    m.cluster_count(),
-                    m.spawns.iter().filter(|s| m.cluster_of(s.origin).is_none()).count()
-                ),
+                Ok(m) => {
+                    let lost = m.spawns.iter().filter(|s| m.cluster_of(s.origin).is_none()).count();
+                    if lost > 0 {
+                        failures.push(format!("{rel}:{name}: {lost} spawn points in no cluster"));
+                    }
+                    println!(
+                        "{rel}:{name}: {} objects, {} triangles, {} spawns, {} clusters, {} spawns outside clusters",
+                        m.scene.objects().len(),
+                        m.scene.triangle_count(),
+                        m.spawns.len(),
+                        m.cluster_count(),
+                        lost
+                    )
+                }
                 Err(e) => {
                     println!("{rel}:{name}: ERROR {e}");
                     failures.push(e.to_string());
@@ -109,4 +160,5 @@ fn every_fetched_map_loads_or_says_why() {
         }
     }
     println!("{} failures", failures.len());
+    assert!(failures.is_empty(), "{failures:#?}");
 }

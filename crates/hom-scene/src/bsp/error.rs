@@ -134,6 +134,16 @@ pub enum BspError {
         /// What is wrong.
         message: String,
     },
+    /// A spawn point entity has a malformed `origin` or `angle`.
+    #[error("entity {entity} ({classname}): {message}")]
+    BadSpawn {
+        /// Entity index in the entities lump.
+        entity: usize,
+        /// Its class.
+        classname: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The geometry or the leaf references would exceed the output limit.
     #[error("the map would produce more than {limit} triangles or face references; it is corrupt or hostile (raise BspOptions::max_triangles if it is real)")]
     TooBig {

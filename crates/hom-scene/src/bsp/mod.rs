@@ -948,9 +948,10 @@ fn spawns(entities: &[Entity]) -> Result<Vec<SpawnPoint>, BspError> {
         let Some(class) = entities::get(e, "classname").filter(|c| is_spawn(c)) else {
             continue;
         };
-        let bad = |message: String| BspError::Entities {
-            offset: 0,
-            message: format!("entity {k} ({class}): {message}"),
+        let bad = |message: String| BspError::BadSpawn {
+            entity: k,
+            classname: class.to_owned(),
+            message,
         };
         let origin = entities::get(e, "origin").ok_or_else(|| bad("has no origin".into()))?;
         let xyz: Vec<f32> = origin
