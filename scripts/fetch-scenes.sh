@@ -57,6 +57,7 @@ if ((${#need_download[@]})); then
         deb=$(ls "$debs/${p}_"*.deb | head -n 1)
         dpkg -x "$deb" "$cache/debian"
         touch "$cache/.done-$p"
+        rm -f "$deb" # the unpacked files are what we keep
     done
 fi
 
@@ -80,9 +81,12 @@ with zipfile.ZipFile(wheel) as z:
         with z.open(n) as src, open(os.path.join(out, os.path.basename(n)), "wb") as dst:
             dst.write(src.read())
 PY
+    rm -f "$wheel"
 fi
 
 echo "fetch-scenes: cache $cache"
-find "$cache/debian" "$cache/samurai" \( -iname '*.pk3' -o -iname '*.bsp' -o -iname '*.obj' -o -iname '*.mtl' \) \
-    -type f -printf '%s\t%P\n' 2>/dev/null | sort -k2 | awk -F'\t' '{ printf "%10.1f MiB  %s\n", $1 / 1048576, $2 }'
+roots=()
+for d in debian samurai; do [[ -d "$cache/$d" ]] && roots+=("$d"); done
+((${#roots[@]})) && (cd "$cache" && find "${roots[@]}" \( -iname '*.pk3' -o -iname '*.bsp' -o -iname '*.obj' -o -iname '*.mtl' \) \
+    -type f -printf '%s\t%p\n' 2>/dev/null | sort -k2 | awk -F'\t' '{ printf "%10.1f MiB  %s\n", $1 / 1048576, $2 }')
 du -sh "$cache"
