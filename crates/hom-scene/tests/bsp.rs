@@ -733,6 +733,15 @@ fn pk3_zip_bombs_are_capped() {
     assert!(
         matches!(read(bomb.clone(), None, 4096), Err(BspError::TooLarge { size, cap: 4096, .. }) if size == 1 << 20)
     );
+    // An end record claiming far more entries than its central directory can hold.
+    let mut many = pk3(&[("maps/tiny.bsp", &Map::tiny().bytes())]);
+    let end = many.windows(4).rposition(|w| w == b"PK\x05\x06").unwrap();
+    many[end + 8..end + 12].copy_from_slice(&[0xfe, 0xff, 0xfe, 0xff]);
+    let e = read(many, None, 1 << 20).unwrap_err();
+    assert!(
+        matches!(&e, BspError::Zip { message } if message.contains("claims 65534 entries")),
+        "{e}"
+    );
     // Lying sizes: the local and central headers claim 100 bytes.
     let mut liar = bomb;
     for (sig, at) in [(b"PK\x03\x04", 22), (b"PK\x01\x02", 24)] {
