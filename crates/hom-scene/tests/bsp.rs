@@ -292,6 +292,18 @@ fn nearest_neighbour_tour_is_deterministic() {
     let one = parse(&map.bytes()).unwrap().camera_path().unwrap();
     one.validate("one").unwrap();
     assert!(one.frames.iter().all(|f| f.eye == one.frames[0].eye));
+    // Spawns absurdly far apart: a bounded path, or none when distances overflow.
+    for x in ["1e15", "1e30"] {
+        let text = format!(
+            "{{ \"classname\" \"info_player_start\" \"origin\" \"0 0 0\" }}\
+             {{ \"classname\" \"info_player_start\" \"origin\" \"{x} 0 0\" }}"
+        );
+        map.lumps[0] = text.into_bytes();
+        match parse(&map.bytes()).unwrap().camera_path() {
+            Some(far) => assert!(far.frames.len() <= bsp::MAX_PATH_FRAMES + 2, "{}", far.frames.len()),
+            None => assert_eq!(x, "1e30"),
+        }
+    }
     // None: no path.
     map.lumps[0].clear();
     assert!(parse(&map.bytes()).unwrap().camera_path().is_none());

@@ -22,7 +22,8 @@
 //! - **The map's PVS:** [`BspMap::cluster_of`], [`BspMap::cluster_visible`] and
 //!   the clusters of every object ([`BspMap::object_clusters`]).
 //!
-//! Every count, offset and index is checked against the file before use, and the
+//! Lump offsets need not be 4-aligned (records are read byte by byte), but every
+//! lump's length must be a whole number of its records. Every count, offset and index is checked against the file before use, and the
 //! output is capped ([`BspOptions::max_triangles`], [`BspOptions::max_bytes`]), so a
 //! hostile file gives a [`BspError`], never a panic or unbounded memory.
 
@@ -47,6 +48,10 @@ pub const VERSION: i32 = 46;
 pub const INCH: f32 = 0.0254;
 /// Highest accepted [`BspOptions::tessellation`].
 pub const MAX_TESSELLATION: u32 = 32;
+/// Most spawn points [`BspMap::camera_path`] visits.
+pub const MAX_PATH_SPAWNS: usize = 1024;
+/// Most frames of [`BspMap::camera_path`] (a longer tour is walked faster).
+pub const MAX_PATH_FRAMES: usize = 100_000;
 /// Quake 3's eye height above a player's origin (`DEFAULT_VIEWHEIGHT`, 26 units), metres.
 pub const VIEW_HEIGHT: f32 = 26.0 * INCH;
 
@@ -292,11 +297,13 @@ impl BspMap {
     /// index), straight lines at [`BspMap::speed`] (30 frames a second), looking
     /// along the direction of travel. With one spawn point, a turn on the spot
     /// starting along its `angle`. `None` without spawn points. The straight
-    /// lines may pass through walls.
+    /// lines may pass through walls. Only the first [`MAX_PATH_SPAWNS`] spawn points
+    /// are visited (the tour is quadratic in their number). A tour longer than [`MAX_PATH_FRAMES`] frames
+    /// is walked faster; `None` also when the spawns are not finite.
     pub fn camera_path(&self) -> Option<CameraPath> {
         let up = Vec3::Y * self.eye_height;
         let mut eyes: Vec<Vec3> = Vec::new();
-        for s in &self.spawns {
+        for s in self.spawns.iter().take(MAX_PATH_SPAWNS) {
             let e = s.origin + up;
             if eyes.iter().all(|p| p.distance(e) > 0.01) {
                 eyes.push(e);
@@ -336,7 +343,12 @@ impl BspMap {
                         .fold((0, f32::INFINITY), |best, x| if x.1 < best.1 { x } else { best });
                     tour.push(left.remove(k));
                 }
-                let step = self.speed.max(0.01) / 30.0;
+                // At most MAX_PATH_FRAMES frames, however far apart hostile spawns are.
+                let length: f32 = tour.windows(2).map(|w| w[0].distance(w[1])).sum();
+                if !length.is_finite() {
+                    return None;
+                }
+                let step = (self.speed.max(0.01) / 30.0).max(length / MAX_PATH_FRAMES as f32);
                 let along = CameraPath::along(&tour, step, 2.0);
                 Some(lens(along.frames))
             }
