@@ -292,6 +292,16 @@ fn nearest_neighbour_tour_is_deterministic() {
     let one = parse(&map.bytes()).unwrap().camera_path().unwrap();
     one.validate("one").unwrap();
     assert!(one.frames.iter().all(|f| f.eye == one.frames[0].eye));
+    // Frames in solid space (Quake z ≥ 1000 at x < 0 is a solid leaf) are dropped.
+    map.lumps[0] = b"{ \"classname\" \"info_player_start\" \"origin\" \"-10 0 0\" }\
+                     { \"classname\" \"info_player_start\" \"origin\" \"-3000 0 3000\" }"
+        .to_vec();
+    let m = parse(&map.bytes()).unwrap();
+    let path = m.camera_path().unwrap();
+    path.validate("solid").unwrap();
+    assert!(path.frames.iter().all(|f| m.cluster_of(Vec3::from(f.eye)).is_some()));
+    let top = path.frames.iter().map(|f| f.eye[1]).fold(f32::MIN, f32::max);
+    assert!(top < 1000.0 * INCH && top > 900.0 * INCH, "{top}");
     // Spawns absurdly far apart: a bounded path, or none when distances overflow.
     for x in ["1e15", "1e30"] {
         let text = format!(

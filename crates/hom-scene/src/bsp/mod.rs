@@ -295,9 +295,10 @@ impl BspMap {
     /// A walkthrough from spawn point to spawn point at [`BspMap::eye_height`]:
     /// a nearest-neighbour tour starting at the first spawn (ties to the lower
     /// index), straight lines at [`BspMap::speed`] (30 frames a second), looking
-    /// along the direction of travel. With one spawn point, a turn on the spot
-    /// starting along its `angle`. `None` without spawn points. The straight
-    /// lines may pass through walls. Only the first [`MAX_PATH_SPAWNS`] spawn points
+    /// along the direction of travel; frames whose eye is in solid space (no
+    /// cluster: the line crosses a wall) are dropped, so the walk jumps through
+    /// walls. With one spawn point, a turn on the spot
+    /// starting along its `angle`. `None` without spawn points. Only the first [`MAX_PATH_SPAWNS`] spawn points
     /// are visited (the tour is quadratic in their number). A tour longer than [`MAX_PATH_FRAMES`] frames
     /// is walked faster; `None` also when the spawns are not finite.
     pub fn camera_path(&self) -> Option<CameraPath> {
@@ -349,8 +350,13 @@ impl BspMap {
                     return None;
                 }
                 let step = (self.speed.max(0.01) / 30.0).max(length / MAX_PATH_FRAMES as f32);
-                let along = CameraPath::along(&tour, step, 2.0);
-                Some(lens(along.frames))
+                let mut frames = CameraPath::along(&tour, step, 2.0).frames;
+                // Frames whose eye is in solid space (the line crosses a wall) are dropped.
+                let inside = |f: &PathFrame| self.cluster_of(Vec3::from(f.eye)).is_some();
+                if frames.iter().any(inside) {
+                    frames.retain(inside);
+                }
+                Some(lens(frames))
             }
         }
     }
