@@ -29,9 +29,15 @@
 
 mod entities;
 mod error;
+mod pk3;
+mod pvs;
 
 pub use entities::Entity;
 pub use error::BspError;
+pub use pk3::{pk3_maps, read_pk3};
+
+use pk3::{entry_map_name, read_capped, Capped};
+use pvs::{read_pvs, Pvs};
 
 use crate::camera_path::{CameraPath, PathFrame};
 use crate::split::{compact, group_pieces, Piece, SplitOptions};
@@ -39,7 +45,6 @@ use crate::LoadError;
 use glam::{Mat4, Vec3};
 use hom::geom::Aabb;
 use hom::scene::{Scene, SceneBuilder};
-use std::io::Read;
 use std::path::Path;
 
 /// The only BSP version read.
@@ -77,15 +82,15 @@ const LUMP_NAMES: [&str; 17] = [
 ];
 const ENTITIES: usize = 0;
 const TEXTURES: usize = 1;
-const PLANES: usize = 2;
-const NODES: usize = 3;
-const LEAFS: usize = 4;
+pub(super) const PLANES: usize = 2;
+pub(super) const NODES: usize = 3;
+pub(super) const LEAFS: usize = 4;
 const LEAFFACES: usize = 5;
 const MODELS: usize = 7;
 const VERTEXES: usize = 10;
 const MESHVERTS: usize = 11;
 const FACES: usize = 13;
-const VISDATA: usize = 16;
+pub(super) const VISDATA: usize = 16;
 
 /// Surface flag: not drawn.
 pub const SURF_NODRAW: i32 = 0x80;
@@ -192,23 +197,6 @@ impl SpawnPoint {
         let a = self.angle_deg.to_radians();
         to_hom([a.cos(), a.sin(), 0.0]) / INCH
     }
-}
-
-/// The map's potentially visible sets: BSP tree, leaf clusters, cluster bit vectors.
-#[derive(Clone, Debug, Default)]
-struct Pvs {
-    /// Planes in Quake coordinates: normal, distance.
-    planes: Vec<([f32; 3], f32)>,
-    /// Nodes: plane, front child, back child (negative: leaf −(c + 1)).
-    nodes: Vec<(u32, i32, i32)>,
-    /// Cluster of each leaf (−1: solid or outside).
-    leaf_cluster: Vec<i32>,
-    /// Clusters in the visdata (0 without visdata).
-    clusters: usize,
-    /// Bytes per cluster row.
-    row: usize,
-    /// `clusters × row` bits.
-    bits: Vec<u8>,
 }
 
 /// A loaded map: the scene, its spawn points and its PVS.
@@ -397,173 +385,20 @@ pub fn load(path: &Path, options: &BspOptions) -> Result<BspMap, LoadError> {
     parse(&bytes, &name, options).map_err(wrap(label))
 }
 
-enum Capped {
-    Io(std::io::Error),
-    TooLarge(BspError),
-}
-
-/// Reads at most `cap` bytes; more is an error.
-fn read_capped(reader: impl Read, name: &str, cap: u64) -> Result<Vec<u8>, Capped> {
-    let mut buf = Vec::new();
-    reader
-        .take(cap.saturating_add(1))
-        .read_to_end(&mut buf)
-        .map_err(Capped::Io)?;
-    if buf.len() as u64 > cap {
-        return Err(Capped::TooLarge(BspError::TooLarge {
-            name: name.to_owned(),
-            size: buf.len() as u64,
-            cap,
-        }));
-    }
-    Ok(buf)
-}
-
-fn zip_error(e: impl std::fmt::Display) -> BspError {
-    BspError::Zip { message: e.to_string() }
-}
-
-/// `maps/NAME.bsp` → `NAME`.
-fn entry_map_name(entry: &str) -> String {
-    let base = entry.rsplit('/').next().unwrap_or(entry);
-    base.get(..base.len().saturating_sub(4)).unwrap_or(base).to_owned()
-}
-
-/// The map names (`NAME` of `maps/NAME.bsp`) in a pk3 archive, sorted.
-pub fn pk3_maps(path: &Path) -> Result<Vec<String>, LoadError> {
-    let label = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| LoadError::Io {
-        path: label.clone(),
-        source,
-    })?;
-    let zip = zip::ZipArchive::new(std::io::BufReader::new(file)).map_err(|e| LoadError::Bsp {
-        path: label,
-        source: zip_error(e),
-    })?;
-    Ok(map_entries(&zip).iter().map(|e| entry_map_name(e)).collect())
-}
-
-fn map_entries<R: Read + std::io::Seek>(zip: &zip::ZipArchive<R>) -> Vec<String> {
-    let mut names: Vec<String> = zip
-        .file_names()
-        .filter(|n| {
-            let l = n.to_ascii_lowercase();
-            l.starts_with("maps/") && l.ends_with(".bsp") && !l["maps/".len()..].contains('/')
-        })
-        .map(str::to_owned)
-        .collect();
-    names.sort();
-    names
-}
-
-/// Reads the chosen map's bytes from a pk3 archive: (entry name, bytes).
-///
-/// The entry's declared size and the bytes actually inflated are both capped at
-/// [`BspOptions::max_bytes`], so a zip bomb costs at most that much memory.
-pub fn read_pk3<R: Read + std::io::Seek>(mut reader: R, options: &BspOptions) -> Result<(String, Vec<u8>), BspError> {
-    check_central_directory(&mut reader)?;
-    let mut zip = zip::ZipArchive::new(reader).map_err(zip_error)?;
-    let entries = map_entries(&zip);
-    let list = || entries.iter().map(|e| entry_map_name(e)).collect::<Vec<_>>().join(", ");
-    let entry = match &options.map {
-        Some(map) => {
-            let want = format!("maps/{map}.bsp");
-            entries
-                .iter()
-                .find(|e| e.eq_ignore_ascii_case(&want) || e.eq_ignore_ascii_case(map))
-                .cloned()
-                .ok_or_else(|| BspError::MapNotFound {
-                    map: map.clone(),
-                    available: list(),
-                })?
-        }
-        None => match entries.len() {
-            0 => return Err(BspError::NoMaps),
-            1 => entries[0].clone(),
-            _ => return Err(BspError::SeveralMaps { available: list() }),
-        },
-    };
-    let file = zip.by_name(&entry).map_err(zip_error)?;
-    if file.size() > options.max_bytes {
-        return Err(BspError::TooLarge {
-            name: entry,
-            size: file.size(),
-            cap: options.max_bytes,
-        });
-    }
-    let bytes = read_capped(file, &entry, options.max_bytes).map_err(|e| match e {
-        Capped::Io(e) => zip_error(format!("{entry}: {e}")),
-        Capped::TooLarge(e) => e,
-    })?;
-    Ok((entry, bytes))
-}
-
-/// Smallest central directory record (a file header with empty name, extra and comment).
-const MIN_CENTRAL_RECORD: u64 = 46;
-
-/// Checks that the archive's entry count fits its central directory before the zip
-/// reader reserves memory for that many entries: a hostile end record claiming
-/// millions of entries would otherwise cost memory out of proportion to the file.
-fn check_central_directory<R: Read + std::io::Seek>(reader: &mut R) -> Result<(), BspError> {
-    use std::io::SeekFrom;
-    let len = reader.seek(SeekFrom::End(0)).map_err(zip_error)?;
-    // The end record (22 bytes) plus a comment of up to 65535 bytes.
-    let tail_len = len.min(22 + 65_535);
-    reader.seek(SeekFrom::Start(len - tail_len)).map_err(zip_error)?;
-    let mut tail = vec![0u8; tail_len as usize];
-    reader.read_exact(&mut tail).map_err(zip_error)?;
-    reader.seek(SeekFrom::Start(0)).map_err(zip_error)?;
-    let Some(eocd) = (0..tail.len().saturating_sub(21))
-        .rev()
-        .find(|&i| tail[i..i + 4] == *b"PK\x05\x06")
-    else {
-        // No end record: the zip reader reports it.
-        return Ok(());
-    };
-    let u16_at = |b: &[u8], i: usize| u64::from(u16::from_le_bytes([b[i], b[i + 1]]));
-    let u32_at = |b: &[u8], i: usize| u64::from(le_i32(b, i) as u32);
-    let mut entries = u16_at(&tail, eocd + 10);
-    let mut size = u32_at(&tail, eocd + 12);
-    if entries == 0xffff || size == 0xffff_ffff {
-        // Zip64: the locator just before the end record points at the zip64 end record.
-        if eocd >= 20 && tail[eocd - 20..eocd - 16] == *b"PK\x06\x07" {
-            let at = u32_at(&tail, eocd - 12) | (u32_at(&tail, eocd - 8) << 32);
-            if at.checked_add(56).is_none_or(|end| end > len) {
-                return Err(zip_error("the zip64 end record lies outside the file"));
-            }
-            let mut record = [0u8; 56];
-            reader.seek(SeekFrom::Start(at)).map_err(zip_error)?;
-            reader.read_exact(&mut record).map_err(zip_error)?;
-            reader.seek(SeekFrom::Start(0)).map_err(zip_error)?;
-            if record[..4] == *b"PK\x06\x06" {
-                let u64_at = |i: usize| u32_at(&record, i) | (u32_at(&record, i + 4) << 32);
-                entries = u64_at(32);
-                size = u64_at(40);
-            }
-        }
-    }
-    if size > len || entries.saturating_mul(MIN_CENTRAL_RECORD) > size {
-        return Err(zip_error(format!(
-            "the central directory claims {entries} entries in {size} bytes of a {len}-byte file; the archive is corrupt"
-        )));
-    }
-    Ok(())
-}
-
-fn le_i32(b: &[u8], at: usize) -> i32 {
+pub(super) fn le_i32(b: &[u8], at: usize) -> i32 {
     i32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
 }
 
-fn le_f32(b: &[u8], at: usize) -> f32 {
+pub(super) fn le_f32(b: &[u8], at: usize) -> f32 {
     f32::from_bits(le_i32(b, at) as u32)
 }
 
-fn vec3(b: &[u8], at: usize) -> [f32; 3] {
+pub(super) fn vec3(b: &[u8], at: usize) -> [f32; 3] {
     [le_f32(b, at), le_f32(b, at + 4), le_f32(b, at + 8)]
 }
 
 /// The lump directory of a checked header.
-struct Lumps<'a> {
+pub(super) struct Lumps<'a> {
     data: &'a [u8],
     dir: [(usize, usize); 17],
 }
@@ -604,13 +439,13 @@ impl<'a> Lumps<'a> {
         Ok(Lumps { data, dir })
     }
 
-    fn bytes(&self, lump: usize) -> &'a [u8] {
+    pub(super) fn bytes(&self, lump: usize) -> &'a [u8] {
         let (o, l) = self.dir[lump];
         &self.data[o..o + l]
     }
 
     /// The lump as records of `size` bytes.
-    fn records(&self, lump: usize, size: usize) -> Result<std::slice::ChunksExact<'a, u8>, BspError> {
+    pub(super) fn records(&self, lump: usize, size: usize) -> Result<std::slice::ChunksExact<'a, u8>, BspError> {
         let b = self.bytes(lump);
         if b.len() % size != 0 {
             return Err(BspError::LumpSize {
@@ -624,7 +459,7 @@ impl<'a> Lumps<'a> {
 }
 
 /// Checks that `first..first + count` lies in `0..len`.
-fn range(
+pub(super) fn range(
     what: &'static str,
     record: usize,
     field: &'static str,
@@ -647,7 +482,13 @@ fn range(
 }
 
 /// Checks that `value` indexes `0..len`.
-fn index(what: &'static str, record: usize, field: &'static str, value: i32, len: usize) -> Result<usize, BspError> {
+pub(super) fn index(
+    what: &'static str,
+    record: usize,
+    field: &'static str,
+    value: i32,
+    len: usize,
+) -> Result<usize, BspError> {
     if value < 0 || value as i64 >= len as i64 {
         return Err(BspError::IndexOutOfRange {
             what,
@@ -917,93 +758,6 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         eye_height: options.eye_height,
         speed: options.speed,
         pvs,
-    })
-}
-
-fn read_pvs(lumps: &Lumps) -> Result<Pvs, BspError> {
-    let mut planes = Vec::new();
-    for (k, r) in lumps.records(PLANES, 16)?.enumerate() {
-        let n = vec3(r, 0);
-        let d = le_f32(r, 12);
-        if !(n.iter().all(|c| c.is_finite()) && d.is_finite()) {
-            return Err(BspError::NonFinite {
-                what: "plane",
-                record: k,
-            });
-        }
-        planes.push((n, d));
-    }
-    let leaf_count = lumps.bytes(LEAFS).len() / 48;
-    let node_bytes = lumps.records(NODES, 36)?;
-    let node_count = node_bytes.len();
-    let mut nodes = Vec::with_capacity(node_count);
-    for (k, r) in node_bytes.enumerate() {
-        let plane = index("node", k, "plane", le_i32(r, 0), planes.len())? as u32;
-        let mut child = [0i32; 2];
-        for (s, c) in child.iter_mut().enumerate() {
-            let v = le_i32(r, 4 + 4 * s);
-            if v >= 0 {
-                index("node", k, "child node", v, node_count)?;
-            } else {
-                index(
-                    "node",
-                    k,
-                    "child leaf",
-                    (-(v as i64) - 1).min(i32::MAX as i64) as i32,
-                    leaf_count,
-                )?;
-            }
-            *c = v;
-        }
-        nodes.push((plane, child[0], child[1]));
-    }
-
-    let vis = lumps.bytes(VISDATA);
-    let (clusters, row, bits) = if vis.is_empty() {
-        (0, 0, Vec::new())
-    } else {
-        let bad = |message: String| BspError::BadVisdata { message };
-        if vis.len() < 8 {
-            return Err(bad(format!(
-                "lump is {} bytes, shorter than its 8-byte header",
-                vis.len()
-            )));
-        }
-        let (n, sz) = (le_i32(vis, 0), le_i32(vis, 4));
-        if n < 0 || sz < 0 {
-            return Err(bad(format!("negative size: {n} clusters × {sz} bytes")));
-        }
-        let need = n as u64 * sz as u64;
-        if need > (vis.len() - 8) as u64 {
-            return Err(bad(format!(
-                "{n} clusters × {sz} bytes need {need} bytes, but the lump holds {}",
-                vis.len() - 8
-            )));
-        }
-        if (sz as u64) * 8 < n as u64 {
-            return Err(bad(format!("{sz} bytes per cluster cannot hold {n} cluster bits")));
-        }
-        (n as usize, sz as usize, vis[8..8 + need as usize].to_vec())
-    };
-    let mut leaf_cluster = Vec::with_capacity(leaf_count);
-    for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
-        let c = le_i32(r, 0);
-        if c < -1 || (clusters > 0 && c >= 0 && c as usize >= clusters) {
-            return Err(BspError::BadLeafCluster {
-                leaf,
-                cluster: c,
-                clusters,
-            });
-        }
-        leaf_cluster.push(c);
-    }
-    Ok(Pvs {
-        planes,
-        nodes,
-        leaf_cluster,
-        clusters,
-        row,
-        bits,
     })
 }
 
