@@ -65,6 +65,8 @@ if [[ $tests_only == 0 && ! -f "$cache/samurai/samurai_monastry.obj" ]]; then
     wheels="$cache/wheels"
     mkdir -p "$wheels" "$cache/samurai"
     if ! ls "$wheels"/pybullet-3.2.7-*.whl >/dev/null 2>&1; then
+        # pybullet_data is the same in every wheel; a fixed platform makes the
+        # download independent of this machine's Python and architecture.
         python3 -m pip download --no-deps --only-binary=:all: pybullet==3.2.7 \
             --platform manylinux_2_17_x86_64 --python-version 311 -d "$wheels"
     fi
