@@ -48,7 +48,7 @@ enum Command {
 enum SceneCommand {
     /// Object, triangle and bounds information.
     Info {
-        /// Built-in scene name or scene file (.obj, .gltf, .glb).
+        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
         #[arg(long)]
         scene: String,
     },
@@ -65,7 +65,7 @@ enum SceneCommand {
 
 #[derive(Args)]
 struct View {
-    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb).
+    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP; a Quake 3 map walks its spawn points).
     #[arg(long)]
     scene: String,
     /// Camera path JSON file (default: the scene's own walkthrough).

@@ -13,7 +13,7 @@ pub enum LoadError {
         source: std::io::Error,
     },
     /// The extension names no supported format.
-    #[error("{path}: unknown scene format; use .obj, .gltf or .glb, or a built-in scene name (see `hom scenes`)")]
+    #[error("{path}: unknown scene format; use .obj, .gltf, .glb, .bsp or .pk3 (FILE.pk3:MAP), or a built-in scene name (see `hom scenes`)")]
     UnknownFormat {
         /// File.
         path: String,
@@ -35,6 +35,14 @@ pub enum LoadError {
         path: String,
         /// Cause.
         source: SceneError,
+    },
+    /// A Quake 3 map (`.bsp`, or a map in a `.pk3`) is malformed or cannot be read.
+    #[error("{path}: {source}")]
+    Bsp {
+        /// File (`FILE.pk3:maps/NAME.bsp` for a map inside a pk3).
+        path: String,
+        /// Cause.
+        source: crate::bsp::BspError,
     },
     /// No built-in scene has this name.
     #[error("no built-in scene or file named '{name}'; built-in scenes: {known}")]

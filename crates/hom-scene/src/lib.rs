@@ -1,10 +1,12 @@
 //! # hom-scene — where scenes come from
 //!
-//! Loaders for real files (OBJ, glTF 2.0), OBJ export, the built-in generated
-//! scenes with their walkthrough camera paths, and camera path files.
+//! Loaders for real files (OBJ, glTF 2.0, Quake 3 maps), OBJ export, the built-in
+//! generated scenes with their walkthrough camera paths, and camera path files.
 //! Every loader converts to hom's conventions (right-handed, +Y up, metres)
-//! and returns a typed error naming the file and the problem.
+//! and returns a typed error naming the file and the problem. Files that hold
+//! one big mesh are split into spatially coherent objects ([`split`]).
 
+pub mod bsp;
 pub mod builtin;
 pub mod camera_path;
 mod error;
@@ -12,23 +14,67 @@ pub mod export;
 pub mod gltf;
 pub mod moc;
 pub mod obj;
+pub mod split;
 
 pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED};
 pub use camera_path::{CameraPath, CameraPathError, PathFrame};
 pub use error::LoadError;
 
 use hom::scene::Scene;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Loads a scene file, choosing the format by extension (`.obj`, `.gltf`, `.glb`).
+/// A scene loaded from a file, with the walkthrough the file itself suggests.
+#[derive(Clone, Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// The file's own camera path, where it has one (a Quake 3 map's spawn-to-spawn
+    /// walk, [`bsp::BspMap::camera_path`]); `None` for OBJ and glTF.
+    pub path: Option<CameraPath>,
+}
+
+/// Splits a scene spec into the file and the map inside it: `FILE.pk3:MAP`
+/// (the part after the last `:` following `.pk3`, case-insensitive) names map
+/// `maps/MAP.bsp` inside the archive. Any other spec is the file alone.
+/// A file that exists under the whole name is taken whole.
+pub fn split_map_spec(spec: &Path) -> (PathBuf, Option<String>) {
+    let s = spec.to_string_lossy();
+    if !spec.exists() {
+        if let Some(i) = s.to_ascii_lowercase().rfind(".pk3:") {
+            let (file, map) = s.split_at(i + 4);
+            return (PathBuf::from(file), Some(map[1..].to_owned()));
+        }
+    }
+    (spec.to_path_buf(), None)
+}
+
+/// Loads a scene file, choosing the format by extension (`.obj`, `.gltf`, `.glb`,
+/// `.bsp`, `.pk3`; a pk3 with several maps needs `FILE.pk3:MAP`, see [`split_map_spec`]).
+/// Default options everywhere; see [`load_with_path`] for the file's own camera path.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
-    let ext = path
+    load_with_path(path).map(|l| l.scene)
+}
+
+/// [`load`], keeping the camera path the file suggests (Quake 3 maps: spawn to spawn).
+pub fn load_with_path(path: &Path) -> Result<LoadedScene, LoadError> {
+    let (file, map) = split_map_spec(path);
+    let ext = file
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
+    let plain = |scene| LoadedScene { scene, path: None };
     match ext.as_deref() {
-        Some("obj") => obj::load(path),
-        Some("gltf") | Some("glb") => gltf::load(path),
+        Some("obj") if map.is_none() => obj::load(&file).map(plain),
+        Some("gltf") | Some("glb") if map.is_none() => gltf::load(&file).map(plain),
+        Some("bsp") | Some("pk3") => {
+            let options = bsp::BspOptions {
+                map,
+                ..bsp::BspOptions::default()
+            };
+            let m = bsp::load(&file, &options)?;
+            let path = m.camera_path();
+            Ok(LoadedScene { scene: m.scene, path })
+        }
         _ => Err(LoadError::UnknownFormat {
             path: path.display().to_string(),
         }),

@@ -10,6 +10,11 @@
 //! smoothing groups, lines (`l`) and points (`p`) are ignored. Faces with more than three
 //! vertices are fan-triangulated; faces with one or two vertices are ignored.
 //!
+//! A file that yields a single object with more triangles than
+//! [`SplitOptions::max_triangles`] is split into spatially coherent objects by
+//! [`crate::split::split_mesh`] (on by default; [`ObjOptions::split`] turns it off):
+//! objects `NAME_0`, `NAME_1`… in the splitter's documented order.
+//!
 //! The text is first checked line by line, so every syntax or range error names its
 //! 1-based line: malformed numbers, NaN or infinite coordinates, face indices (absolute or
 //! negative relative) outside the vertices declared so far, index 0. The validated,
@@ -17,6 +22,7 @@
 //! garbage, non-UTF-8 text, gigantic index values) gives an error, never a panic, and
 //! memory stays proportional to the file size.
 
+use crate::split::{split_mesh, SplitOptions};
 use crate::LoadError;
 use glam::{Mat4, Vec3};
 use hom::scene::{Mesh, Scene, SceneBuilder, SceneError};
@@ -28,11 +34,23 @@ use std::path::Path;
 /// The scene is named after the file stem. Errors name the file and, for syntax and
 /// range errors, the 1-based line.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
+    load_with(path, &ObjOptions::default())
+}
+
+/// How to load an OBJ file.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ObjOptions {
+    /// How a file that yields a single object is split (on by default).
+    pub split: SplitOptions,
+}
+
+/// [`load`] with options.
+pub fn load_with(path: &Path, options: &ObjOptions) -> Result<Scene, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    parse(&bytes, path)
+    parse_with(&bytes, path, options)
 }
 
 /// Parses OBJ text already in memory, exactly as [`load`] would parse the file at `path`.
@@ -40,13 +58,18 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
 /// `path` is used only to name the scene (its stem) and in error messages; nothing is read
 /// from it.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<Scene, LoadError> {
+    parse_with(bytes, path, &ObjOptions::default())
+}
+
+/// [`parse`] with options.
+pub fn parse_with(bytes: &[u8], path: &Path, options: &ObjOptions) -> Result<Scene, LoadError> {
     let label = path.display().to_string();
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     let parsed = scan(bytes, &label, &stem)?;
-    build(parsed, &label, &stem)
+    build(parsed, &label, &stem, &options.split)
 }
 
 /// A group of faces that becomes one object.
@@ -279,7 +302,7 @@ fn scan(bytes: &[u8], label: &str, stem: &str) -> Result<Parsed, LoadError> {
 }
 
 /// Triangulates the validated groups with tobj and builds the scene.
-fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
+fn build(parsed: Parsed, label: &str, stem: &str, split: &SplitOptions) -> Result<Scene, LoadError> {
     let scene_error = |source| LoadError::Scene {
         path: label.to_owned(),
         source,
@@ -340,6 +363,7 @@ fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
         });
     }
 
+    let single = parsed.groups.len() == 1;
     for (group, model) in parsed.groups.into_iter().zip(models) {
         let id = builder.object_count();
         let name = if group.name.is_empty() {
@@ -358,8 +382,16 @@ fn build(parsed: Parsed, label: &str, stem: &str) -> Result<Scene, LoadError> {
             continue;
         }
         let mesh = Mesh::new(name.clone(), positions, triangles).map_err(scene_error)?;
-        let mesh = builder.add_mesh(mesh);
-        builder.add_object(name, mesh, Mat4::IDENTITY).map_err(scene_error)?;
+        let parts = if single && mesh.triangle_count() > split.max_triangles {
+            split_mesh(&mesh, split).map_err(scene_error)?
+        } else {
+            vec![mesh]
+        };
+        for part in parts {
+            let name = part.name().to_owned();
+            let mesh = builder.add_mesh(part);
+            builder.add_object(name, mesh, Mat4::IDENTITY).map_err(scene_error)?;
+        }
     }
     builder.build().map_err(scene_error)
 }

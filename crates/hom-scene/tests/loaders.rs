@@ -786,3 +786,50 @@ proptest! {
         let _ = gltf::load(&p);
     }
 }
+
+// ---------------------------------------------------------------- splitting one big mesh
+
+/// A grid of `n × n` quads in the XZ plane, one group.
+fn grid_obj(n: usize) -> String {
+    let mut text = String::from("o ground\n");
+    for z in 0..=n {
+        for x in 0..=n {
+            text.push_str(&format!("v {x} 0 {z}\n"));
+        }
+    }
+    for z in 0..n {
+        for x in 0..n {
+            let a = z * (n + 1) + x + 1;
+            text.push_str(&format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1));
+        }
+    }
+    text
+}
+
+#[test]
+fn a_single_big_obj_object_is_split_unless_turned_off() {
+    let text = grid_obj(40); // 3200 triangles, 40 m across
+    let scene = load_obj_text(&text).unwrap();
+    assert_eq!(scene.triangle_count(), 3200);
+    assert!(scene.objects().len() >= 7, "{}", scene.objects().len());
+    assert!(scene.objects().iter().all(|o| o.triangles <= 512));
+    // Centroids within 16 m, so boxes within 17 m for unit quads.
+    assert!(scene.objects().iter().all(|o| o.aabb.extent().max_element() <= 17.0));
+    assert_eq!(names(&scene)[0], "ground_0");
+    // Same file, same objects.
+    let again = load_obj_text(&text).unwrap();
+    assert_eq!(tri_counts(&scene), tri_counts(&again));
+
+    let off = obj::ObjOptions {
+        split: hom_scene::split::SplitOptions {
+            enabled: false,
+            ..Default::default()
+        },
+    };
+    let whole = obj::parse_with(text.as_bytes(), Path::new("test.obj"), &off).unwrap();
+    assert_eq!(names(&whole), vec!["ground"]);
+    // Two groups are never split.
+    let two = format!("{text}o other\nv 0 1 0\nv 1 1 0\nv 0 1 1\nf -1 -2 -3\n");
+    let two = load_obj_text(&two).unwrap();
+    assert_eq!(names(&two), vec!["ground", "other"]);
+}

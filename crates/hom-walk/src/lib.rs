@@ -32,23 +32,28 @@ use std::path::Path;
 
 /// A scene and the camera path to walk it: a built-in scene name or a file.
 ///
-/// Files get [`CameraPath::orbit`] around their bounds unless a path is given.
+/// Files get their own walkthrough where they have one (a Quake 3 map: spawn to
+/// spawn, see [`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3),
+/// else [`CameraPath::orbit`] around their bounds.
 pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath), LoadError> {
     if hom_scene::BUILTIN_SCENES.iter().any(|(n, _)| *n == spec) {
         let b = hom_scene::builtin(spec)?;
         return Ok((b.scene, b.path));
     }
     let path = Path::new(spec);
-    if !path.exists() {
+    if !hom_scene::split_map_spec(path).0.exists() {
         let known: Vec<&str> = hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| *n).collect();
         return Err(LoadError::UnknownBuiltin {
             name: spec.to_string(),
             known: known.join(", "),
         });
     }
-    let scene = hom_scene::load(path)?;
-    let orbit = CameraPath::orbit(&scene.bounds(), 120);
-    Ok((scene, orbit))
+    let loaded = hom_scene::load_with_path(path)?;
+    let walk = match loaded.path {
+        Some(p) => p,
+        None => CameraPath::orbit(&loaded.scene.bounds(), 120),
+    };
+    Ok((loaded.scene, walk))
 }
 
 /// The README's Rust examples, compiled as doc tests.

@@ -231,6 +231,10 @@ pub struct Object {
     pub obb: Obb,
     /// Triangle count of its mesh (cached).
     pub triangles: u32,
+    /// May it hide other objects? False for see-through surfaces (glass, grates,
+    /// foliage, liquids, fog): they are drawn and tested like any object but never
+    /// selected as occluders. True unless set with [`SceneBuilder::set_occluder`].
+    pub occluder: bool,
 }
 
 impl Object {
@@ -330,8 +334,22 @@ impl SceneBuilder {
             aabb: bounds.transformed(&transform),
             obb: Obb::from_local(&bounds, &transform),
             triangles: m.triangle_count() as u32,
+            occluder: true,
         });
         Ok((self.objects.len() - 1) as u32)
+    }
+
+    /// Marks object `id` as one that may (`true`, the default) or must never (`false`)
+    /// be used as an occluder, for example a see-through surface. Returns false when
+    /// no object has this id.
+    pub fn set_occluder(&mut self, id: u32, occluder: bool) -> bool {
+        match self.objects.get_mut(id as usize) {
+            Some(o) => {
+                o.occluder = occluder;
+                true
+            }
+            None => false,
+        }
     }
 
     /// The finished scene; an error if it has no objects.
@@ -463,7 +481,10 @@ mod tests {
         b.add_dynamic_object("q", m, Mat4::IDENTITY, motion).unwrap();
         b.add_object("still", m, Mat4::from_translation(Vec3::X * 10.0))
             .unwrap();
+        assert!(b.set_occluder(1, false));
+        assert!(!b.set_occluder(2, false));
         let mut s = b.build().unwrap();
+        assert!(s.object(0).occluder && !s.object(1).occluder);
         for i in 0..200 {
             s.set_time(i as f32 * 0.1);
             let o = s.object(0);

@@ -50,6 +50,9 @@ pub enum Verdict {
     IllShaped,
     /// A kept occluder's box already holds it.
     Redundant,
+    /// The scene marks it as never an occluder ([`crate::scene::Object::occluder`]
+    /// is false: glass, grates, foliage, liquids), whatever its shape.
+    NotAnOccluder,
 }
 
 /// An object kept as an occluder.
@@ -117,7 +120,9 @@ impl OccluderDb {
                     o.transform.z_axis.truncate().length(),
                 );
                 let size = scene.mesh_of(o).bounds().extent() * scale;
-                if second_largest(size) < config.min_size {
+                if !o.occluder {
+                    Verdict::NotAnOccluder
+                } else if second_largest(size) < config.min_size {
                     Verdict::TooSmall
                 } else if o.triangles > config.max_triangles {
                     Verdict::TooCostly
@@ -146,20 +151,32 @@ impl OccluderDb {
         }
     }
 
-    /// Every object as an occluder, no preprocessing (for tests and tiny scenes).
+    /// Every object as an occluder, no preprocessing (for tests and tiny scenes),
+    /// except objects the scene marks as never occluders ([`Verdict::NotAnOccluder`]).
     pub fn all(scene: &Scene) -> OccluderDb {
         OccluderDb {
             occluders: scene
                 .objects()
                 .iter()
                 .enumerate()
+                .filter(|(_, o)| o.occluder)
                 .map(|(id, o)| Occluder {
                     object: id as u32,
                     stand_in: None,
                     triangles: o.triangles,
                 })
                 .collect(),
-            verdicts: vec![Verdict::Kept; scene.objects().len()],
+            verdicts: scene
+                .objects()
+                .iter()
+                .map(|o| {
+                    if o.occluder {
+                        Verdict::Kept
+                    } else {
+                        Verdict::NotAnOccluder
+                    }
+                })
+                .collect(),
             config: OccluderDbConfig::default(),
         }
     }
@@ -196,7 +213,7 @@ impl OccluderDb {
     pub fn report(&self) -> String {
         let count = |v: Verdict| self.verdicts.iter().filter(|&&x| x == v).count();
         format!(
-            "{} of {} objects kept as occluders; dropped: {} too small (< {} m), {} too costly (> {} triangles), {} ill-shaped (fill < {}), {} redundant",
+            "{} of {} objects kept as occluders; dropped: {} too small (< {} m), {} too costly (> {} triangles), {} ill-shaped (fill < {}), {} redundant, {} never occluders (see-through)",
             count(Verdict::Kept),
             self.verdicts.len(),
             count(Verdict::TooSmall),
@@ -206,6 +223,7 @@ impl OccluderDb {
             count(Verdict::IllShaped),
             self.config.min_fill,
             count(Verdict::Redundant),
+            count(Verdict::NotAnOccluder),
         )
     }
 }
@@ -238,5 +256,53 @@ fn mark_redundant(scene: &Scene, margin: f32, verdicts: &mut [Verdict]) {
             absorbed[k] = true;
             verdicts[id as usize] = Verdict::Redundant;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SceneBuilder;
+    use glam::{Mat4, Vec3};
+
+    /// Two big walls, the second marked see-through.
+    fn two_walls() -> Scene {
+        let mut b = SceneBuilder::new("walls");
+        let wall = crate::scene::Mesh::new(
+            "wall",
+            vec![
+                Vec3::ZERO,
+                Vec3::new(4.0, 0.0, 0.0),
+                Vec3::new(4.0, 3.0, 0.0),
+                Vec3::new(0.0, 3.0, 0.0),
+                Vec3::new(0.0, 0.0, 0.2),
+                Vec3::new(4.0, 3.0, 0.2),
+            ],
+            vec![[0, 1, 2], [0, 2, 3], [4, 1, 5]],
+        )
+        .unwrap();
+        let m = b.add_mesh(wall);
+        b.add_object("opaque", m, Mat4::IDENTITY).unwrap();
+        b.add_object("glass", m, Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0)))
+            .unwrap();
+        assert!(b.set_occluder(1, false));
+        b.build().unwrap()
+    }
+
+    #[test]
+    fn see_through_objects_are_never_occluders() {
+        let scene = two_walls();
+        let config = OccluderDbConfig {
+            min_fill: 0.0,
+            ..OccluderDbConfig::default()
+        };
+        for db in [OccluderDb::build(&scene, &config), OccluderDb::all(&scene)] {
+            assert_eq!(db.verdicts(), &[Verdict::Kept, Verdict::NotAnOccluder]);
+            let ids: Vec<u32> = db.occluders().iter().map(|o| o.object).collect();
+            assert_eq!(ids, vec![0]);
+        }
+        assert!(OccluderDb::build(&scene, &config)
+            .report()
+            .contains("1 never occluders"));
     }
 }

@@ -1,0 +1,66 @@
+//! Real Quake 3 maps (fetched by `scripts/fetch-scenes.sh --tests-only`): along the
+//! spawn-to-spawn walk, HOM in conservative mode culls nothing the oracle sees, and
+//! everything the oracle sees lies in a cluster the map's own PVS marks visible.
+//! Skips, saying why, when the cache is missing.
+
+use hom::cull::CullOutput;
+use hom_render::{Framebuffer, Renderer};
+use hom_scene::bsp::{self, BspOptions};
+use std::path::PathBuf;
+
+#[test]
+fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
+    let pk3 = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if !pk3.exists() {
+        eprintln!(
+            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+            pk3.display()
+        );
+        return;
+    }
+    let renderer = Renderer::new(0).unwrap();
+    for name in ["oa_dm1", "oa_dm4"] {
+        let options = BspOptions {
+            map: Some(name.into()),
+            ..BspOptions::default()
+        };
+        let map = bsp::load(&pk3, &options).unwrap();
+        let scene = &map.scene;
+        let path = map.camera_path().unwrap().with_viewport(192, 192);
+        let mut culler = hom_walk::cullers::make("hom", scene).unwrap();
+        let (mut checked, mut outside, mut seen) = (0, 0, 0);
+        let mut fb = Framebuffer::new(path.width, path.height);
+        for i in (0..path.frames.len()).step_by(4).take(60) {
+            let camera = path.camera(i);
+            let mut out = CullOutput::default();
+            renderer.install(|| culler.cull(scene, &camera, &mut out)).unwrap();
+            let counts = hom_render::oracle_pixel_counts(&renderer, scene, &camera, &mut fb);
+            let cluster = map.cluster_of(camera.eye);
+            for (id, &n) in counts.iter().enumerate() {
+                if n == 0 {
+                    continue;
+                }
+                seen += 1;
+                assert!(
+                    out.visible.binary_search(&(id as u32)).is_ok(),
+                    "{name} frame {i}: object {id} owns {n} pixels but HOM culled it"
+                );
+                if let Some(c) = cluster {
+                    assert!(
+                        map.object_visible_from(id as u32, c),
+                        "{name} frame {i}: object {id} (clusters {:?}) owns {n} pixels but the PVS hides it from cluster {c}",
+                        map.object_clusters[id]
+                    );
+                }
+            }
+            if cluster.is_some() {
+                checked += 1;
+            } else {
+                outside += 1;
+            }
+        }
+        println!("{name}: {checked} frames checked against the PVS, {outside} with the eye in solid space; {seen} visible objects");
+        assert_eq!(outside, 0, "{name}: the walk drops frames in solid space");
+    }
+}
