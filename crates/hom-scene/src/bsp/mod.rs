@@ -447,7 +447,7 @@ impl<'a> Lumps<'a> {
     /// The lump as records of `size` bytes.
     pub(super) fn records(&self, lump: usize, size: usize) -> Result<std::slice::ChunksExact<'a, u8>, BspError> {
         let b = self.bytes(lump);
-        if b.len() % size != 0 {
+        if !b.len().is_multiple_of(size) {
             return Err(BspError::LumpSize {
                 lump: LUMP_NAMES[lump],
                 length: b.len(),
