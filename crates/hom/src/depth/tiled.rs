@@ -26,8 +26,12 @@ pub struct TiledZBuffer {
     height: u32,
     tiles_x: u32,
     tiles_y: u32,
-    /// Tile-major: tile `(tx, ty)` holds samples `[(ty * tiles_x + tx) * 64..][..64]`, row-major inside.
+    /// Tile-major: tile `(tx, ty)` holds samples `[(ty * tiles_x + tx) * 64..][..64]`,
+    /// row-major inside; meaningful only for touched tiles.
     samples: Vec<f32>,
+    /// Whether each tile's samples have been written since the last clear
+    /// (an untouched tile is blank: clearing costs a flag, not 64 samples).
+    touched: Vec<bool>,
     /// Farthest depth of each tile's samples, row-major over tiles.
     tile_max: Vec<f32>,
     /// Levels above the tiles: `upper[k]` has texels of `2^(k+1)` tiles a side.
@@ -49,25 +53,36 @@ impl TiledZBuffer {
         self.tiles_x = width.div_ceil(TILE);
         self.tiles_y = height.div_ceil(TILE);
         let n = (self.tiles_x * self.tiles_y) as usize;
-        self.samples.clear();
+        // Stale samples stay: a tile is blanked when first drawn.
         self.samples.resize(n * TILE_SAMPLES, f32::INFINITY);
+        self.touched.clear();
+        self.touched.resize(n, false);
         self.tile_max.clear();
         self.tile_max.resize(n, f32::INFINITY);
         self.upper.clear();
-        // Samples past the right and bottom edges.
-        if !width.is_multiple_of(TILE) || !height.is_multiple_of(TILE) {
-            for ty in 0..self.tiles_y {
-                for tx in 0..self.tiles_x {
-                    let t = (ty * self.tiles_x + tx) as usize * TILE_SAMPLES;
-                    for j in 0..TILE {
-                        for i in 0..TILE {
-                            if tx * TILE + i >= width || ty * TILE + j >= height {
-                                self.samples[t + (j * TILE + i) as usize] = f32::NEG_INFINITY;
-                            }
-                        }
-                    }
+    }
+
+    /// Fills `tile` (the samples of tile `(tx, ty)`) with what a blank tile
+    /// holds: `INFINITY` inside the viewport, `NEG_INFINITY` past its edges.
+    pub(crate) fn blank(width: u32, height: u32, tx: u32, ty: u32, tile: &mut [f32]) {
+        tile.fill(f32::INFINITY);
+        let (cols, rows) = (width - tx * TILE, height - ty * TILE);
+        if cols < TILE || rows < TILE {
+            for (k, d) in tile.iter_mut().enumerate() {
+                if k as u32 % TILE >= cols || k as u32 / TILE >= rows {
+                    *d = f32::NEG_INFINITY;
                 }
             }
+        }
+    }
+
+    /// The sample at `(x, y)` (inside the viewport), blank where untouched.
+    #[inline]
+    fn sample(&self, x: u32, y: u32) -> f32 {
+        if self.touched[(y / TILE * self.tiles_x + x / TILE) as usize] {
+            self.samples[Self::index(self.tiles_x, x, y)]
+        } else {
+            f32::INFINITY
         }
     }
 
@@ -97,7 +112,7 @@ impl TiledZBuffer {
             self.width,
             self.height
         );
-        self.samples[Self::index(self.tiles_x, x, y)]
+        self.sample(x, y)
     }
 
     #[inline]
@@ -111,7 +126,7 @@ impl TiledZBuffer {
         out.reserve((self.width * self.height) as usize);
         for y in 0..self.height {
             for x in 0..self.width {
-                out.push(self.samples[Self::index(self.tiles_x, x, y)]);
+                out.push(self.sample(x, y));
             }
         }
     }
@@ -121,11 +136,11 @@ impl TiledZBuffer {
         &self.tile_max
     }
 
-    /// The samples (tile-major) and tile maxima, for the rasterizer; drops the
-    /// levels above the tiles, which no longer match.
-    pub(crate) fn parts_mut(&mut self) -> (&mut [f32], &mut [f32]) {
+    /// The samples (tile-major), tile maxima and touched flags, for the
+    /// rasterizer; drops the levels above the tiles, which no longer match.
+    pub(crate) fn parts_mut(&mut self) -> (&mut [f32], &mut [f32], &mut [bool]) {
         self.upper.clear();
-        (&mut self.samples, &mut self.tile_max)
+        (&mut self.samples, &mut self.tile_max, &mut self.touched)
     }
 
     /// Builds the levels above the tiles (call after rendering, before [`TiledZBuffer::is_behind`]).
@@ -173,7 +188,7 @@ impl TiledZBuffer {
         debug_assert!(r.x1 <= self.width && r.y1 <= self.height, "{r:?} outside the viewport");
         // Most visible rectangles are visible at their centre: one read.
         let (cx, cy) = ((r.x0 + r.x1 - 1) / 2, (r.y0 + r.y1 - 1) / 2);
-        if r.z_near <= self.samples[Self::index(self.tiles_x, cx, cy)] + DEPTH_MARGIN {
+        if r.z_near <= self.sample(cx, cy) + DEPTH_MARGIN {
             return false;
         }
         let (t0x, t0y, t1x, t1y) = (r.x0 / TILE, r.y0 / TILE, (r.x1 - 1) / TILE, (r.y1 - 1) / TILE);
@@ -235,7 +250,11 @@ impl TiledZBuffer {
 
     /// Whether every sample of tile `(tx, ty)` inside `r` is behind `r.z_near`.
     fn tile_behind(&self, tx: u32, ty: u32, r: &ScreenRect) -> bool {
-        let tile = &self.samples[(ty * self.tiles_x + tx) as usize * TILE_SAMPLES..][..TILE_SAMPLES];
+        let t = (ty * self.tiles_x + tx) as usize;
+        if !self.touched[t] {
+            return false; // blank: every sample inside the viewport is uncovered
+        }
+        let tile = &self.samples[t * TILE_SAMPLES..][..TILE_SAMPLES];
         let (x0, x1) = (r.x0.max(tx * TILE) - tx * TILE, r.x1.min((tx + 1) * TILE) - tx * TILE);
         let (y0, y1) = (r.y0.max(ty * TILE) - ty * TILE, r.y1.min((ty + 1) * TILE) - ty * TILE);
         (y0..y1).all(|j| {
@@ -256,9 +275,16 @@ mod tests {
     fn tiled(w: u32, h: u32, depth: &[f32]) -> TiledZBuffer {
         let mut t = TiledZBuffer::default();
         t.clear(w, h);
+        for ty in 0..t.tiles_y {
+            for tx in 0..t.tiles_x {
+                let k = (ty * t.tiles_x + tx) as usize;
+                TiledZBuffer::blank(w, h, tx, ty, &mut t.samples[k * TILE_SAMPLES..][..TILE_SAMPLES]);
+            }
+        }
         for y in 0..h {
             for x in 0..w {
                 t.samples[TiledZBuffer::index(t.tiles_x, x, y)] = depth[(y * w + x) as usize];
+                t.touched[(y / TILE * t.tiles_x + x / TILE) as usize] = true;
             }
         }
         for (i, m) in t.tile_max.iter_mut().enumerate() {

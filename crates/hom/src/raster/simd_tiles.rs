@@ -7,7 +7,7 @@
 
 use super::setup::Tri;
 use super::simd::RasterBackend;
-use super::tiled::{Band, TiledStats};
+use super::tiled::{Band, BandParts, TiledStats};
 
 /// Fills one band with the kernel of `backend` (the scalar one where the CPU
 /// lacks it). The vector entry points compile the whole band loop with their
@@ -17,27 +17,26 @@ pub(crate) fn render_band(
     band: &Band,
     tris: &[Tri],
     bin: &[u32],
-    samples: &mut [f32],
-    maxima: &mut [f32],
+    parts: BandParts,
 ) -> TiledStats {
     match backend {
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
             // SAFETY: AVX-512F is available (checked above; the check is cached by std).
-            unsafe { x86::band_avx512(band, tris, bin, samples, maxima) }
+            unsafe { x86::band_avx512(band, tris, bin, parts) }
         }
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
             // SAFETY: AVX2 is available (checked above).
-            unsafe { x86::band_avx2(band, tris, bin, samples, maxima) }
+            unsafe { x86::band_avx2(band, tris, bin, parts) }
         }
         #[cfg(target_arch = "x86_64")]
-        RasterBackend::Scalar => band.render(tris, bin, samples, maxima, TileKernel::run_scalar),
+        RasterBackend::Scalar => band.render(tris, bin, parts, TileKernel::run_scalar),
         // SSE4.1 adds nothing this kernel uses: the SSE2 kernel serves it.
         #[cfg(target_arch = "x86_64")]
-        _ => band.render(tris, bin, samples, maxima, x86::run_sse2),
+        _ => band.render(tris, bin, parts, x86::run_sse2),
         #[cfg(not(target_arch = "x86_64"))]
-        _ => band.render(tris, bin, samples, maxima, TileKernel::run_scalar),
+        _ => band.render(tris, bin, parts, TileKernel::run_scalar),
     }
 }
 
@@ -97,7 +96,7 @@ impl TileKernel {
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{Band, TileKernel, TiledStats, Tri};
+    use super::{Band, BandParts, TileKernel, TiledStats, Tri};
     use std::arch::x86_64::*;
 
     /// The band loop compiled with AVX2, its kernel inlined.
@@ -105,9 +104,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn band_avx2(b: &Band, t: &[Tri], bin: &[u32], s: &mut [f32], m: &mut [f32]) -> TiledStats {
+    pub(super) unsafe fn band_avx2(b: &Band, t: &[Tri], bin: &[u32], parts: BandParts) -> TiledStats {
         // SAFETY: this function only runs where AVX2 is available.
-        b.render(t, bin, s, m, |k, tile| unsafe { run_avx2(k, tile) })
+        b.render(t, bin, parts, |k, tile| unsafe { run_avx2(k, tile) })
     }
 
     /// The band loop compiled with AVX-512F, its kernel inlined.
@@ -115,9 +114,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn band_avx512(b: &Band, t: &[Tri], bin: &[u32], s: &mut [f32], m: &mut [f32]) -> TiledStats {
+    pub(super) unsafe fn band_avx512(b: &Band, t: &[Tri], bin: &[u32], parts: BandParts) -> TiledStats {
         // SAFETY: this function only runs where AVX-512F is available.
-        b.render(t, bin, s, m, |k, tile| unsafe { run_avx512(k, tile) })
+        b.render(t, bin, parts, |k, tile| unsafe { run_avx512(k, tile) })
     }
 
     /// SSE2 (x86-64 baseline): a row is two vectors of four samples.

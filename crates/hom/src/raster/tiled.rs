@@ -159,21 +159,22 @@ impl TiledRasterizer {
             }
         }
         let (tris, backend) = (&self.tris, self.backend);
-        let (samples, maxima) = zb.parts_mut();
+        let (samples, maxima, touched) = zb.parts_mut();
         let band_tiles = (tiles_x * BAND_TILES) as usize;
         let stats = samples
             .par_chunks_mut(band_tiles * TILE_SAMPLES)
             .zip(maxima.par_chunks_mut(band_tiles))
+            .zip(touched.par_chunks_mut(band_tiles))
             .zip(self.bins.par_iter())
             .enumerate()
-            .map(|(band, ((samples, maxima), bin))| {
+            .map(|(band, (((samples, maxima), touched), bin))| {
                 let band = Band {
                     ty0: band as u32 * BAND_TILES,
                     tiles_x,
                     width,
                     height,
                 };
-                render_band(backend, &band, tris, bin, samples, maxima)
+                render_band(backend, &band, tris, bin, (samples, maxima, touched))
             })
             .reduce(TiledStats::default, |mut a, b| {
                 a += b;
@@ -186,6 +187,9 @@ impl TiledRasterizer {
         }
     }
 }
+
+/// A band's samples, tile maxima and touched flags.
+pub(crate) type BandParts<'a> = (&'a mut [f32], &'a mut [f32], &'a mut [bool]);
 
 /// One band of tile rows being filled.
 pub(crate) struct Band {
@@ -263,8 +267,7 @@ impl Band {
         &self,
         tris: &[Tri],
         bin: &[u32],
-        samples: &mut [f32],
-        maxima: &mut [f32],
+        (samples, maxima, touched): BandParts,
         kernel: impl Fn(&TileKernel, &mut [f32; TILE_SAMPLES]) -> Option<f32>,
     ) -> TiledStats {
         let mut stats = TiledStats::default();
@@ -308,10 +311,17 @@ impl Band {
                         let tile: &mut [f32; TILE_SAMPLES] = (&mut samples[ti * TILE_SAMPLES..][..TILE_SAMPLES])
                             .try_into()
                             .expect("tile");
-                        let far = match tile_edges(t, px, py) {
-                            Ok(None) => continue,
+                        let edges = tile_edges(t, px, py);
+                        if let Ok(None) = edges {
+                            continue;
+                        }
+                        if !touched[ti] {
+                            TiledZBuffer::blank(self.width, self.height, tx, self.ty0 + ty, tile);
+                            touched[ti] = true;
+                        }
+                        let far = match edges {
                             Ok(Some(e)) => kernel(&tile_kernel(t, &e, px, py, self.width, self.height), tile),
-                            Err(()) => draw_tile_wide(t, px, py, self.width, self.height, tile),
+                            _ => draw_tile_wide(t, px, py, self.width, self.height, tile),
                         };
                         stats.tiles_drawn += 1;
                         if let Some(far) = far {
@@ -433,7 +443,13 @@ mod tests {
         ) {
             let cull = [FaceCull::None, FaceCull::Clockwise, FaceCull::CounterClockwise][cull as usize];
             let (v, t) = soup(seed, n);
+            // Stale samples from another frame must not leak through the lazy clear.
             let mut zb = TiledZBuffer::default();
+            let (sv, st) = soup(!seed, 60);
+            let mut stale = TiledRasterizer::new();
+            stale.setup(&sv, &st, SetupRule::default(), w, h);
+            zb.clear(w, h);
+            stale.render(&mut zb);
             for backend in RasterBackend::supported() {
             let mut r = TiledRasterizer::with_backend(backend);
             r.setup(&v, &t, SetupRule { cull, inner: seed % 2 == 0 }, w, h);
@@ -456,7 +472,7 @@ mod tests {
                         far = far.max(zb.depth(x, y));
                     }
                 }
-                prop_assert_eq!(m, far);
+                prop_assert_eq!(m, far, "tile {}", k);
             }
         }
     }
