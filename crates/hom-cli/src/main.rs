@@ -77,7 +77,8 @@ struct View {
     /// Image height (default: the path's).
     #[arg(long)]
     height: Option<u32>,
-    /// Culler: none, frustum, hom (hierarchical occlusion maps, the default), hzb (hierarchical Z-buffer).
+    /// Culler: none, frustum, hom (hierarchical occlusion maps, the default), hzb (hierarchical Z-buffer),
+    /// hv (hierarchical visibility: octree + live Z-pyramid).
     #[arg(long, default_value = cullers::BEST)]
     culler: String,
     /// Renderer threads (0 = all cores).
