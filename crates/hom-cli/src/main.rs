@@ -112,6 +112,12 @@ struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     no_hole_filling: bool,
+    /// HV: most triangles per octree leaf (default 64).
+    #[arg(long)]
+    hv_threshold: Option<usize>,
+    /// HV: maximum octree depth (default 12).
+    #[arg(long)]
+    hv_max_depth: Option<u32>,
 }
 
 impl HomArgs {
@@ -268,6 +274,19 @@ fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
 }
 
 fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<Box<dyn hom::cull::Culler>> {
+    if name == "hv" {
+        let mut c = hom::cull::HvConfig::default();
+        if let Some(t) = hom.hv_threshold {
+            if t == 0 {
+                bail!("--hv-threshold must be at least 1");
+            }
+            c.octree.threshold = t;
+        }
+        if let Some(d) = hom.hv_max_depth {
+            c.octree.max_depth = d;
+        }
+        return Ok(Box::new(hom::cull::HvCuller::new(scene, c)));
+    }
     match cullers::make_with(name, scene, &hom.config(scene)?) {
         Some(c) => Ok(c),
         None => bail!("unknown culler '{name}'; available: {}", cullers::names()),

@@ -23,9 +23,11 @@
 //!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
 //!    transform `view_proj * transform`, same clipping, snapping and fill
 //!    rule); each set-up triangle's bounding rectangle at its smallest depth is
-//!    first tested against the pyramid (Greene's hierarchical tiling, one
-//!    level: see `HvConfig::triangle_tests`), then every covered sample is
-//!    depth-tested with the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
+//!    first tested against the pyramid, then each 8×8-sample tile of it that
+//!    the triangle covers against the tile's level-3 texel (one level of
+//!    Greene's hierarchical tiling; both tests are `HvConfig::triangle_tests`),
+//!    and every covered sample of the tiles not rejected is depth-tested with
+//!    the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
 //! 4. **pyramid**: after each leaf (or dynamic object) the texels above the
 //!    samples it changed are recomputed ([`ZPyramid::update_rect`]), so later
 //!    nodes are tested against everything drawn so far.
@@ -54,10 +56,11 @@
 //! (`hom-walk/tests/hv_conservative.rs` checks both). The assumptions are those
 //! of every image-space culler here: the same resolution as the final image,
 //! and a box's projected nearest depth (with the margin) not above the depth
-//! the renderer computes for a triangle inside it. The triangle test needs no
-//! such assumption: a triangle's sample depths are monotone along rows and
-//! columns of the exact f32 formula, so its four bounding-rectangle corners
-//! give an exact lower bound.
+//! the renderer computes for a triangle inside it. The triangle and tile tests
+//! need no such assumption: the renderer's f32 depth formula is monotone along
+//! rows and along columns, so its values at a rectangle's four corners give an
+//! exact lower bound of the triangle's depth at every sample of the rectangle
+//! (and the tile test, `z > texel`, needs no margin).
 //!
 //! The looser rule "visible iff one of its triangles passed the depth test
 //! (wrote or tied a sample) when drawn" is reported as the counter
@@ -67,7 +70,7 @@
 //!
 //! # Counters
 //! `depth_comparisons` = `sample_tests` (covered samples depth-tested) +
-//! `pyramid_texel_tests` (texels read by node, object and triangle tests);
+//! `pyramid_texel_tests` (texels read by node, object, triangle and tile tests);
 //! `zbuffer_depth_comparisons` is what a plain z-buffer does for the same
 //! frame: the covered samples of every triangle in the frustum (computed with
 //! the same setup; *not* timed, it is instrumentation, and skipped when
@@ -94,7 +97,8 @@ pub struct HvConfig {
     /// The octree: triangles per leaf (`threshold`) and maximum depth.
     pub octree: OctreeConfig,
     /// Test each set-up triangle's bounding rectangle at its smallest depth
-    /// against the pyramid before scanning its samples.
+    /// against the pyramid, then each of its 8×8-sample tiles against the
+    /// tile's texel, before scanning samples.
     pub triangle_tests: bool,
     /// Count the depth comparisons of a plain z-buffer render of the frame
     /// (counter `zbuffer_depth_comparisons`; untimed, costs about a setup of
@@ -126,6 +130,7 @@ pub struct HvCuller {
     passed: Vec<bool>,
     owned: Vec<bool>,
     tris: Vec<Tri>,
+    spans: Vec<Option<(u32, u32)>>,
     stack: Vec<(u32, bool)>,
     pending: Vec<(f32, u32)>,
 }
@@ -142,6 +147,8 @@ struct Stats {
     triangles_rasterized: u64,
     sample_tests: u64,
     samples_written: u64,
+    tile_tests: u64,
+    tiles_skipped: u64,
     texels_updated: u64,
     dynamic_tested: u64,
     dynamic_occluded: u64,
@@ -172,16 +179,21 @@ impl Dirty {
     }
 }
 
-/// The smallest depth the renderer's formula gives anywhere in `t`'s bounding
-/// rectangle: the formula is monotone along rows and columns (f32 rounding is
-/// monotone), so the minimum is at a corner. A lower bound of every covered sample's depth.
-fn tri_min_depth(t: &Tri) -> f32 {
-    let last_k = u32::from(t.x1 - t.x0) - 1;
+/// Pyramid level whose texels are the tiles of HV's triangle tiling (8×8 samples).
+const TILE_LEVEL: usize = 3;
+
+/// The smallest depth the renderer's formula `max(depth_row(y) + dzdx * (x - x0), 0)`
+/// gives on the samples `x0..x1` × `y0..y1` (non-empty, within `t`'s bounding
+/// rectangle): the formula is monotone along rows and along columns (f32
+/// rounding is monotone), so the minimum is at a corner. A lower bound of the
+/// depth of every sample `t` covers there.
+fn tri_min_depth(t: &Tri, x0: u32, y0: u32, x1: u32, y1: u32) -> f32 {
+    let tx0 = u32::from(t.x0);
     let mut m = f32::INFINITY;
-    for py in [u32::from(t.y0), u32::from(t.y1) - 1] {
+    for py in [y0, y1 - 1] {
         let zr = t.depth_row(py);
-        for k in [0, last_k] {
-            m = m.min((zr + t.dzdx * k as f32).max(0.0));
+        for x in [x0, x1 - 1] {
+            m = m.min((zr + t.dzdx * (x - tx0) as f32).max(0.0));
         }
     }
     m
@@ -204,6 +216,7 @@ struct Drawing<'a> {
     items: &'a mut [u32],
     passed: &'a mut [bool],
     tris: &'a mut Vec<Tri>,
+    spans: &'a mut Vec<Option<(u32, u32)>>,
     triangle_tests: bool,
     stats: Stats,
     zstats: ZTestStats,
@@ -231,10 +244,17 @@ impl Drawing<'_> {
         let mesh = self.scene.mesh_of(o);
         let m = self.mvp[t.object as usize];
         let p = mesh.positions();
-        let v = mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), &self.viewport));
+        let v =
+            mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), &self.viewport));
         self.stats.triangles_submitted += 1;
         self.tris.clear();
-        setup_triangle([&v[0], &v[1], &v[2]], &self.viewport, t.object, [0, 0, 0, 255], self.tris);
+        setup_triangle(
+            [&v[0], &v[1], &v[2]],
+            &self.viewport,
+            t.object,
+            [0, 0, 0, 255],
+            self.tris,
+        );
         for k in 0..self.tris.len() {
             let tri = self.tris[k];
             self.draw_tri(&tri);
@@ -242,13 +262,14 @@ impl Drawing<'_> {
     }
 
     fn draw_tri(&mut self, t: &Tri) {
+        let (bx0, by0, bx1, by1) = (u32::from(t.x0), u32::from(t.y0), u32::from(t.x1), u32::from(t.y1));
         if self.triangle_tests {
-            let z = tri_min_depth(t);
+            let z = tri_min_depth(t, bx0, by0, bx1, by1);
             let r = ScreenRect {
-                x0: u32::from(t.x0),
-                y0: u32::from(t.y0),
-                x1: u32::from(t.x1),
-                y1: u32::from(t.y1),
+                x0: bx0,
+                y0: by0,
+                x1: bx1,
+                y1: by1,
                 z_near: z,
                 z_far: z,
             };
@@ -259,38 +280,77 @@ impl Drawing<'_> {
         }
         self.stats.triangles_rasterized += 1;
         let w = self.viewport.width as usize;
-        let base = self.pyramid.base_mut();
+        // Tiles of 8×8 samples, each tested against its pyramid texel (one
+        // level of Greene's hierarchical tiling); one tile for all without tests.
+        let k = if self.triangle_tests { TILE_LEVEL } else { 0 };
+        let (base, tiles) = self.pyramid.base_and_level(k);
+        let shift = if tiles.is_some() { TILE_LEVEL as u32 } else { 16 };
         let items = &mut *self.items;
-        let (x0, id) = (u32::from(t.x0), t.item);
-        let (mut passed, mut tests, mut written) = (false, 0u64, 0u64);
+        let spans = &mut *self.spans;
+        let (x0, id) = (bx0, t.item);
+        let (mut passed, mut tests, mut written, mut tile_tests, mut tiles_skipped) = (false, 0u64, 0u64, 0u64, 0u64);
         let mut dirty = Dirty::NONE;
-        for py in u32::from(t.y0)..u32::from(t.y1) {
-            let Some((lo, hi)) = t.row_span(py) else { continue };
-            let zr = t.depth_row(py);
-            let row = py as usize * w;
-            tests += u64::from(hi - lo);
-            let mut nearer = false;
-            for x in lo..hi {
-                let z = (zr + t.dzdx * (x - x0) as f32).max(0.0);
-                let i = row + x as usize;
-                let (d, owner) = (base[i], items[i]);
-                // The renderer's strict test, and ties to the smaller id (drawn first there).
-                if z < d {
-                    base[i] = z;
-                    items[i] = id;
-                    nearer = true;
-                    passed = true;
-                    written += 1;
-                } else if z == d && owner != NO_OBJECT {
-                    passed = true;
-                    if id < owner {
-                        items[i] = id;
-                        written += 1;
+        for band in (by0 >> shift)..=((by1 - 1) >> shift) {
+            let (ry0, ry1) = (by0.max(band << shift), by1.min((band + 1) << shift));
+            spans.clear();
+            spans.extend((ry0..ry1).map(|py| t.row_span(py)));
+            let (slo, shi) = spans
+                .iter()
+                .flatten()
+                .fold((u32::MAX, 0), |(a, b), &(lo, hi)| (a.min(lo), b.max(hi)));
+            if slo >= shi {
+                continue;
+            }
+            for col in (slo >> shift)..=((shi - 1) >> shift) {
+                let (rx0, rx1) = (slo.max(col << shift), shi.min((col + 1) << shift));
+                if let Some(level) = tiles {
+                    if !spans.iter().flatten().any(|&(lo, hi)| lo < rx1 && hi > rx0) {
+                        continue; // the triangle covers no sample of this tile
+                    }
+                    // Every sample of the tile is nearer than its texel's farthest
+                    // depth, and every depth of the triangle in the tile at least
+                    // `z`: beyond it, no sample can be won or tied.
+                    let z = tri_min_depth(t, rx0, ry0, rx1, ry1);
+                    tile_tests += 1;
+                    if z > level.depth(col, band) {
+                        tiles_skipped += 1;
+                        continue;
                     }
                 }
-            }
-            if nearer {
-                dirty.add(lo, py, hi, py + 1);
+                for (j, span) in spans.iter().enumerate() {
+                    let Some((lo, hi)) = *span else { continue };
+                    let (lo, hi) = (lo.max(rx0), hi.min(rx1));
+                    if lo >= hi {
+                        continue;
+                    }
+                    let py = ry0 + j as u32;
+                    let zr = t.depth_row(py);
+                    let row = py as usize * w;
+                    tests += u64::from(hi - lo);
+                    let mut nearer = false;
+                    for x in lo..hi {
+                        let z = (zr + t.dzdx * (x - x0) as f32).max(0.0);
+                        let i = row + x as usize;
+                        let (d, owner) = (base[i], items[i]);
+                        // The renderer's strict test, and ties to the smaller id (drawn first there).
+                        if z < d {
+                            base[i] = z;
+                            items[i] = id;
+                            nearer = true;
+                            passed = true;
+                            written += 1;
+                        } else if z == d && owner != NO_OBJECT {
+                            passed = true;
+                            if id < owner {
+                                items[i] = id;
+                                written += 1;
+                            }
+                        }
+                    }
+                    if nearer {
+                        dirty.add(lo, py, hi, py + 1);
+                    }
+                }
             }
         }
         if passed {
@@ -299,6 +359,9 @@ impl Drawing<'_> {
         self.dirty.add(dirty.x0, dirty.y0, dirty.x1, dirty.y1);
         self.stats.sample_tests += tests;
         self.stats.samples_written += written;
+        self.stats.tile_tests += tile_tests;
+        self.stats.tiles_skipped += tiles_skipped;
+        self.zstats.texels += tile_tests;
     }
 
     /// A dynamic object: frustum test, box test against the pyramid, then its triangles.
@@ -339,6 +402,7 @@ impl HvCuller {
             passed: vec![false; n],
             owned: vec![false; n],
             tris: Vec::new(),
+            spans: Vec::new(),
             stack: Vec::new(),
             pending: Vec::new(),
         }
@@ -488,12 +552,17 @@ impl Culler for HvCuller {
             mvp,
             passed,
             tris,
+            spans,
             stack,
             pending,
             ..
         } = self;
         pending.clear();
-        pending.extend(dynamic.iter().map(|&id| (scene.object(id).aabb.distance_squared(eye), id)));
+        pending.extend(
+            dynamic
+                .iter()
+                .map(|&id| (scene.object(id).aabb.distance_squared(eye), id)),
+        );
         // Nearest last, so `pop` takes the nearest.
         pending.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
         let mut d = Drawing {
@@ -504,6 +573,7 @@ impl Culler for HvCuller {
             items,
             passed,
             tris,
+            spans,
             triangle_tests: config.triangle_tests,
             stats: Stats::default(),
             zstats: ZTestStats::default(),
@@ -556,7 +626,8 @@ impl Culler for HvCuller {
         }
         let (stats, zstats, raster_s, pyramid_s) = (d.stats, d.zstats, d.raster_s, d.pyramid_s);
         let total_s = start.elapsed().as_secs_f64();
-        out.stages.push(("traversal", (total_s - raster_s - pyramid_s).max(0.0) * 1e3));
+        out.stages
+            .push(("traversal", (total_s - raster_s - pyramid_s).max(0.0) * 1e3));
         out.stages.push(("raster", raster_s * 1e3));
         out.stages.push(("pyramid", pyramid_s * 1e3));
 
@@ -604,6 +675,8 @@ impl Culler for HvCuller {
         out.count("triangles_rasterized", stats.triangles_rasterized);
         out.count("sample_tests", stats.sample_tests);
         out.count("samples_written", stats.samples_written);
+        out.count("tile_tests", stats.tile_tests);
+        out.count("tiles_skipped", stats.tiles_skipped);
         out.count("pyramid_texel_tests", zstats.texels);
         out.count("pyramid_texels_updated", stats.texels_updated);
         out.count("depth_comparisons", stats.sample_tests + zstats.texels);

@@ -149,6 +149,20 @@ impl ZPyramid {
         &mut self.levels[0].texels
     }
 
+    /// Level 0 to write in place (as [`ZPyramid::base_mut`]) together with
+    /// level `k` to read; `None` for `k == 0` or a level that does not exist.
+    /// Level `k` may be stale (too far) until [`ZPyramid::update_rect`] runs;
+    /// since writes only bring samples nearer in a z-buffer, a stale texel is
+    /// still an upper bound of its samples' depths.
+    ///
+    /// # Panics
+    /// Before the first build or reset.
+    pub fn base_and_level(&mut self, k: usize) -> (&mut [f32], Option<&ZLevel>) {
+        let (base, above) = self.levels.split_at_mut(1);
+        let level = if k == 0 { None } else { above.get(k - 1) };
+        (&mut base[0].texels, level)
+    }
+
     /// Recomputes every texel above level 0 whose samples meet the rectangle
     /// `x0..x1` × `y0..y1` of level 0 (half-open, clamped to the viewport), each
     /// as the farthest depth of its children: afterwards the pyramid equals

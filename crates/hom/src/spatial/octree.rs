@@ -313,7 +313,10 @@ impl Octree {
         }
         for (id, (o, s)) in scene.objects().iter().zip(&seen).enumerate() {
             if !o.is_dynamic() {
-                assert!(s.iter().all(|&b| b), "object {id}: a triangle is missing from the octree");
+                assert!(
+                    s.iter().all(|&b| b),
+                    "object {id}: a triangle is missing from the octree"
+                );
             }
         }
         if self.nodes.is_empty() {
@@ -321,12 +324,20 @@ impl Octree {
             return;
         }
         let root = &self.nodes[0];
-        assert_eq!((root.first, root.count as usize), (0, self.triangles.len()), "root range");
+        assert_eq!(
+            (root.first, root.count as usize),
+            (0, self.triangles.len()),
+            "root range"
+        );
         for (i, n) in self.nodes.iter().enumerate() {
             let tris = self.node_triangles(n);
             for &t in tris {
                 let b = triangle_bounds(scene, t);
-                assert!(n.bounds.contains(&b), "node {i}: bounds {:?} miss {t:?} {b:?}", n.bounds);
+                assert!(
+                    n.bounds.contains(&b),
+                    "node {i}: bounds {:?} miss {t:?} {b:?}",
+                    n.bounds
+                );
             }
             if n.count == 0 {
                 assert!(n.is_leaf() && n.bounds.is_empty(), "node {i}: empty node");
@@ -390,7 +401,8 @@ mod tests {
             let t: Vec<[u32; 3]> = (0..tris as u32).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
             let m = b.add_mesh(Mesh::new(format!("m{i}"), p, t).unwrap());
             let pos = Vec3::new(r() * 40.0 - 20.0, r() * 10.0, r() * 40.0 - 20.0);
-            let tr = Mat4::from_scale_rotation_translation(Vec3::splat(0.5 + r()), Quat::from_rotation_y(r() * 6.0), pos);
+            let tr =
+                Mat4::from_scale_rotation_translation(Vec3::splat(0.5 + r()), Quat::from_rotation_y(r() * 6.0), pos);
             if i % 5 == 4 {
                 let motion = Motion {
                     velocity: Vec3::X,
