@@ -22,10 +22,12 @@
 //! 3. **raster** of a visible leaf: each triangle is set up by
 //!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
 //!    transform `view_proj * transform`, same clipping, snapping and fill
-//!    rule); each set-up triangle's bounding rectangle at its smallest depth is
-//!    first tested against the pyramid, then each 8×8-sample tile of it that
-//!    the triangle covers against the tile's level-3 texel (one level of
-//!    Greene's hierarchical tiling; both tests are `HvConfig::triangle_tests`),
+//!    rule); each set-up triangle's bounding rectangle (when larger than one
+//!    tile) at its smallest depth is first tested against the pyramid, then
+//!    each 8×8-sample tile of it where the triangle covers at least two
+//!    samples against the tile's level-3 texel (one level of Greene's
+//!    hierarchical tiling; both tests are `HvConfig::triangle_tests`; smaller
+//!    cases cost more texel reads than sample tests they could save),
 //!    and every covered sample of the tiles not rejected is depth-tested with
 //!    the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
 //! 4. **pyramid**: after each leaf (or dynamic object) the texels above the
@@ -263,7 +265,9 @@ impl Drawing<'_> {
 
     fn draw_tri(&mut self, t: &Tri) {
         let (bx0, by0, bx1, by1) = (u32::from(t.x0), u32::from(t.y0), u32::from(t.x1), u32::from(t.y1));
-        if self.triangle_tests {
+        // A rectangle within one tile is left to the tile test below: testing it
+        // twice costs more texel reads than it can save.
+        if self.triangle_tests && (bx1 - bx0) * (by1 - by0) > 1 << (2 * TILE_LEVEL) {
             let z = tri_min_depth(t, bx0, by0, bx1, by1);
             let r = ScreenRect {
                 x0: bx0,
@@ -303,10 +307,16 @@ impl Drawing<'_> {
             }
             for col in (slo >> shift)..=((shi - 1) >> shift) {
                 let (rx0, rx1) = (slo.max(col << shift), shi.min((col + 1) << shift));
-                if let Some(level) = tiles {
-                    if !spans.iter().flatten().any(|&(lo, hi)| lo < rx1 && hi > rx0) {
-                        continue; // the triangle covers no sample of this tile
-                    }
+                let covered: u32 = spans
+                    .iter()
+                    .flatten()
+                    .map(|&(lo, hi)| hi.min(rx1).saturating_sub(lo.max(rx0)))
+                    .sum();
+                if covered == 0 {
+                    continue; // the triangle covers no sample of this tile
+                }
+                // A tile test costs one comparison: worth it from two samples on.
+                if let Some(level) = tiles.filter(|_| covered > 1) {
                     // Every sample of the tile is nearer than its texel's farthest
                     // depth, and every depth of the triangle in the tile at least
                     // `z`: beyond it, no sample can be won or tied.
