@@ -112,12 +112,15 @@ struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     no_hole_filling: bool,
-    /// HV: most triangles per octree leaf (default 64).
+    /// HV: most triangles per octree leaf (default 16).
     #[arg(long)]
     hv_threshold: Option<usize>,
     /// HV: maximum octree depth (default 12).
     #[arg(long)]
     hv_max_depth: Option<u32>,
+    /// HV: keep large triangles at the octree node being split instead of passing them down.
+    #[arg(long)]
+    hv_keep_large: bool,
 }
 
 impl HomArgs {
@@ -285,6 +288,7 @@ fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<B
         if let Some(d) = hom.hv_max_depth {
             c.octree.max_depth = d;
         }
+        c.octree.keep_large = hom.hv_keep_large;
         return Ok(Box::new(hom::cull::HvCuller::new(scene, c)));
     }
     match cullers::make_with(name, scene, &hom.config(scene)?) {

@@ -46,9 +46,13 @@ fn assert_exact(scene: &Scene, camera: &Camera, hv: &mut HvCuller) -> CullOutput
     out
 }
 
-fn config(threshold: usize, max_depth: u32, triangle_tests: bool) -> HvConfig {
+fn config(threshold: usize, max_depth: u32, keep_large: bool, triangle_tests: bool) -> HvConfig {
     HvConfig {
-        octree: OctreeConfig { threshold, max_depth },
+        octree: OctreeConfig {
+            threshold,
+            max_depth,
+            keep_large,
+        },
         triangle_tests,
         count_zbuffer: true,
     }
@@ -60,13 +64,13 @@ proptest! {
     fn hv_visible_set_is_the_oracles(
         seed in any::<u64>(), n in 1usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
         look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), dynamic in any::<bool>(), time in 0.0f32..5.0,
-        size in (8u32..120, 8u32..90), threshold in 1usize..20, max_depth in 0u32..8, triangle_tests in any::<bool>(),
+        size in (8u32..120, 8u32..90), threshold in 1usize..20, max_depth in 0u32..8, triangle_tests in any::<bool>(), keep_large in any::<bool>(),
     ) {
         let mut scene = random_scene(seed, n, dynamic);
         let eye = Vec3::new(eye.0, eye.1, eye.2);
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, size.0, size.1);
         prop_assume!(camera.validate().is_ok());
-        let mut hv = HvCuller::new(&scene, config(threshold, max_depth, triangle_tests));
+        let mut hv = HvCuller::new(&scene, config(threshold, max_depth, keep_large, triangle_tests));
         hv.octree().assert_well_formed(&scene);
         assert_exact(&scene, &camera, &mut hv);
         // A later frame: dynamic objects have moved, the octree is unchanged.
@@ -84,7 +88,7 @@ fn random_scenes_are_really_culled() {
     for seed in 0..40u64 {
         let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
         let camera = Camera::new(Vec3::new(0.0, 0.5, 13.0), Vec3::ZERO, Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
-        let mut hv = HvCuller::new(&scene, config(4, 8, true));
+        let mut hv = HvCuller::new(&scene, config(4, 8, seed % 3 == 0, true));
         let out = assert_exact(&scene, &camera, &mut hv);
         occluded += out.occluded.len();
         nodes_occluded += counter(&out, "nodes_occluded");

@@ -19,7 +19,9 @@
 //!    the frustum is handled like a leaf of its own (its oriented box tested
 //!    against the pyramid, then its triangles drawn), interleaved with the
 //!    octree nodes by the distance of its box from the eye.
-//! 3. **raster** of a visible leaf: each triangle is set up by
+//! 3. **raster** of a visible node's own triangles (all of a leaf's, the
+//!    large ones an inner node keeps: `OctreeConfig::keep_large`), before
+//!    its children are visited: each triangle is set up by
 //!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
 //!    transform `view_proj * transform`, same clipping, snapping and fill
 //!    rule); each set-up triangle's bounding rectangle (when larger than one
@@ -30,7 +32,7 @@
 //!    cases cost more texel reads than sample tests they could save),
 //!    and every covered sample of the tiles not rejected is depth-tested with
 //!    the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
-//! 4. **pyramid**: after each leaf (or dynamic object) the texels above the
+//! 4. **pyramid**: after each node's triangles (or dynamic object) the texels above the
 //!    samples it changed are recomputed ([`ZPyramid::update_rect`]), so later
 //!    nodes are tested against everything drawn so far.
 //! 5. **visible set**: from the final item buffer.
@@ -68,7 +70,7 @@
 //! (wrote or tied a sample) when drawn" is reported as the counter
 //! `objects_passing`: it is a superset (a triangle drawn early may be covered
 //! later, since the octree order is front to back only for cells, not for the
-//! loose boxes or the triangles inside a leaf).
+//! loose boxes or the triangles inside a node).
 //!
 //! # Counters
 //! `depth_comparisons` = `sample_tests` (covered samples depth-tested) +
@@ -96,7 +98,7 @@ pub const NO_OBJECT: u32 = u32::MAX;
 /// Settings of the HV culler.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HvConfig {
-    /// The octree: triangles per leaf (`threshold`) and maximum depth.
+    /// The octree: triangles per leaf (`threshold`), maximum depth, large triangles kept high.
     pub octree: OctreeConfig,
     /// Test each set-up triangle's bounding rectangle at its smallest depth
     /// against the pyramid, then each of its 8×8-sample tiles against the
@@ -143,7 +145,7 @@ struct Stats {
     nodes_visited: u64,
     node_box_tests: u64,
     nodes_occluded: u64,
-    leaves_drawn: u64,
+    nodes_drawn: u64,
     triangles_submitted: u64,
     triangles_occluded: u64,
     triangles_rasterized: u64,
@@ -479,11 +481,10 @@ impl HvCuller {
             if c == Containment::Outside || node.count == 0 {
                 continue;
             }
-            if node.is_leaf() {
-                for &t in octree.node_triangles(node) {
-                    total += count(tris, mvp, t);
-                }
-            } else {
+            for &t in octree.own_triangles(node) {
+                total += count(tris, mvp, t);
+            }
+            if !node.is_leaf() {
                 let first = node.children;
                 stack.extend((first..first + 8).map(|k| (k, c == Containment::Inside)));
             }
@@ -510,6 +511,7 @@ impl Culler for HvCuller {
         vec![
             ("threshold", c.octree.threshold.to_string()),
             ("max_depth", c.octree.max_depth.to_string()),
+            ("keep_large", c.octree.keep_large.to_string()),
             (
                 "octree",
                 format!(
@@ -618,10 +620,13 @@ impl Culler for HvCuller {
                     continue;
                 }
             }
-            if node.is_leaf() {
-                d.stats.leaves_drawn += 1;
-                d.draw(octree.node_triangles(node).iter().copied());
-            } else {
+            // The node's own triangles (a leaf's all, an inner node's large
+            // ones) before its children.
+            if node.own > 0 {
+                d.stats.nodes_drawn += 1;
+                d.draw(octree.own_triangles(node).iter().copied());
+            }
+            if !node.is_leaf() {
                 let order = octree.child_order(node, eye);
                 let inside = c == Containment::Inside;
                 for &k in order.iter().rev() {
@@ -677,7 +682,7 @@ impl Culler for HvCuller {
         out.count("nodes_visited", stats.nodes_visited);
         out.count("node_box_tests", stats.node_box_tests);
         out.count("nodes_occluded", stats.nodes_occluded);
-        out.count("leaves_drawn", stats.leaves_drawn);
+        out.count("nodes_drawn", stats.nodes_drawn);
         out.count("dynamic_tested", stats.dynamic_tested);
         out.count("dynamic_occluded", stats.dynamic_occluded);
         out.count("triangles_submitted", stats.triangles_submitted);
@@ -729,6 +734,7 @@ mod tests {
                 octree: OctreeConfig {
                     threshold: 1,
                     max_depth: 4,
+                    keep_large: true,
                 },
                 ..HvConfig::default()
             },
