@@ -77,7 +77,8 @@ struct View {
     /// Image height (default: the path's).
     #[arg(long)]
     height: Option<u32>,
-    /// Culler: none, frustum, hom (hierarchical occlusion maps, the default), hzb (hierarchical Z-buffer).
+    /// Culler: none, frustum, hom (hierarchical occlusion maps, the default), hzb (hierarchical Z-buffer),
+    /// hv (hierarchical visibility: octree + live Z-pyramid).
     #[arg(long, default_value = cullers::BEST)]
     culler: String,
     /// Renderer threads (0 = all cores).
@@ -111,6 +112,15 @@ struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     no_hole_filling: bool,
+    /// HV: most triangles per octree leaf (default 16).
+    #[arg(long)]
+    hv_threshold: Option<usize>,
+    /// HV: maximum octree depth (default 12).
+    #[arg(long)]
+    hv_max_depth: Option<u32>,
+    /// HV: keep large triangles at the octree node being split instead of passing them down.
+    #[arg(long)]
+    hv_keep_large: bool,
 }
 
 impl HomArgs {
@@ -288,6 +298,20 @@ fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
 }
 
 fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<Box<dyn hom::cull::Culler>> {
+    if name == "hv" {
+        let mut c = hom::cull::HvConfig::default();
+        if let Some(t) = hom.hv_threshold {
+            if t == 0 {
+                bail!("--hv-threshold must be at least 1");
+            }
+            c.octree.threshold = t;
+        }
+        if let Some(d) = hom.hv_max_depth {
+            c.octree.max_depth = d;
+        }
+        c.octree.keep_large = hom.hv_keep_large;
+        return Ok(Box::new(hom::cull::HvCuller::new(scene, c)));
+    }
     match cullers::make_with(name, scene, &hom.config(scene)?) {
         Some(c) => Ok(c),
         None => bail!("unknown culler '{name}'; available: {}", cullers::names()),

@@ -1,6 +1,6 @@
 //! The cullers `hom walk --culler NAME` can run, by name.
 
-use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, HzbConfig, HzbCuller, NoCuller};
+use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller};
 use hom::scene::Scene;
 
 /// Names and one-line descriptions of the available cullers.
@@ -11,6 +11,10 @@ pub const CULLERS: &[(&str, &str)] = &[
     (
         "hzb",
         "hierarchical Z-buffer (Greene et al. 1993) with HOM's occluder selection, conservative",
+    ),
+    (
+        "hv",
+        "hierarchical visibility (Greene et al. 1993): octree front to back against a live Z-pyramid, exact",
     ),
 ];
 
@@ -30,6 +34,7 @@ pub fn make_with(name: &str, scene: &Scene, hom: &HomConfig) -> Option<Box<dyn C
         "frustum" => Some(Box::new(FrustumCuller::new(scene))),
         "hom" => Some(Box::new(HomCuller::new(scene, hom.clone()))),
         "hzb" => Some(Box::new(HzbCuller::new(scene, HzbConfig::from_hom(hom)))),
+        "hv" => Some(Box::new(HvCuller::new(scene, HvConfig::default()))),
         _ => None,
     }
 }

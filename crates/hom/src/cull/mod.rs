@@ -6,11 +6,13 @@
 
 mod frustum;
 pub mod hom;
+pub mod hv;
 pub mod hzb;
 mod traversal;
 
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
+pub use hv::{HvConfig, HvCuller};
 pub use hzb::{HzbConfig, HzbCuller};
 
 use crate::geom::{Camera, CameraError};

@@ -110,6 +110,95 @@ impl ZPyramid {
         }
     }
 
+    /// Sets every sample of a `width` × `height` viewport to `fill` (every
+    /// level then holds `fill`), reusing storage: the start of an incremental
+    /// pyramid ([`ZPyramid::base_mut`], [`ZPyramid::update_rect`]).
+    ///
+    /// # Panics
+    /// If a side is 0.
+    pub fn reset(&mut self, width: u32, height: u32, fill: f32) {
+        assert!(width > 0 && height > 0, "empty viewport");
+        let (mut w, mut h) = (width, height);
+        let mut k = 0;
+        loop {
+            if self.levels.len() <= k {
+                self.levels.push(ZLevel::default());
+            }
+            let l = &mut self.levels[k];
+            l.width = w;
+            l.height = h;
+            l.texels.clear();
+            l.texels.resize((w * h) as usize, fill);
+            k += 1;
+            if w == 1 && h == 1 {
+                break;
+            }
+            w = w.div_ceil(2);
+            h = h.div_ceil(2);
+        }
+        self.levels.truncate(k);
+    }
+
+    /// The per-sample depths (level 0, row-major), to write in place. After
+    /// changing samples, call [`ZPyramid::update_rect`] over them before the
+    /// next test: until then the levels above are stale.
+    ///
+    /// # Panics
+    /// Before the first build or reset.
+    pub fn base_mut(&mut self) -> &mut [f32] {
+        &mut self.levels[0].texels
+    }
+
+    /// Level 0 to write in place (as [`ZPyramid::base_mut`]) together with
+    /// level `k` to read; `None` for `k == 0` or a level that does not exist.
+    /// Level `k` may be stale (too far) until [`ZPyramid::update_rect`] runs;
+    /// since writes only bring samples nearer in a z-buffer, a stale texel is
+    /// still an upper bound of its samples' depths.
+    ///
+    /// # Panics
+    /// Before the first build or reset.
+    pub fn base_and_level(&mut self, k: usize) -> (&mut [f32], Option<&ZLevel>) {
+        let (base, above) = self.levels.split_at_mut(1);
+        let level = if k == 0 { None } else { above.get(k - 1) };
+        (&mut base[0].texels, level)
+    }
+
+    /// Recomputes every texel above level 0 whose samples meet the rectangle
+    /// `x0..x1` × `y0..y1` of level 0 (half-open, clamped to the viewport), each
+    /// as the farthest depth of its children: afterwards the pyramid equals
+    /// [`ZPyramid::build`] of its level 0, provided only samples inside the
+    /// rectangle changed since it last did. Returns the texels recomputed.
+    pub fn update_rect(&mut self, x0: u32, y0: u32, x1: u32, y1: u32) -> u64 {
+        let Some(base) = self.levels.first() else { return 0 };
+        let (x1, y1) = (x1.min(base.width), y1.min(base.height));
+        if x0 >= x1 || y0 >= y1 {
+            return 0;
+        }
+        // Inclusive texel range at the current level.
+        let (mut ax, mut ay, mut bx, mut by) = (x0, y0, x1 - 1, y1 - 1);
+        let mut updated = 0u64;
+        for k in 1..self.levels.len() {
+            (ax, ay, bx, by) = (ax >> 1, ay >> 1, bx >> 1, by >> 1);
+            let (below, above) = self.levels.split_at_mut(k);
+            let (src, dst) = (&below[k - 1], &mut above[0]);
+            let sw = src.width as usize;
+            for ty in ay..=by {
+                let (r0, r1) = (2 * ty as usize, (2 * ty as usize + 1).min(src.height as usize - 1));
+                for tx in ax..=bx {
+                    let c0 = 2 * tx as usize;
+                    let c1 = (c0 + 1).min(sw - 1);
+                    let m = src.texels[r0 * sw + c0]
+                        .max(src.texels[r0 * sw + c1])
+                        .max(src.texels[r1 * sw + c0])
+                        .max(src.texels[r1 * sw + c1]);
+                    dst.texels[ty as usize * dst.width as usize + tx as usize] = m;
+                }
+            }
+            updated += u64::from(bx - ax + 1) * u64::from(by - ay + 1);
+        }
+        updated
+    }
+
     /// The levels, finest (per sample) first; empty before the first build.
     pub fn levels(&self) -> &[ZLevel] {
         &self.levels
@@ -236,6 +325,56 @@ mod tests {
             prop_assert!(!hzb || brute, "hzb culls a visible rect {:?}", r);
             prop_assert_eq!(hzb, brute);
         }
+    }
+
+    proptest! {
+        /// After any sequence of sample writes, each followed by
+        /// `update_rect` over the written rectangle, every level equals the
+        /// brute-force rebuild from level 0.
+        #[test]
+        fn incremental_updates_equal_a_rebuild(
+            w in 1u32..50, h in 1u32..50, seed in any::<u64>(),
+            writes in proptest::collection::vec((0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0), 1..30),
+        ) {
+            let mut p = ZPyramid::default();
+            p.reset(w, h, 1.0);
+            let d = depths(w, h, seed);
+            p.base_mut().copy_from_slice(&d);
+            p.update_rect(0, 0, w, h);
+            for (a, b, c, e, z) in writes {
+                let (xa, xb) = ((a * w as f32) as u32, (b * w as f32) as u32);
+                let (ya, yb) = ((c * h as f32) as u32, (e * h as f32) as u32);
+                let (x0, x1, y0, y1) = (xa.min(xb), xa.max(xb) + 1, ya.min(yb), ya.max(yb) + 1);
+                let (x1, y1) = (x1.min(w), y1.min(h));
+                // Any values, nearer or farther, inside the rectangle.
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let i = (y * w + x) as usize;
+                        let old = p.levels()[0].texels()[i];
+                        p.base_mut()[i] = if (x + y) % 3 == 0 { z } else { old.min(z * 0.5) };
+                    }
+                }
+                p.update_rect(x0, y0, x1, y1);
+            }
+            let mut fresh = ZPyramid::default();
+            fresh.build(w, h, p.levels()[0].texels());
+            prop_assert_eq!(p.levels().len(), fresh.levels().len());
+            for (k, (a, b)) in p.levels().iter().zip(fresh.levels()).enumerate() {
+                prop_assert_eq!((a.width, a.height), (b.width, b.height));
+                prop_assert!(a.texels() == b.texels(), "level {} differs", k);
+            }
+        }
+    }
+
+    #[test]
+    fn reset_fills_every_level() {
+        let mut p = ZPyramid::default();
+        p.build(5, 3, &[0.5; 15]);
+        p.reset(9, 4, 1.0);
+        assert_eq!(p.viewport(), (9, 4));
+        let sizes: Vec<(u32, u32)> = p.levels().iter().map(|l| (l.width, l.height)).collect();
+        assert_eq!(sizes, vec![(9, 4), (5, 2), (3, 1), (2, 1), (1, 1)]);
+        assert!(p.levels().iter().all(|l| l.texels().iter().all(|&t| t == 1.0)));
     }
 
     #[test]

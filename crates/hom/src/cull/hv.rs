@@ -1,0 +1,754 @@
+//! Hierarchical visibility (Greene, Kass and Miller, "Hierarchical Z-buffer
+//! visibility", SIGGRAPH 1993; as the Möller–Haines excerpt describes it): an
+//! octree over the scene's triangles traversed front to back, each node's box
+//! tested against a Z-pyramid of everything drawn so far, and the triangles of
+//! visible leaves rasterized into the depth buffer, with the pyramid kept up to
+//! date as they are drawn.
+//!
+//! # One frame
+//! 1. **reset**: the depth buffer (the [`ZPyramid`]'s level 0, one sample per
+//!    pixel centre) is cleared to 1.0 and the item buffer to [`NO_OBJECT`],
+//!    exactly as the reference renderer clears its framebuffer.
+//! 2. **traversal** of the [`Octree`] (static objects' triangles) depth first,
+//!    children in front-to-back octant order ([`Octree::child_order`]): a node
+//!    outside the frustum is skipped; a node whose loose box is wholly in
+//!    front of the near plane has its screen rectangle, at the box's nearest
+//!    depth, tested against the pyramid ([`ZPyramid::is_behind`]: coarse to
+//!    fine) and is skipped when behind; a node straddling the near plane is
+//!    never image-tested. Dynamic objects are not in the octree: each one in
+//!    the frustum is handled like a leaf of its own (its oriented box tested
+//!    against the pyramid, then its triangles drawn), interleaved with the
+//!    octree nodes by the distance of its box from the eye.
+//! 3. **raster** of a visible node's own triangles (all of a leaf's, the
+//!    large ones an inner node keeps: `OctreeConfig::keep_large`), before
+//!    its children are visited: each triangle is set up by
+//!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
+//!    transform `view_proj * transform`, same clipping, snapping and fill
+//!    rule); each set-up triangle's bounding rectangle (when larger than one
+//!    tile) at its smallest depth is first tested against the pyramid, then
+//!    each 8×8-sample tile of it where the triangle covers at least two
+//!    samples against the tile's level-3 texel (one level of Greene's
+//!    hierarchical tiling; both tests are `HvConfig::triangle_tests`; smaller
+//!    cases cost more texel reads than sample tests they could save),
+//!    and every covered sample of the tiles not rejected is depth-tested with
+//!    the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
+//! 4. **pyramid**: after each node's triangles (or dynamic object) the texels above the
+//!    samples it changed are recomputed ([`ZPyramid::update_rect`]), so later
+//!    nodes are tested against everything drawn so far.
+//! 5. **visible set**: from the final item buffer.
+//!
+//! # Which objects are visible
+//! A sample's owner is the object the reference renderer leaves there when it
+//! draws every object in id order: the smallest depth wins, and among equal
+//! depths the first drawn, i.e. the smallest object id (the renderer's test is
+//! a strict `<`, so a depth equal to the cleared 1.0 never writes). HV's item
+//! buffer applies that rule at every write (`z < d`, or `z == d` and a smaller
+//! id than the current owner), so its final content does not depend on the
+//! drawing order. **An object is visible iff it owns at least one sample of
+//! HV's final item buffer.** In-frustum objects (by their box, as the frustum
+//! culler tests them) that own none are reported occluded.
+//!
+//! Why this is the oracle's visible set exactly: the depth buffer only ever
+//! holds depths of drawn triangles, so at every sample it is at least the
+//! renderer's final depth there. A node or triangle is skipped only when its
+//! nearest depth is beyond the pyramid's farthest depth under its rectangle
+//! (by [`crate::depth::DEPTH_MARGIN`]), hence beyond the renderer's final depth
+//! at every sample it could cover: it cannot win nor tie a sample. So every
+//! triangle that owns a sample in the reference rendering is drawn, with the
+//! renderer's own coverage and depth, and the owner rule is order-independent:
+//! HV's depth and item buffers equal the renderer's, bit for bit
+//! (`hom-walk/tests/hv_conservative.rs` checks both). The assumptions are those
+//! of every image-space culler here: the same resolution as the final image,
+//! and a box's projected nearest depth (with the margin) not above the depth
+//! the renderer computes for a triangle inside it. The triangle and tile tests
+//! need no such assumption: the renderer's f32 depth formula is monotone along
+//! rows and along columns, so its values at a rectangle's four corners give an
+//! exact lower bound of the triangle's depth at every sample of the rectangle
+//! (and the tile test, `z > texel`, needs no margin).
+//!
+//! The looser rule "visible iff one of its triangles passed the depth test
+//! (wrote or tied a sample) when drawn" is reported as the counter
+//! `objects_passing`: it is a superset (a triangle drawn early may be covered
+//! later, since the octree order is front to back only for cells, not for the
+//! loose boxes or the triangles inside a node).
+//!
+//! # Counters
+//! `depth_comparisons` = `sample_tests` (covered samples depth-tested) +
+//! `pyramid_texel_tests` (texels read by node, object, triangle and tile tests);
+//! `zbuffer_depth_comparisons` is what a plain z-buffer does for the same
+//! frame: the covered samples of every triangle in the frustum (computed with
+//! the same setup; *not* timed, it is instrumentation, and skipped when
+//! `HvConfig::count_zbuffer` is off). Pyramid maintenance is counted apart
+//! (`pyramid_texels_updated`, a max of four children each).
+//!
+//! The work is single-threaded.
+
+use super::{CullError, CullOutput, Culler};
+use crate::depth::{ZPyramid, ZTestStats};
+use crate::geom::{project_points, Camera, Containment, Footprint, Frustum, ScreenRect};
+use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::scene::Scene;
+use crate::spatial::octree::{Octree, OctreeConfig, TriRef};
+use glam::Mat4;
+use std::time::Instant;
+
+/// Item-buffer value of a sample no object owns (the renderer's `NO_OBJECT`).
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// Settings of the HV culler.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HvConfig {
+    /// The octree: triangles per leaf (`threshold`), maximum depth, large triangles kept high.
+    pub octree: OctreeConfig,
+    /// Test each set-up triangle's bounding rectangle at its smallest depth
+    /// against the pyramid, then each of its 8×8-sample tiles against the
+    /// tile's texel, before scanning samples.
+    pub triangle_tests: bool,
+    /// Count the depth comparisons of a plain z-buffer render of the frame
+    /// (counter `zbuffer_depth_comparisons`; untimed, costs about a setup of
+    /// every in-frustum triangle).
+    pub count_zbuffer: bool,
+}
+
+impl Default for HvConfig {
+    fn default() -> HvConfig {
+        HvConfig {
+            octree: OctreeConfig::default(),
+            triangle_tests: true,
+            count_zbuffer: true,
+        }
+    }
+}
+
+/// The hierarchical visibility culler; see the module docs.
+pub struct HvCuller {
+    config: HvConfig,
+    octree: Octree,
+    /// Ids of the dynamic objects (kept out of the octree).
+    dynamic: Vec<u32>,
+    objects: usize,
+    pyramid: ZPyramid,
+    items: Vec<u32>,
+    /// `view_proj * transform` per object, this frame.
+    mvp: Vec<Mat4>,
+    passed: Vec<bool>,
+    owned: Vec<bool>,
+    tris: Vec<Tri>,
+    spans: Vec<Option<(u32, u32)>>,
+    stack: Vec<(u32, bool)>,
+    pending: Vec<(f32, u32)>,
+}
+
+/// Work counts of one frame.
+#[derive(Clone, Copy, Debug, Default)]
+struct Stats {
+    nodes_visited: u64,
+    node_box_tests: u64,
+    nodes_occluded: u64,
+    nodes_drawn: u64,
+    triangles_submitted: u64,
+    triangles_occluded: u64,
+    triangles_rasterized: u64,
+    sample_tests: u64,
+    samples_written: u64,
+    tile_tests: u64,
+    tiles_skipped: u64,
+    texels_updated: u64,
+    dynamic_tested: u64,
+    dynamic_occluded: u64,
+}
+
+/// A half-open pixel rectangle of changed samples.
+#[derive(Clone, Copy, Debug)]
+struct Dirty {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Dirty {
+    const NONE: Dirty = Dirty {
+        x0: u32::MAX,
+        y0: u32::MAX,
+        x1: 0,
+        y1: 0,
+    };
+
+    fn add(&mut self, x0: u32, y0: u32, x1: u32, y1: u32) {
+        self.x0 = self.x0.min(x0);
+        self.y0 = self.y0.min(y0);
+        self.x1 = self.x1.max(x1);
+        self.y1 = self.y1.max(y1);
+    }
+}
+
+/// Pyramid level whose texels are the tiles of HV's triangle tiling (8×8 samples).
+const TILE_LEVEL: usize = 3;
+
+/// The smallest depth the renderer's formula `max(depth_row(y) + dzdx * (x - x0), 0)`
+/// gives on the samples `x0..x1` × `y0..y1` (non-empty, within `t`'s bounding
+/// rectangle): the formula is monotone along rows and along columns (f32
+/// rounding is monotone), so the minimum is at a corner. A lower bound of the
+/// depth of every sample `t` covers there.
+fn tri_min_depth(t: &Tri, x0: u32, y0: u32, x1: u32, y1: u32) -> f32 {
+    let tx0 = u32::from(t.x0);
+    let mut m = f32::INFINITY;
+    for py in [y0, y1 - 1] {
+        let zr = t.depth_row(py);
+        for x in [x0, x1 - 1] {
+            m = m.min((zr + t.dzdx * (x - tx0) as f32).max(0.0));
+        }
+    }
+    m
+}
+
+/// Covered samples of a set-up triangle.
+fn covered_samples(t: &Tri) -> u64 {
+    (u32::from(t.y0)..u32::from(t.y1))
+        .filter_map(|py| t.row_span(py))
+        .map(|(lo, hi)| u64::from(hi - lo))
+        .sum()
+}
+
+/// What drawing needs during one frame.
+struct Drawing<'a> {
+    scene: &'a Scene,
+    viewport: Viewport,
+    mvp: &'a [Mat4],
+    pyramid: &'a mut ZPyramid,
+    items: &'a mut [u32],
+    passed: &'a mut [bool],
+    tris: &'a mut Vec<Tri>,
+    spans: &'a mut Vec<Option<(u32, u32)>>,
+    triangle_tests: bool,
+    stats: Stats,
+    zstats: ZTestStats,
+    dirty: Dirty,
+    raster_s: f64,
+    pyramid_s: f64,
+}
+
+impl Drawing<'_> {
+    /// Draws triangles (timed as raster), then brings the pyramid up to date (timed as pyramid).
+    fn draw(&mut self, tris: impl Iterator<Item = TriRef>) {
+        let start = Instant::now();
+        for t in tris {
+            self.draw_triangle(t);
+        }
+        let mid = Instant::now();
+        self.raster_s += (mid - start).as_secs_f64();
+        let d = std::mem::replace(&mut self.dirty, Dirty::NONE);
+        self.stats.texels_updated += self.pyramid.update_rect(d.x0, d.y0, d.x1, d.y1);
+        self.pyramid_s += mid.elapsed().as_secs_f64();
+    }
+
+    fn draw_triangle(&mut self, t: TriRef) {
+        let o = self.scene.object(t.object);
+        let mesh = self.scene.mesh_of(o);
+        let m = self.mvp[t.object as usize];
+        let p = mesh.positions();
+        let v =
+            mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), &self.viewport));
+        self.stats.triangles_submitted += 1;
+        self.tris.clear();
+        setup_triangle(
+            [&v[0], &v[1], &v[2]],
+            &self.viewport,
+            t.object,
+            [0, 0, 0, 255],
+            self.tris,
+        );
+        for k in 0..self.tris.len() {
+            let tri = self.tris[k];
+            self.draw_tri(&tri);
+        }
+    }
+
+    fn draw_tri(&mut self, t: &Tri) {
+        let (bx0, by0, bx1, by1) = (u32::from(t.x0), u32::from(t.y0), u32::from(t.x1), u32::from(t.y1));
+        // A rectangle within one tile is left to the tile test below: testing it
+        // twice costs more texel reads than it can save.
+        if self.triangle_tests && (bx1 - bx0) * (by1 - by0) > 1 << (2 * TILE_LEVEL) {
+            let z = tri_min_depth(t, bx0, by0, bx1, by1);
+            let r = ScreenRect {
+                x0: bx0,
+                y0: by0,
+                x1: bx1,
+                y1: by1,
+                z_near: z,
+                z_far: z,
+            };
+            if z.is_finite() && self.pyramid.is_behind(&r, &mut self.zstats) {
+                self.stats.triangles_occluded += 1;
+                return;
+            }
+        }
+        self.stats.triangles_rasterized += 1;
+        let w = self.viewport.width as usize;
+        // Tiles of 8×8 samples, each tested against its pyramid texel (one
+        // level of Greene's hierarchical tiling); one tile for all without tests.
+        let k = if self.triangle_tests { TILE_LEVEL } else { 0 };
+        let (base, tiles) = self.pyramid.base_and_level(k);
+        let shift = if tiles.is_some() { TILE_LEVEL as u32 } else { 16 };
+        let items = &mut *self.items;
+        let spans = &mut *self.spans;
+        let (x0, id) = (bx0, t.item);
+        let (mut passed, mut tests, mut written, mut tile_tests, mut tiles_skipped) = (false, 0u64, 0u64, 0u64, 0u64);
+        let mut dirty = Dirty::NONE;
+        for band in (by0 >> shift)..=((by1 - 1) >> shift) {
+            let (ry0, ry1) = (by0.max(band << shift), by1.min((band + 1) << shift));
+            spans.clear();
+            spans.extend((ry0..ry1).map(|py| t.row_span(py)));
+            let (slo, shi) = spans
+                .iter()
+                .flatten()
+                .fold((u32::MAX, 0), |(a, b), &(lo, hi)| (a.min(lo), b.max(hi)));
+            if slo >= shi {
+                continue;
+            }
+            for col in (slo >> shift)..=((shi - 1) >> shift) {
+                let (rx0, rx1) = (slo.max(col << shift), shi.min((col + 1) << shift));
+                let covered: u32 = spans
+                    .iter()
+                    .flatten()
+                    .map(|&(lo, hi)| hi.min(rx1).saturating_sub(lo.max(rx0)))
+                    .sum();
+                if covered == 0 {
+                    continue; // the triangle covers no sample of this tile
+                }
+                // A tile test costs one comparison: worth it from two samples on.
+                if let Some(level) = tiles.filter(|_| covered > 1) {
+                    // Every sample of the tile is nearer than its texel's farthest
+                    // depth, and every depth of the triangle in the tile at least
+                    // `z`: beyond it, no sample can be won or tied.
+                    let z = tri_min_depth(t, rx0, ry0, rx1, ry1);
+                    tile_tests += 1;
+                    if z > level.depth(col, band) {
+                        tiles_skipped += 1;
+                        continue;
+                    }
+                }
+                for (j, span) in spans.iter().enumerate() {
+                    let Some((lo, hi)) = *span else { continue };
+                    let (lo, hi) = (lo.max(rx0), hi.min(rx1));
+                    if lo >= hi {
+                        continue;
+                    }
+                    let py = ry0 + j as u32;
+                    let zr = t.depth_row(py);
+                    let row = py as usize * w;
+                    tests += u64::from(hi - lo);
+                    let mut nearer = false;
+                    for x in lo..hi {
+                        let z = (zr + t.dzdx * (x - x0) as f32).max(0.0);
+                        let i = row + x as usize;
+                        let (d, owner) = (base[i], items[i]);
+                        // The renderer's strict test, and ties to the smaller id (drawn first there).
+                        if z < d {
+                            base[i] = z;
+                            items[i] = id;
+                            nearer = true;
+                            passed = true;
+                            written += 1;
+                        } else if z == d && owner != NO_OBJECT {
+                            passed = true;
+                            if id < owner {
+                                items[i] = id;
+                                written += 1;
+                            }
+                        }
+                    }
+                    if nearer {
+                        dirty.add(lo, py, hi, py + 1);
+                    }
+                }
+            }
+        }
+        if passed {
+            self.passed[id as usize] = true;
+        }
+        self.dirty.add(dirty.x0, dirty.y0, dirty.x1, dirty.y1);
+        self.stats.sample_tests += tests;
+        self.stats.samples_written += written;
+        self.stats.tile_tests += tile_tests;
+        self.stats.tiles_skipped += tiles_skipped;
+        self.zstats.texels += tile_tests;
+    }
+
+    /// A dynamic object: frustum test, box test against the pyramid, then its triangles.
+    fn dynamic(&mut self, id: u32, frustum: &Frustum, view_proj: &Mat4) {
+        let o = self.scene.object(id);
+        if frustum.test_obb(&o.obb) == Containment::Outside {
+            return;
+        }
+        self.stats.dynamic_tested += 1;
+        let (w, h) = (self.viewport.width, self.viewport.height);
+        if let Footprint::Rect(r) = project_points(&o.obb.corners(), view_proj, w, h) {
+            if self.pyramid.is_behind(&r, &mut self.zstats) {
+                self.stats.dynamic_occluded += 1;
+                return;
+            }
+        }
+        let n = self.scene.mesh_of(o).triangle_count() as u32;
+        self.draw((0..n).map(|triangle| TriRef { object: id, triangle }));
+    }
+}
+
+impl HvCuller {
+    /// Builds the octree over `scene`'s static triangles.
+    pub fn new(scene: &Scene, config: HvConfig) -> HvCuller {
+        let octree = Octree::build(scene, &config.octree);
+        let dynamic = (0..scene.objects().len() as u32)
+            .filter(|&id| scene.object(id).is_dynamic())
+            .collect();
+        let n = scene.objects().len();
+        HvCuller {
+            config,
+            octree,
+            dynamic,
+            objects: n,
+            pyramid: ZPyramid::default(),
+            items: Vec::new(),
+            mvp: Vec::with_capacity(n),
+            passed: vec![false; n],
+            owned: vec![false; n],
+            tris: Vec::new(),
+            spans: Vec::new(),
+            stack: Vec::new(),
+            pending: Vec::new(),
+        }
+    }
+
+    /// The octree over the static triangles.
+    pub fn octree(&self) -> &Octree {
+        &self.octree
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &HvConfig {
+        &self.config
+    }
+
+    /// The last frame's Z-pyramid; its level 0 is the depth buffer.
+    pub fn zpyramid(&self) -> &ZPyramid {
+        &self.pyramid
+    }
+
+    /// The last frame's depth buffer (row-major, one sample per pixel; 1.0 where nothing was drawn).
+    pub fn depth(&self) -> &[f32] {
+        self.pyramid.levels().first().map_or(&[], |l| l.texels())
+    }
+
+    /// The last frame's item buffer: the owner of each sample, [`NO_OBJECT`] where none.
+    pub fn items(&self) -> &[u32] {
+        &self.items
+    }
+
+    /// Depth comparisons a plain z-buffer makes drawing every triangle in the
+    /// frustum: the covered samples of each, with the renderer's setup.
+    fn zbuffer_comparisons(&mut self, scene: &Scene, frustum: &Frustum, viewport: &Viewport) -> u64 {
+        let mut total = 0u64;
+        let count = |tris: &mut Vec<Tri>, mvp: &[Mat4], t: TriRef| {
+            let o = scene.object(t.object);
+            let mesh = scene.mesh_of(o);
+            let m = mvp[t.object as usize];
+            let p = mesh.positions();
+            let v = mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), viewport));
+            tris.clear();
+            setup_triangle([&v[0], &v[1], &v[2]], viewport, t.object, [0; 4], tris);
+            tris.iter().map(covered_samples).sum::<u64>()
+        };
+        let Self {
+            octree,
+            tris,
+            mvp,
+            stack,
+            dynamic,
+            ..
+        } = self;
+        stack.clear();
+        if !octree.is_empty() {
+            stack.push((0, false));
+        }
+        while let Some((i, inside)) = stack.pop() {
+            let node = &octree.nodes()[i as usize];
+            let c = if inside {
+                Containment::Inside
+            } else {
+                frustum.test_aabb(&node.bounds)
+            };
+            if c == Containment::Outside || node.count == 0 {
+                continue;
+            }
+            for &t in octree.own_triangles(node) {
+                total += count(tris, mvp, t);
+            }
+            if !node.is_leaf() {
+                let first = node.children;
+                stack.extend((first..first + 8).map(|k| (k, c == Containment::Inside)));
+            }
+        }
+        for &id in dynamic.iter() {
+            let o = scene.object(id);
+            if frustum.test_obb(&o.obb) != Containment::Outside {
+                for triangle in 0..scene.mesh_of(o).triangle_count() as u32 {
+                    total += count(tris, mvp, TriRef { object: id, triangle });
+                }
+            }
+        }
+        total
+    }
+}
+
+impl Culler for HvCuller {
+    fn name(&self) -> &'static str {
+        "hv"
+    }
+
+    fn config(&self) -> Vec<(&'static str, String)> {
+        let c = &self.config;
+        vec![
+            ("threshold", c.octree.threshold.to_string()),
+            ("max_depth", c.octree.max_depth.to_string()),
+            ("keep_large", c.octree.keep_large.to_string()),
+            (
+                "octree",
+                format!(
+                    "{} nodes, {} non-empty leaves, depth {}, {} static triangles, {} dynamic objects",
+                    self.octree.nodes().len(),
+                    self.octree.leaf_count(),
+                    self.octree.depth(),
+                    self.octree.triangles().len(),
+                    self.dynamic.len()
+                ),
+            ),
+            ("triangle_tests", c.triangle_tests.to_string()),
+            ("count_zbuffer", c.count_zbuffer.to_string()),
+        ]
+    }
+
+    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
+        camera.validate()?;
+        if scene.objects().len() != self.objects {
+            return Err(CullError::SceneMismatch {
+                expected: self.objects,
+                got: scene.objects().len(),
+            });
+        }
+        out.clear();
+        let view_proj = camera.view_proj();
+        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
+        let (w, h) = (camera.width, camera.height);
+        let viewport = Viewport::new(w, h);
+        let eye = camera.eye;
+
+        // 1. Clear the buffers; this frame's object matrices.
+        out.time("reset", || {
+            self.pyramid.reset(w, h, 1.0);
+            self.items.clear();
+            self.items.resize(w as usize * h as usize, NO_OBJECT);
+            self.mvp.clear();
+            self.mvp.extend(scene.objects().iter().map(|o| view_proj * o.transform));
+            self.passed.fill(false);
+        });
+
+        // 2-4. Front-to-back traversal, drawing visible leaves.
+        let start = Instant::now();
+        let Self {
+            config,
+            octree,
+            dynamic,
+            pyramid,
+            items,
+            mvp,
+            passed,
+            tris,
+            spans,
+            stack,
+            pending,
+            ..
+        } = self;
+        pending.clear();
+        pending.extend(
+            dynamic
+                .iter()
+                .map(|&id| (scene.object(id).aabb.distance_squared(eye), id)),
+        );
+        // Nearest last, so `pop` takes the nearest.
+        pending.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+        let mut d = Drawing {
+            scene,
+            viewport,
+            mvp,
+            pyramid,
+            items,
+            passed,
+            tris,
+            spans,
+            triangle_tests: config.triangle_tests,
+            stats: Stats::default(),
+            zstats: ZTestStats::default(),
+            dirty: Dirty::NONE,
+            raster_s: 0.0,
+            pyramid_s: 0.0,
+        };
+        stack.clear();
+        if !octree.is_empty() {
+            stack.push((0, false));
+        }
+        while let Some((i, inside)) = stack.pop() {
+            let node = &octree.nodes()[i as usize];
+            let dist = node.bounds.distance_squared(eye);
+            while pending.last().is_some_and(|p| p.0 <= dist) {
+                let (_, id) = pending.pop().expect("checked");
+                d.dynamic(id, &frustum, &view_proj);
+            }
+            d.stats.nodes_visited += 1;
+            let c = if inside {
+                Containment::Inside
+            } else {
+                frustum.test_aabb(&node.bounds)
+            };
+            if c == Containment::Outside {
+                continue;
+            }
+            if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
+                d.stats.node_box_tests += 1;
+                if d.pyramid.is_behind(&r, &mut d.zstats) {
+                    d.stats.nodes_occluded += 1;
+                    continue;
+                }
+            }
+            // The node's own triangles (a leaf's all, an inner node's large
+            // ones) before its children.
+            if node.own > 0 {
+                d.stats.nodes_drawn += 1;
+                d.draw(octree.own_triangles(node).iter().copied());
+            }
+            if !node.is_leaf() {
+                let order = octree.child_order(node, eye);
+                let inside = c == Containment::Inside;
+                for &k in order.iter().rev() {
+                    if octree.nodes()[k as usize].count > 0 {
+                        stack.push((k, inside));
+                    }
+                }
+            }
+        }
+        while let Some((_, id)) = pending.pop() {
+            d.dynamic(id, &frustum, &view_proj);
+        }
+        let (stats, zstats, raster_s, pyramid_s) = (d.stats, d.zstats, d.raster_s, d.pyramid_s);
+        let total_s = start.elapsed().as_secs_f64();
+        out.stages
+            .push(("traversal", (total_s - raster_s - pyramid_s).max(0.0) * 1e3));
+        out.stages.push(("raster", raster_s * 1e3));
+        out.stages.push(("pyramid", pyramid_s * 1e3));
+
+        // 5. The visible set: owners of the final item buffer.
+        let mut visible = std::mem::take(&mut out.visible);
+        let mut occluded = std::mem::take(&mut out.occluded);
+        out.time("visible_set", || {
+            let owned = &mut self.owned;
+            owned.fill(false);
+            for &id in &self.items {
+                if id != NO_OBJECT {
+                    owned[id as usize] = true;
+                }
+            }
+            for (id, o) in scene.objects().iter().enumerate() {
+                if owned[id] {
+                    visible.push(id as u32);
+                } else {
+                    let c = if o.is_dynamic() {
+                        frustum.test_obb(&o.obb)
+                    } else {
+                        frustum.test_aabb(&o.aabb)
+                    };
+                    if c != Containment::Outside {
+                        occluded.push(id as u32);
+                    }
+                }
+            }
+        });
+        out.visible = visible;
+        out.occluded = occluded;
+
+        let zbuffer = self
+            .config
+            .count_zbuffer
+            .then(|| self.zbuffer_comparisons(scene, &frustum, &viewport));
+        out.count("nodes_visited", stats.nodes_visited);
+        out.count("node_box_tests", stats.node_box_tests);
+        out.count("nodes_occluded", stats.nodes_occluded);
+        out.count("nodes_drawn", stats.nodes_drawn);
+        out.count("dynamic_tested", stats.dynamic_tested);
+        out.count("dynamic_occluded", stats.dynamic_occluded);
+        out.count("triangles_submitted", stats.triangles_submitted);
+        out.count("triangles_occluded", stats.triangles_occluded);
+        out.count("triangles_rasterized", stats.triangles_rasterized);
+        out.count("sample_tests", stats.sample_tests);
+        out.count("samples_written", stats.samples_written);
+        out.count("tile_tests", stats.tile_tests);
+        out.count("tiles_skipped", stats.tiles_skipped);
+        out.count("pyramid_texel_tests", zstats.texels);
+        out.count("pyramid_texels_updated", stats.texels_updated);
+        out.count("depth_comparisons", stats.sample_tests + zstats.texels);
+        if let Some(z) = zbuffer {
+            out.count("zbuffer_depth_comparisons", z);
+        }
+        out.count("objects_passing", self.passed.iter().filter(|&&p| p).count() as u64);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Mesh, SceneBuilder};
+    use glam::Vec3;
+
+    /// A quad of two triangles at `z`, spanning `[-s, s]²`.
+    fn wall(b: &mut SceneBuilder, z: f32, s: f32) -> u32 {
+        let p = vec![
+            Vec3::new(-s, -s, z),
+            Vec3::new(s, -s, z),
+            Vec3::new(s, s, z),
+            Vec3::new(-s, s, z),
+        ];
+        let m = b.add_mesh(Mesh::new("wall", p, vec![[0, 1, 2], [0, 2, 3]]).unwrap());
+        b.add_object("wall", m, Mat4::IDENTITY).unwrap()
+    }
+
+    #[test]
+    fn a_wall_hides_what_is_behind_it_and_counts_add_up() {
+        let mut b = SceneBuilder::new("walls");
+        let near = wall(&mut b, -5.0, 10.0);
+        let far = wall(&mut b, -20.0, 3.0);
+        let scene = b.build().unwrap();
+        let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 64, 48);
+        let mut hv = HvCuller::new(
+            &scene,
+            HvConfig {
+                octree: OctreeConfig {
+                    threshold: 1,
+                    max_depth: 4,
+                    keep_large: true,
+                },
+                ..HvConfig::default()
+            },
+        );
+        let mut out = CullOutput::default();
+        hv.cull(&scene, &camera, &mut out).unwrap();
+        assert_eq!(out.visible, vec![near]);
+        assert_eq!(out.occluded, vec![far]);
+        let c = |name: &str| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();
+        assert_eq!(c("depth_comparisons"), c("sample_tests") + c("pyramid_texel_tests"));
+        // The near wall covers the whole 64x48 frame: every sample tested once by
+        // it; the far wall is culled before any of its samples is tested.
+        assert_eq!(c("sample_tests"), 64 * 48);
+        assert!(c("zbuffer_depth_comparisons") > c("sample_tests"));
+        assert!(hv.items().iter().all(|&i| i == near));
+    }
+}
