@@ -10,7 +10,7 @@ use hom::depth::TiledZBuffer;
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occluders::OccluderDb;
-use hom::raster::{OccluderRasterizer, TiledRasterizer};
+use hom::raster::TiledRasterizer;
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use proptest::prelude::*;
 
@@ -82,21 +82,15 @@ fn per_sample_depth_equals_the_renderers_depth_buffer() {
         );
         let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
         let db = OccluderDb::all(&scene);
-        let mut depth = Vec::new();
-        OccluderRasterizer::default().rasterize_depth(&mut depth, &scene, &db, &ids, &camera);
-        assert_eq!(depth.len(), (camera.width * camera.height) as usize);
-        // The HZB culler's tiled rasterizer (rejection, vector kernels) gives the same depth.
+        // The HZB culler's tiled rasterizer (rejection, vector kernels).
         let mut raster = TiledRasterizer::new();
         raster.setup_occluders(&scene, &db, &ids, &camera);
         let mut zb = TiledZBuffer::default();
         zb.clear(camera.width, camera.height);
         raster.render(&mut zb);
-        let mut tiled = Vec::new();
-        zb.to_row_major(&mut tiled);
-        assert!(
-            tiled == depth,
-            "seed {seed}: tiled depth differs from the row-major raster"
-        );
+        let mut depth = Vec::new();
+        zb.to_row_major(&mut depth);
+        assert_eq!(depth.len(), (camera.width * camera.height) as usize);
         let renderer = Renderer::new(2).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
         let item_only = hom_render::RenderOptions {

@@ -1,11 +1,10 @@
 //! The Z-pyramid of the hierarchical Z-buffer (Greene, Kass and Miller 1993),
-//! used as the HOM paper's variation (Zhang et al. 1997, section 7.2): a
-//! depth-only hierarchy in place of the occlusion maps plus depth estimation
-//! buffer.
+//! row-major: the live pyramid of the hierarchical visibility culler
+//! ([`crate::cull::HvCuller`], updated as it draws), and the reference the
+//! HZB culler's tiled z-buffer ([`super::TiledZBuffer`]) is tested against.
 //!
-//! Level 0 is the occluders' per-sample depth at output resolution, exactly as
-//! the reference renderer computes it ([`crate::raster::OccluderRasterizer::rasterize_depth`];
-//! `f32::INFINITY` where no occluder covers the sample). Each level above halves
+//! Level 0 is per-sample depth at output resolution, as the reference
+//! renderer computes it (`f32::INFINITY` where nothing covers the sample). Each level above halves
 //! both sides (rounding up) and holds, per texel, the *farthest* depth of its
 //! 2×2 children; children outside the level below count as `f32::NEG_INFINITY`
 //! (no sample exists there, so nothing drawn there can be seen and they never

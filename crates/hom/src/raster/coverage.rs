@@ -268,66 +268,6 @@ impl OccluderRasterizer {
         setup_occluders(scene, db, ids, camera, &mut self.tris)
     }
 
-    /// Fills `depth` (row-major, `camera.width` × `camera.height`) with the
-    /// nearest depth the reference renderer computes for the occluders `ids`
-    /// at each output sample: `max(depth_row(py) + dzdx * (x - x0), 0)` of the
-    /// nearest triangle covering it, over exactly the samples
-    /// [`OccluderRasterizer::rasterize`] covers. Uncovered samples get
-    /// `f32::INFINITY` (never 1.0, the far plane: an uncovered sample must hide
-    /// nothing). Scalar rows over [`Tri::row_span`], bands in parallel.
-    /// Returns the number of occluder triangles submitted.
-    pub fn rasterize_depth(
-        &mut self,
-        depth: &mut Vec<f32>,
-        scene: &Scene,
-        db: &OccluderDb,
-        ids: &[u32],
-        camera: &Camera,
-    ) -> u64 {
-        let (w, h) = (camera.width as usize, camera.height);
-        depth.clear();
-        depth.resize(w * h as usize, f32::INFINITY);
-        let submitted = self.setup(scene, db, ids, camera);
-        let bands = h.div_ceil(BAND_ROWS) as usize;
-        self.bins.resize_with(bands, Vec::new);
-        self.bins.truncate(bands);
-        for bin in &mut self.bins {
-            bin.clear();
-        }
-        for (i, t) in self.tris.iter().enumerate() {
-            for band in u32::from(t.y0) / BAND_ROWS..=(u32::from(t.y1) - 1) / BAND_ROWS {
-                self.bins[band as usize].push(i as u32);
-            }
-        }
-        let (tris, bins) = (&self.tris, &self.bins);
-        depth
-            .par_chunks_mut(w * BAND_ROWS as usize)
-            .zip(bins.par_iter())
-            .enumerate()
-            .for_each(|(band, (rows, bin))| {
-                let y0 = band as u32 * BAND_ROWS;
-                let y1 = y0 + (rows.len() / w) as u32;
-                for &i in bin {
-                    let t = &tris[i as usize];
-                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                    let x0 = u32::from(t.x0);
-                    for py in ta..tb {
-                        let Some((lo, hi)) = t.row_span(py) else { continue };
-                        let zr = t.depth_row(py);
-                        let row = &mut rows[(py - y0) as usize * w..][..w];
-                        for x in lo..hi {
-                            let z = (zr + t.dzdx * (x - x0) as f32).max(0.0);
-                            let d = &mut row[x as usize];
-                            if z < *d {
-                                *d = z;
-                            }
-                        }
-                    }
-                }
-            });
-        submitted
-    }
-
     /// Clears `coverage` to the camera's viewport and covers every sample the
     /// occluders `ids` cover (their stand-in meshes where they have one).
     ///
