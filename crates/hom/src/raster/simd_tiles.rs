@@ -12,31 +12,25 @@ use super::tiled::{Band, BandParts, TiledStats};
 /// Fills one band with the kernel of `backend` (the scalar one where the CPU
 /// lacks it). The vector entry points compile the whole band loop with their
 /// target feature, so the kernel inlines into it.
-pub(crate) fn render_band(
-    backend: RasterBackend,
-    band: &Band,
-    tris: &[Tri],
-    bin: &[u32],
-    parts: BandParts,
-) -> TiledStats {
+pub(crate) fn render_band(backend: RasterBackend, band: &Band, bin: &[Tri], parts: BandParts) -> TiledStats {
     match backend {
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx512f") => {
             // SAFETY: AVX-512F is available (checked above; the check is cached by std).
-            unsafe { x86::band_avx512(band, tris, bin, parts) }
+            unsafe { x86::band_avx512(band, bin, parts) }
         }
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx2 if std::arch::is_x86_feature_detected!("avx2") => {
             // SAFETY: AVX2 is available (checked above).
-            unsafe { x86::band_avx2(band, tris, bin, parts) }
+            unsafe { x86::band_avx2(band, bin, parts) }
         }
         #[cfg(target_arch = "x86_64")]
-        RasterBackend::Scalar => band.render(tris, bin, parts, TileKernel::run_scalar),
+        RasterBackend::Scalar => band.render(bin, parts, TileKernel::run_scalar),
         // SSE4.1 adds nothing this kernel uses: the SSE2 kernel serves it.
         #[cfg(target_arch = "x86_64")]
-        _ => band.render(tris, bin, parts, x86::run_sse2),
+        _ => band.render(bin, parts, x86::run_sse2),
         #[cfg(not(target_arch = "x86_64"))]
-        _ => band.render(tris, bin, parts, TileKernel::run_scalar),
+        _ => band.render(bin, parts, TileKernel::run_scalar),
     }
 }
 
@@ -53,6 +47,11 @@ pub(crate) struct TileKernel {
     pub cols: i32,
     /// Rows inside the viewport (1..=8).
     pub rows: usize,
+    /// The rows the triangle's box covers in this tile: `row0..row1` (within `0..rows`);
+    /// no sample outside them can be covered.
+    pub row0: usize,
+    /// See `row0`.
+    pub row1: usize,
     /// Column of the tile's first sample minus the triangle's first column.
     pub dx0: i32,
     /// Row of the tile's first sample minus the triangle's first row.
@@ -78,7 +77,7 @@ impl TileKernel {
     #[inline(always)]
     pub(crate) fn run_scalar(&self, tile: &mut [f32; 64]) -> Option<f32> {
         let mut changed = false;
-        for j in 0..self.rows {
+        for j in self.row0..self.row1 {
             let zr = self.zr(j);
             for i in 0..self.cols as usize {
                 let at = |q: usize| self.e[q] + self.step_x[q] * i as i32 + self.step_y[q] * j as i32;
@@ -104,9 +103,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn band_avx2(b: &Band, t: &[Tri], bin: &[u32], parts: BandParts) -> TiledStats {
+    pub(super) unsafe fn band_avx2(b: &Band, bin: &[Tri], parts: BandParts) -> TiledStats {
         // SAFETY: this function only runs where AVX2 is available.
-        b.render(t, bin, parts, |k, tile| unsafe { run_avx2(k, tile) })
+        b.render(bin, parts, |k, tile| unsafe { run_avx2(k, tile) })
     }
 
     /// The band loop compiled with AVX-512F, its kernel inlined.
@@ -114,9 +113,9 @@ mod x86 {
     /// # Safety
     /// The CPU must support AVX-512F.
     #[target_feature(enable = "avx512f")]
-    pub(super) unsafe fn band_avx512(b: &Band, t: &[Tri], bin: &[u32], parts: BandParts) -> TiledStats {
+    pub(super) unsafe fn band_avx512(b: &Band, bin: &[Tri], parts: BandParts) -> TiledStats {
         // SAFETY: this function only runs where AVX-512F is available.
-        b.render(t, bin, parts, |k, tile| unsafe { run_avx512(k, tile) })
+        b.render(bin, parts, |k, tile| unsafe { run_avx512(k, tile) })
     }
 
     /// SSE2 (x86-64 baseline): a row is two vectors of four samples.
@@ -140,10 +139,14 @@ mod x86 {
                 dz[h] = _mm_mul_ps(_mm_set1_ps(k.dzdx), _mm_cvtepi32_ps(dx));
             }
             let sy = k.step_y.map(|s| _mm_set1_epi32(s));
+            for (eq, &s) in e.iter_mut().zip(&k.step_y) {
+                for v in eq.iter_mut() {
+                    *v = _mm_add_epi32(*v, _mm_set1_epi32(s * k.row0 as i32));
+                }
+            }
             let zero = _mm_setzero_ps();
             let mut changed = 0;
-            let mut far = _mm_set1_ps(f32::NEG_INFINITY);
-            for j in 0..k.rows {
+            for j in k.row0..k.row1 {
                 let zr = _mm_set1_ps(k.zr(j));
                 for h in 0..2 {
                     let m = _mm_or_si128(_mm_or_si128(e[0][h], e[1][h]), e[2][h]);
@@ -152,9 +155,7 @@ mod x86 {
                     let p = tile.as_mut_ptr().add(j * 8 + 4 * h);
                     let d = _mm_loadu_ps(p);
                     let write = _mm_and_ps(_mm_castsi128_ps(inside), _mm_cmplt_ps(z, d));
-                    let new = _mm_or_ps(_mm_and_ps(write, z), _mm_andnot_ps(write, d));
-                    _mm_storeu_ps(p, new);
-                    far = _mm_max_ps(far, new);
+                    _mm_storeu_ps(p, _mm_or_ps(_mm_and_ps(write, z), _mm_andnot_ps(write, d)));
                     changed |= _mm_movemask_ps(write);
                 }
                 for (eq, &s) in e.iter_mut().zip(&sy) {
@@ -164,6 +165,12 @@ mod x86 {
                 }
             }
             (changed != 0).then(|| {
+                // The farthest over every row inside the viewport, drawn or not.
+                let mut far = _mm_set1_ps(f32::NEG_INFINITY);
+                for j in 0..k.rows {
+                    let p = tile.as_ptr().add(j * 8);
+                    far = _mm_max_ps(far, _mm_max_ps(_mm_loadu_ps(p), _mm_loadu_ps(p.add(4))));
+                }
                 let m = _mm_max_ps(far, _mm_shuffle_ps::<0b01_00_11_10>(far, far));
                 _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
             })
@@ -182,7 +189,7 @@ mod x86 {
             let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             let mut e = [0, 1, 2].map(|q| {
                 _mm256_add_epi32(
-                    _mm256_set1_epi32(k.e[q]),
+                    _mm256_set1_epi32(k.e[q] + k.step_y[q] * k.row0 as i32),
                     _mm256_mullo_epi32(_mm256_set1_epi32(k.step_x[q]), lanes),
                 )
             });
@@ -192,23 +199,24 @@ mod x86 {
             let sy = k.step_y.map(|s| _mm256_set1_epi32(s));
             let zero = _mm256_setzero_ps();
             let mut changed = 0;
-            let mut far = _mm256_set1_ps(f32::NEG_INFINITY);
-            for j in 0..k.rows {
+            for j in k.row0..k.row1 {
                 let m = _mm256_or_si256(_mm256_or_si256(e[0], e[1]), e[2]);
                 let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(m, _mm256_set1_epi32(-1)));
                 let z = _mm256_max_ps(_mm256_add_ps(_mm256_set1_ps(k.zr(j)), dz), zero);
                 let p = tile.as_mut_ptr().add(j * 8);
                 let d = _mm256_loadu_ps(p);
                 let write = _mm256_and_ps(_mm256_castsi256_ps(inside), _mm256_cmp_ps::<_CMP_LT_OQ>(z, d));
-                let new = _mm256_blendv_ps(d, z, write);
-                _mm256_storeu_ps(p, new);
-                far = _mm256_max_ps(far, new);
+                _mm256_storeu_ps(p, _mm256_blendv_ps(d, z, write));
                 changed |= _mm256_movemask_ps(write);
                 for q in 0..3 {
                     e[q] = _mm256_add_epi32(e[q], sy[q]);
                 }
             }
             (changed != 0).then(|| {
+                let mut far = _mm256_set1_ps(f32::NEG_INFINITY);
+                for j in 0..k.rows {
+                    far = _mm256_max_ps(far, _mm256_loadu_ps(tile.as_ptr().add(j * 8)));
+                }
                 let m = _mm_max_ps(_mm256_castps256_ps128(far), _mm256_extractf128_ps::<1>(far));
                 let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
                 _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
@@ -228,10 +236,13 @@ mod x86 {
         unsafe {
             let col = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
             let row = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1);
+            // Pairs of rows start at the even row at or above row0.
+            let p0 = k.row0 & !1;
             let mut e = [0, 1, 2].map(|q| {
                 let x = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_x[q]), col);
                 let y = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_y[q]), row);
-                _mm512_add_epi32(_mm512_set1_epi32(k.e[q]), _mm512_add_epi32(x, y))
+                let base = k.e[q] + k.step_y[q] * p0 as i32;
+                _mm512_add_epi32(_mm512_set1_epi32(base), _mm512_add_epi32(x, y))
             });
             let sy2 = k.step_y.map(|s| _mm512_set1_epi32(2 * s));
             let live = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32(k.cols), col);
@@ -239,10 +250,11 @@ mod x86 {
             let dz = _mm512_mul_ps(_mm512_set1_ps(k.dzdx), _mm512_cvtepi32_ps(dx));
             let zero = _mm512_setzero_ps();
             let mut changed: __mmask16 = 0;
-            let mut far = _mm512_set1_ps(f32::NEG_INFINITY);
-            for p in (0..k.rows).step_by(2) {
-                // The second row of the last pair may lie past the viewport.
-                let rows: __mmask16 = if p + 1 < k.rows { 0xffff } else { 0x00ff };
+            for p in (p0..k.row1).step_by(2) {
+                // The first row of the first pair may lie above row0, the second
+                // of the last below row1 (or past the viewport).
+                let rows: __mmask16 =
+                    (if p >= k.row0 { 0x00ff } else { 0 }) | (if p + 1 < k.row1 { 0xff00 } else { 0 });
                 let zr = _mm512_mask_blend_ps(
                     0xff00,
                     _mm512_set1_ps(k.zr(p)),
@@ -254,15 +266,20 @@ mod x86 {
                 let ptr = tile.as_mut_ptr().add(p * 8);
                 let d = _mm512_loadu_ps(ptr);
                 let write = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(inside, z, d);
-                let new = _mm512_mask_blend_ps(write, d, z);
-                _mm512_storeu_ps(ptr, new);
-                far = _mm512_max_ps(far, new);
+                _mm512_mask_storeu_ps(ptr, write, z);
                 changed |= write;
                 for (v, s) in e.iter_mut().zip(&sy2) {
                     *v = _mm512_add_epi32(*v, *s);
                 }
             }
-            (changed != 0).then(|| _mm512_reduce_max_ps(far))
+            (changed != 0).then(|| {
+                let mut far = _mm512_set1_ps(f32::NEG_INFINITY);
+                for p in (0..k.rows).step_by(2) {
+                    let m: __mmask16 = if p + 1 < k.rows { 0xffff } else { 0x00ff };
+                    far = _mm512_mask_max_ps(far, m, far, _mm512_loadu_ps(tile.as_ptr().add(p * 8)));
+                }
+                _mm512_reduce_max_ps(far)
+            })
         }
     }
 }

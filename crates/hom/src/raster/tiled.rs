@@ -68,7 +68,8 @@ impl std::ops::AddAssign for TiledStats {
 pub struct TiledRasterizer {
     verts: Vec<Vertex>,
     tris: Vec<Tri>,
-    bins: Vec<Vec<u32>>,
+    /// Per band of rows, copies of the triangles overlapping it (read in order, from cache).
+    bins: Vec<Vec<Tri>>,
     backend: RasterBackend,
 }
 
@@ -153,9 +154,9 @@ impl TiledRasterizer {
             bin.clear();
         }
         let band_px = BAND_TILES * TILE;
-        for (i, t) in self.tris.iter().enumerate() {
+        for t in &self.tris {
             for band in u32::from(t.y0) / band_px..=(u32::from(t.y1) - 1) / band_px {
-                self.bins[band as usize].push(i as u32);
+                self.bins[band as usize].push(*t);
             }
         }
         let (tris, backend) = (&self.tris, self.backend);
@@ -174,7 +175,7 @@ impl TiledRasterizer {
                     width,
                     height,
                 };
-                render_band(backend, &band, tris, bin, (samples, maxima, touched))
+                render_band(backend, &band, bin, (samples, maxima, touched))
             })
             .reduce(TiledStats::default, |mut a, b| {
                 a += b;
@@ -265,27 +266,30 @@ impl Band {
     #[inline(always)]
     pub(crate) fn render(
         &self,
-        tris: &[Tri],
-        bin: &[u32],
+        bin: &[Tri],
         (samples, maxima, touched): BandParts,
         kernel: impl Fn(&TileKernel, &mut [f32; TILE_SAMPLES]) -> Option<f32>,
     ) -> TiledStats {
         let mut stats = TiledStats::default();
         let rows = (maxima.len() as u32) / self.tiles_x;
         let blocks_x = self.tiles_x.div_ceil(BLOCK_TILES);
+        // Maxima are never NaN, so plain comparisons (which vectorize) give the max.
         let block_of = |maxima: &[f32], b: u32| {
-            let mut m = f32::NEG_INFINITY;
+            let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(self.tiles_x));
+            let mut lanes = [f32::NEG_INFINITY; BLOCK_TILES as usize];
             for ty in 0..rows {
-                for tx in b * BLOCK_TILES..((b + 1) * BLOCK_TILES).min(self.tiles_x) {
-                    m = m.max(maxima[(ty * self.tiles_x + tx) as usize]);
+                let row = &maxima[(ty * self.tiles_x + x0) as usize..(ty * self.tiles_x + x1) as usize];
+                for (m, &v) in lanes.iter_mut().zip(row) {
+                    *m = if v > *m { v } else { *m };
                 }
             }
-            m
+            lanes
+                .into_iter()
+                .fold(f32::NEG_INFINITY, |a, v| if v > a { v } else { a })
         };
         let mut blocks: Vec<f32> = (0..blocks_x).map(|b| block_of(maxima, b)).collect();
         let (py_band0, py_band1) = (self.ty0 * TILE, ((self.ty0 + rows) * TILE).min(self.height));
-        for &i in bin {
-            let t = &tris[i as usize];
+        for t in bin {
             let (ya, yb) = (u32::from(t.y0).max(py_band0), (u32::from(t.y1)).min(py_band1) - 1);
             let (xa, xb) = (u32::from(t.x0), u32::from(t.x1) - 1);
             let floor = plane_floor(t, xa, xb, ya, yb);
@@ -320,7 +324,9 @@ impl Band {
                             touched[ti] = true;
                         }
                         let far = match edges {
-                            Ok(Some(e)) => kernel(&tile_kernel(t, &e, px, py, self.width, self.height), tile),
+                            Ok(Some(e)) => {
+                                kernel(&tile_kernel(t, &e, (px, py), (cy0, cy1), self.width, self.height), tile)
+                            }
                             _ => draw_tile_wide(t, px, py, self.width, self.height, tile),
                         };
                         stats.tiles_drawn += 1;
@@ -342,7 +348,7 @@ impl Band {
 
 /// The kernel inputs of the tile at `(px, py)` with `i32` edge functions.
 #[inline]
-fn tile_kernel(t: &Tri, e: &TileEdges, px: u32, py: u32, width: u32, height: u32) -> TileKernel {
+fn tile_kernel(t: &Tri, e: &TileEdges, (px, py): (u32, u32), rows: (u32, u32), width: u32, height: u32) -> TileKernel {
     // Offsets before the box are negative; those samples are outside an edge
     // anyway, so only the exact formula for covered ones matters.
     TileKernel {
@@ -351,6 +357,8 @@ fn tile_kernel(t: &Tri, e: &TileEdges, px: u32, py: u32, width: u32, height: u32
         step_y: e.step_y,
         cols: (width - px).min(TILE) as i32,
         rows: (height - py).min(TILE) as usize,
+        row0: (rows.0 - py) as usize,
+        row1: (rows.1 + 1 - py) as usize,
         dx0: px as i32 - i32::from(t.x0),
         dy0: py as i32 - i32::from(t.y0),
         zref: t.zref,
