@@ -307,7 +307,7 @@ impl Culler for HomCuller {
 
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole = if self.selector.wants_hole() {
-            self.worst_hole()
+            out.time("hole", || self.worst_hole())
         } else {
             None
         };

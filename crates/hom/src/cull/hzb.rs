@@ -124,14 +124,8 @@ impl HzbCuller {
         let defaults = HomConfig::default();
         let block = w.max(h).div_ceil(defaults.map_size.max(1)).clamp(1, 64);
         let wpr = (w as usize).div_ceil(64);
-        let mut bits = vec![0u64; wpr * h as usize];
-        for y in 0..h as usize {
-            for x in 0..w as usize {
-                if zb.depth(x as u32, y as u32).is_finite() {
-                    bits[y * wpr + x / 64] |= 1 << (x % 64);
-                }
-            }
-        }
+        let mut bits = Vec::new();
+        zb.coverage_bits(&mut bits);
         let mut p = Pyramid::new(w, h, block, defaults.min_level_side);
         p.build_from_coverage(&bits, wpr);
         find_worst_hole(&p, self.config.selection.hole_opacity)
@@ -171,7 +165,7 @@ impl Culler for HzbCuller {
 
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole = if self.selector.wants_hole() {
-            self.worst_hole()
+            out.time("hole", || self.worst_hole())
         } else {
             None
         };

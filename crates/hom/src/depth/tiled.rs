@@ -131,6 +131,29 @@ impl TiledZBuffer {
         }
     }
 
+    /// One bit per sample holding a finite depth (covered by something):
+    /// bit `x % 64` of word `y * ceil(width / 64) + x / 64`, as
+    /// [`crate::raster::CoverageBuffer`] lays its bits out. Reads only the
+    /// tiles drawn since the last clear.
+    pub fn coverage_bits(&self, bits: &mut Vec<u64>) {
+        let wpr = (self.width as usize).div_ceil(64);
+        bits.clear();
+        bits.resize(wpr * self.height as usize, 0);
+        for (t, _) in self.touched.iter().enumerate().filter(|(_, &touched)| touched) {
+            let (tx, ty) = (t as u32 % self.tiles_x, t as u32 / self.tiles_x);
+            let tile = &self.samples[t * TILE_SAMPLES..][..TILE_SAMPLES];
+            for j in 0..TILE.min(self.height - ty * TILE) {
+                let mut row = 0u64;
+                for i in 0..TILE {
+                    row |= u64::from(tile[(j * TILE + i) as usize].is_finite()) << i;
+                }
+                let (x, y) = (tx * TILE, (ty * TILE + j) as usize);
+                // Tiles are 8 wide and 64 / 8 is whole: a tile row never straddles two words.
+                bits[y * wpr + x as usize / 64] |= row << (x % 64);
+            }
+        }
+    }
+
     /// Farthest depth of each tile, row-major over tiles.
     pub fn tile_max(&self) -> &[f32] {
         &self.tile_max
@@ -317,6 +340,27 @@ mod tests {
             let (ya, yb) = ((a.2 * h as f32) as u32, (a.3 * h as f32) as u32);
             let r = ScreenRect { x0: xa.min(xb), x1: (xa.max(xb) + 1).min(w), y0: ya.min(yb), y1: (ya.max(yb) + 1).min(h), z_near: z, z_far: z };
             prop_assert_eq!(t.is_behind(&r), p.is_behind(&r, &mut ZTestStats::default()), "{:?}", r);
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn coverage_bits_are_the_finite_samples(w in 1u32..150, h in 1u32..40, seed in any::<u64>()) {
+            let mut s = seed | 1;
+            let d: Vec<f32> = (0..w * h).map(|_| {
+                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
+                if s % 3 == 0 { f32::INFINITY } else { 0.5 }
+            }).collect();
+            let t = tiled(w, h, &d);
+            let mut bits = Vec::new();
+            t.coverage_bits(&mut bits);
+            let wpr = (w as usize).div_ceil(64);
+            for y in 0..h as usize {
+                for x in 0..w as usize {
+                    let bit = bits[y * wpr + x / 64] >> (x % 64) & 1 == 1;
+                    prop_assert_eq!(bit, d[y * w as usize + x].is_finite(), "sample {},{}", x, y);
+                }
+            }
         }
     }
 
