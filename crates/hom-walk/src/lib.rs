@@ -19,6 +19,7 @@
 pub mod bench;
 pub mod cullers;
 pub mod pictures;
+pub mod pvs;
 pub mod raster_bench;
 pub mod report;
 mod walk;
