@@ -668,7 +668,7 @@ fn output_is_capped() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2500, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Byte flips, truncations and huge u32 values anywhere: an error or a map, never a panic.
     #[test]
@@ -815,7 +815,7 @@ fn load_reads_pk3_specs_and_loose_files() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Mutated pk3 archives: an error or a map, never a panic, never more than the cap.
     #[test]
