@@ -14,7 +14,8 @@
 //!   just the oracle's visible set.
 //!
 //! Results are [`report`] records, written as JSON lines; [`pictures`] draws
-//! false-colour frames and plots.
+//! false-colour frames and plots; [`pvs`] measures a walk through a Quake 3 map
+//! against the map's own potentially visible sets.
 
 pub mod bench;
 pub mod cullers;
