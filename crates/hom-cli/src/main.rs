@@ -8,6 +8,7 @@ use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::occluders::SelectionMode;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
 use hom_scene::CameraPath;
+use hom_walk::pvs::{self, PvsSummary};
 use hom_walk::report::{self, FrameRecord, Summary};
 use hom_walk::{cullers, pictures, WalkOptions, WalkResult};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -182,6 +183,11 @@ struct WalkArgs {
     /// Write plots (frame times, % culled) into this folder.
     #[arg(long)]
     plots: Option<PathBuf>,
+    /// Quake 3 maps (.bsp, .pk3): measure against the map's own PVS (implies --oracle):
+    /// oracle-visible objects the PVS hides, triangles drawn by frustum, PVS, the culler,
+    /// PVS then the culler, and the oracle. Adds `pvs_` fields to the report.
+    #[arg(long)]
+    pvs: bool,
 }
 
 #[derive(Args)]
@@ -297,6 +303,26 @@ fn open(view: &View) -> Result<(hom::scene::Scene, CameraPath)> {
     Ok((scene, path))
 }
 
+/// [`open`] for a Quake 3 map already loaded (for `--pvs`): its scene and its
+/// spawn-to-spawn walk, or the `--camera-path` file, with the viewport overridden.
+fn open_map_view(view: &View, map: &hom_scene::bsp::BspMap) -> Result<(hom::scene::Scene, CameraPath)> {
+    let mut path = match &view.camera_path {
+        Some(file) => CameraPath::load(file)?,
+        None => match map.camera_path() {
+            Some(p) => p,
+            None => bail!("{} has no spawn points to walk; give --camera-path", view.scene),
+        },
+    };
+    if let Some(w) = view.width {
+        path.width = w;
+    }
+    if let Some(h) = view.height {
+        path.height = h;
+    }
+    path.validate(&view.scene)?;
+    Ok((map.scene.clone(), path))
+}
+
 fn make_culler(name: &str, scene: &hom::scene::Scene, hom: &HomArgs) -> Result<Box<dyn hom::cull::Culler>> {
     if name == "hv" {
         let mut c = hom::cull::HvConfig::default();
@@ -341,6 +367,22 @@ fn run_walk(
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
 ) -> Result<WalkResult> {
+    run_walk_pvs(scene, path, culler_name, hom, renderer, options, report.take(), None).map(|(r, _)| r)
+}
+
+/// [`run_walk`], measuring each frame against `pvs` (a Quake 3 map whose scene is
+/// `scene`) where given: the report's frame and summary lines gain `pvs_` fields.
+#[allow(clippy::too_many_arguments)]
+fn run_walk_pvs(
+    scene: &mut hom::scene::Scene,
+    path: &CameraPath,
+    culler_name: &str,
+    hom: &HomArgs,
+    renderer: &Renderer,
+    options: &WalkOptions,
+    mut report: Option<&mut dyn Write>,
+    pvs: Option<&hom_scene::bsp::BspMap>,
+) -> Result<(WalkResult, Option<PvsSummary>)> {
     let mut culler = make_culler(culler_name, scene, hom)?;
     if let Some(out) = report.as_deref_mut() {
         let header = report::Header::new(
@@ -355,42 +397,77 @@ fn run_walk(
     }
     let bar = progress(options.frame_count(path), culler_name);
     let mut io_error = None;
+    let mut pvs_frames = Vec::new();
     let result = hom_walk::walk(scene, path, culler.as_mut(), renderer, options, |record| {
         bar.inc(1);
+        // The map's scene is the walked one (Quake 3 maps are static).
+        let frame = pvs.map(|map| pvs::pvs_for_record(map, &map.scene, &path.camera(record.frame), record));
         if let Some(out) = report.as_deref_mut() {
-            if let Err(e) = report::write_line(out, record) {
+            let written = match &frame {
+                Some(f) => report::write_line(out, &pvs::FrameWithPvs { record, pvs: f }),
+                None => report::write_line(out, record),
+            };
+            if let Err(e) = written {
                 io_error.get_or_insert(e);
             }
         }
+        pvs_frames.extend(frame);
     });
     bar.finish_and_clear();
     let result = result?;
+    let pvs_summary = pvs.map(|_| pvs::summarize_pvs(&pvs_frames));
     if let Some(out) = report {
         if let Some(e) = io_error {
             return Err(e).context("writing the report");
         }
-        report::write_line(out, &result.summary).context("writing the report")?;
+        match &pvs_summary {
+            Some(p) => report::write_line(
+                out,
+                &pvs::SummaryWithPvs {
+                    summary: &result.summary,
+                    pvs: p,
+                },
+            ),
+            None => report::write_line(out, &result.summary),
+        }
+        .context("writing the report")?;
         out.flush().context("writing the report")?;
     }
-    Ok(result)
+    Ok((result, pvs_summary))
 }
 
 fn walk(a: WalkArgs) -> Result<()> {
-    let (mut scene, path) = open(&a.view)?;
+    let map = if a.pvs {
+        let (file, _) = hom_scene::split_map_spec(Path::new(&a.view.scene));
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("bsp") | Some("pk3")) {
+            bail!(
+                "--pvs needs a Quake 3 map (.bsp, .pk3 or FILE.pk3:MAP), which carries a PVS; '{}' is not one",
+                a.view.scene
+            );
+        }
+        Some(hom_walk::pvs::open_map(&a.view.scene)?)
+    } else {
+        None
+    };
+    let (mut scene, path) = match &map {
+        Some(m) => open_map_view(&a.view, m)?,
+        None => open(&a.view)?,
+    };
     if a.frames == Some(0) {
         bail!("--frames must be at least 1");
     }
     let renderer = Renderer::new(a.view.threads)?;
     let options = WalkOptions {
         frames: a.frames,
-        oracle: a.oracle,
+        oracle: a.oracle || a.pvs,
         ..WalkOptions::default()
     };
     let mut file = match &a.report {
         Some(p) => Some(create_report(p)?),
         None => None,
     };
-    let result = run_walk(
+    let (result, pvs_summary) = run_walk_pvs(
         &mut scene,
         &path,
         &a.view.culler,
@@ -398,6 +475,7 @@ fn walk(a: WalkArgs) -> Result<()> {
         &renderer,
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
+        map.as_ref(),
     )
     .with_context(|| match &a.report {
         Some(p) => format!("walking {} (report {})", a.view.scene, p.display()),
@@ -407,6 +485,9 @@ fn walk(a: WalkArgs) -> Result<()> {
         eprintln!("report: {}", p.display());
     }
     print_table(&scene, &[(&a.view.culler, &result)]);
+    if let Some(p) = &pvs_summary {
+        print!("{}", p.table());
+    }
     if let Some(dir) = &a.plots {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let plot = dir.join("frame_times.png");

@@ -122,6 +122,66 @@ fn walk_report_has_header_frames_and_summary_with_no_false_culls() {
 }
 
 #[test]
+fn pvs_needs_a_quake_map() {
+    let o = hom(&["walk", "--scene", "spheres", "--pvs", "--frames", "1"]);
+    assert_clean_failure(&o, "--pvs needs a Quake 3 map");
+}
+
+/// `--pvs` on a real map (skips when `scripts/fetch-scenes.sh --tests-only` has not run):
+/// frame and summary lines keep their fields and gain the yardstick's.
+#[test]
+fn walk_pvs_adds_pvs_fields_to_the_report() {
+    let pk3 = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if !pk3.exists() {
+        eprintln!(
+            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+            pk3.display()
+        );
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("hom-cli-pvs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = dir.join("r.jsonl");
+    let spec = format!("{}:oa_dm1", pk3.display());
+    let o = hom(&[
+        "walk",
+        "--scene",
+        &spec,
+        "--pvs",
+        "--frames",
+        "4",
+        "--width",
+        "96",
+        "--height",
+        "96",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("PVS then HOM"), "{stdout}");
+    let text = std::fs::read_to_string(&report).unwrap();
+    let lines: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 6);
+    for f in &lines[1..5] {
+        assert_eq!(f["type"], "frame");
+        assert_eq!(f["false_culls"].as_array().unwrap().len(), 0);
+        assert_eq!(f["pvs_violations"].as_array().unwrap().len(), 0);
+        assert!(f["pvs_camera_cluster"].is_i64(), "{f}");
+        let t = |k: &str| f[k].as_u64().unwrap();
+        assert_eq!(t("pvs_triangles_hom"), t("triangles_drawn"));
+        assert!(t("pvs_triangles_oracle") <= t("pvs_triangles_pvs_hom"));
+        assert!(t("pvs_triangles_pvs") <= t("pvs_triangles_frustum"));
+    }
+    assert_eq!(lines[5]["type"], "summary");
+    assert_eq!(lines[5]["false_culls"], 0);
+    assert_eq!(lines[5]["pvs_violations"], 0);
+    assert_eq!(lines[5]["pvs_frames"], 4);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn raster_bench_without_inputs_is_a_one_line_error() {
     let dir = std::env::temp_dir().join(format!("hom-cli-raster-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -300,6 +300,13 @@ fn nearest_neighbour_tour_is_deterministic() {
     let path = m.camera_path().unwrap();
     path.validate("solid").unwrap();
     assert!(path.frames.iter().all(|f| m.cluster_of(Vec3::from(f.eye)).is_some()));
+    // Nor does the near plane poke into a wall: the space just ahead is clear too.
+    for f in &path.frames {
+        let (eye, target) = (Vec3::from(f.eye), Vec3::from(f.target));
+        let ahead = eye + (target - eye).normalize() * 2.5 * bsp::CLEARANCE;
+        assert!(m.cluster_of(ahead).is_some(), "{f:?}");
+    }
+    // The walk up the wall toward Quake z = 1000 stops short of it by the clearance.
     let top = path.frames.iter().map(|f| f.eye[1]).fold(f32::MIN, f32::max);
     assert!(top < 1000.0 * INCH && top > 900.0 * INCH, "{top}");
     // Spawns absurdly far apart: a bounded path, or none when distances overflow.
@@ -312,6 +319,26 @@ fn nearest_neighbour_tour_is_deterministic() {
         match parse(&map.bytes()).unwrap().camera_path() {
             Some(far) => assert!(far.frames.len() <= bsp::MAX_PATH_FRAMES + 2, "{}", far.frames.len()),
             None => assert_eq!(x, "1e30"),
+        }
+    }
+    // The worldspawn's _farplanedist (Quake units) is the far plane; a bad value is ignored.
+    let two = "{ \"classname\" \"info_player_start\" \"origin\" \"0 0 0\" }\
+               { \"classname\" \"info_player_start\" \"origin\" \"100 0 0\" }";
+    let default_far = {
+        map.lumps[0] = two.as_bytes().to_vec();
+        let m = parse(&map.bytes()).unwrap();
+        assert_eq!(m.far_plane(), None);
+        m.camera_path().unwrap().far
+    };
+    for (value, want) in [("100", Some(100.0 * INCH)), ("nan", None), ("-5", None), ("x", None)] {
+        map.lumps[0] = format!("{{ \"classname\" \"worldspawn\" \"_farplanedist\" \"{value}\" }}{two}").into_bytes();
+        let m = parse(&map.bytes()).unwrap();
+        assert_eq!(m.far_plane(), want, "{value}");
+        let far = m.camera_path().unwrap().far;
+        match want {
+            // 100 units = 2.54 m: under the default (the scene's diagonal × 1.5), kept.
+            Some(w) => assert!((far - w).abs() < 1e-5, "{value}: {far}"),
+            None => assert_eq!(far, default_far, "{value}"),
         }
     }
     // None: no path.
@@ -668,7 +695,7 @@ fn output_is_capped() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2500, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Byte flips, truncations and huge u32 values anywhere: an error or a map, never a panic.
     #[test]
@@ -815,7 +842,7 @@ fn load_reads_pk3_specs_and_loose_files() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 2000, failure_persistence: None, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 10_000, failure_persistence: None, ..ProptestConfig::default() })]
 
     /// Mutated pk3 archives: an error or a map, never a panic, never more than the cap.
     #[test]

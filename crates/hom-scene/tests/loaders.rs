@@ -439,7 +439,8 @@ fn mutate(base: &[u8], ops: &[(u8, usize, u8)]) -> Vec<u8> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(300))]
+    // 10,000 mutated OBJ files (issue 5: hostile files); small inputs, well under a second.
+    #![proptest_config(ProptestConfig::with_cases(10_000))]
 
     #[test]
     fn obj_random_mutations_never_panic(
@@ -772,8 +773,15 @@ fn glb_truncated_or_corrupt_never_panics() {
     assert!(gltf::load(&p).is_err());
 }
 
+/// One scratch folder for the mutation tests (10,000 files each, written in turn).
+fn scratch() -> &'static Path {
+    static DIR: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| tempfile::tempdir().unwrap()).path()
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    // 10,000 mutated glb files and 10,000 mutated glTF JSON files (issue 5: hostile files).
+    #![proptest_config(ProptestConfig::with_cases(10_000))]
 
     #[test]
     fn glb_random_mutations_never_panic(
@@ -781,9 +789,27 @@ proptest! {
     ) {
         let buf = quad_buffer();
         let bytes = mutate(&glb(&quad_document(None, buf.len()), &buf), &ops);
-        let dir = tempfile::tempdir().unwrap();
-        let p = write(dir.path(), "m.glb", &bytes);
-        let _ = gltf::load(&p);
+        let p = write(scratch(), &format!("m{}.glb", std::process::id()), &bytes);
+        if let Ok(scene) = gltf::load(&p) {
+            for o in scene.objects() {
+                prop_assert!(scene.mesh_of(o).positions().iter().all(|p| p.is_finite()));
+            }
+        }
+    }
+
+    #[test]
+    fn gltf_json_random_mutations_never_panic(
+        ops in prop::collection::vec((any::<u8>(), any::<usize>(), any::<u8>()), 1..8)
+    ) {
+        let buf = quad_buffer();
+        let doc = quad_document(Some(data_uri(&buf)), buf.len());
+        let bytes = mutate(serde_json::to_string(&doc).unwrap().as_bytes(), &ops);
+        let p = write(scratch(), &format!("m{}.gltf", std::process::id()), &bytes);
+        if let Ok(scene) = gltf::load(&p) {
+            for o in scene.objects() {
+                prop_assert!(scene.mesh_of(o).positions().iter().all(|p| p.is_finite()));
+            }
+        }
     }
 }
 

@@ -14,11 +14,13 @@
 //!   just the oracle's visible set.
 //!
 //! Results are [`report`] records, written as JSON lines; [`pictures`] draws
-//! false-colour frames and plots.
+//! false-colour frames and plots; [`pvs`] measures a walk through a Quake 3 map
+//! against the map's own potentially visible sets.
 
 pub mod bench;
 pub mod cullers;
 pub mod pictures;
+pub mod pvs;
 pub mod raster_bench;
 pub mod report;
 mod walk;

@@ -64,3 +64,64 @@ fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
         assert_eq!(outside, 0, "{name}: the walk drops frames in solid space");
     }
 }
+
+/// The PVS yardstick (`hom_walk::pvs`) along a real walk: no oracle-visible object
+/// outside the PVS, and the triangle counts nest as they must: the oracle's set
+/// inside PVS-then-HOM (HOM is conservative and the PVS is right), which lies
+/// inside both HOM alone and the PVS alone, which lie inside the frustum.
+#[test]
+fn pvs_yardstick_on_an_openarena_map() {
+    let pk3 = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if !pk3.exists() {
+        eprintln!(
+            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+            pk3.display()
+        );
+        return;
+    }
+    let spec = format!("{}:oa_dm1", pk3.display());
+    let map = hom_walk::pvs::open_map(&spec).unwrap();
+    assert!(map.cluster_count() > 1, "oa_dm1 has visibility data");
+    let mut scene = map.scene.clone();
+    let path = map.camera_path().unwrap().with_viewport(160, 160);
+    let renderer = Renderer::new(0).unwrap();
+    let mut culler = hom_walk::cullers::make("hom", &scene).unwrap();
+    let options = hom_walk::WalkOptions {
+        frames: Some(48),
+        oracle: true,
+        baseline: false,
+        ..hom_walk::WalkOptions::default()
+    };
+    let result = hom_walk::walk(&mut scene, &path, culler.as_mut(), &renderer, &options, |_| {}).unwrap();
+    let frames: Vec<_> = result
+        .frames
+        .iter()
+        .map(|r| hom_walk::pvs::pvs_for_record(&map, &map.scene, &path.camera(r.frame), r))
+        .collect();
+    for (r, f) in result.frames.iter().zip(&frames) {
+        let i = r.frame;
+        assert!(
+            f.pvs_camera_cluster.is_some(),
+            "frame {i}: the walk keeps the eye in a cluster"
+        );
+        assert!(
+            f.pvs_violations.is_empty(),
+            "frame {i}: the PVS hides {:?}",
+            f.pvs_violations
+        );
+        assert_eq!(f.pvs_triangles_hom, r.triangles_drawn, "frame {i}");
+        assert!(f.pvs_triangles_oracle <= f.pvs_triangles_pvs_hom, "frame {i}: {f:?}");
+        assert!(
+            f.pvs_triangles_pvs_hom <= f.pvs_triangles_hom.min(f.pvs_triangles_pvs),
+            "frame {i}: {f:?}"
+        );
+        assert!(f.pvs_triangles_pvs <= f.pvs_triangles_frustum, "frame {i}: {f:?}");
+        assert!(f.pvs_triangles_oracle > 0, "frame {i}: the oracle sees something");
+    }
+    let s = hom_walk::pvs::summarize_pvs(&frames);
+    println!("{}", s.table());
+    assert_eq!(s.pvs_violations, 0);
+    // The PVS must cull something somewhere on this indoor map, or the test proves nothing.
+    assert!(s.pvs_total_triangles[1] < s.pvs_total_triangles[0], "{s:?}");
+}

@@ -57,6 +57,12 @@ pub const MAX_TESSELLATION: u32 = 32;
 pub const MAX_PATH_SPAWNS: usize = 1024;
 /// Most frames of [`BspMap::camera_path`] (a longer tour is walked faster).
 pub const MAX_PATH_FRAMES: usize = 100_000;
+
+/// Near plane of [`BspMap::camera_path`], metres.
+pub const NEAR: f32 = 0.05;
+
+/// Clearance the walk keeps in front of the eye, metres (see [`BspMap::camera_path`]).
+pub const CLEARANCE: f32 = 0.1;
 /// Quake 3's eye height above a player's origin (`DEFAULT_VIEWHEIGHT`, 26 units), metres.
 pub const VIEW_HEIGHT: f32 = 26.0 * INCH;
 
@@ -280,12 +286,44 @@ impl BspMap {
         clusters.is_empty() || clusters.iter().any(|&c| self.cluster_visible(from, c))
     }
 
+    /// The map's far plane in metres: the worldspawn key `_farplanedist` (Quake
+    /// units), which q3map2 also uses to drop farther clusters from the PVS (the
+    /// game hides them in fog). `None` when absent, not a number or not positive.
+    pub fn far_plane(&self) -> Option<f32> {
+        let world = self
+            .entities
+            .iter()
+            .find(|e| entities::get(e, "classname") == Some("worldspawn"))?;
+        let units: f32 = entities::get(world, "_farplanedist")?.trim().parse().ok()?;
+        (units.is_finite() && units > 0.0).then_some(units * INCH)
+    }
+
+    /// Is the eye in a cluster, and the space just in front of it (a box of
+    /// ±[`CLEARANCE`] around the near plane, out to 2.5 × [`CLEARANCE`] ahead) too?
+    fn clear_ahead(&self, eye: Vec3, target: Vec3) -> bool {
+        let d = (target - eye).normalize_or_zero();
+        let r = d.cross(Vec3::Y).normalize_or_zero();
+        let u = r.cross(d);
+        let c = CLEARANCE;
+        let probes = [
+            eye,
+            eye + d * (2.5 * c),
+            eye + (d + r + u) * c,
+            eye + (d + r - u) * c,
+            eye + (d - r + u) * c,
+            eye + (d - r - u) * c,
+        ];
+        probes.iter().all(|&p| self.cluster_of(p).is_some())
+    }
+
     /// A walkthrough from spawn point to spawn point at [`BspMap::eye_height`]:
     /// a nearest-neighbour tour starting at the first spawn (ties to the lower
     /// index), straight lines at [`BspMap::speed`] (30 frames a second), looking
-    /// along the direction of travel; frames whose eye is in solid space (no
-    /// cluster: the line crosses a wall) are dropped, so the walk jumps through
-    /// walls. With one spawn point, a turn on the spot
+    /// along the direction of travel; frames whose eye, or the space within
+    /// [`CLEARANCE`] in front of it, is in solid space (no cluster: the line
+    /// crosses a wall) are dropped, so the walk jumps through walls and never
+    /// looks through one. The far plane is the map's [`BspMap::far_plane`] where
+    /// it has one (at most 1.5 × the scene's diagonal, the default). With one spawn point, a turn on the spot
     /// starting along its `angle`. `None` without spawn points. Only the first [`MAX_PATH_SPAWNS`] spawn points
     /// are visited (the tour is quadratic in their number). A tour longer than [`MAX_PATH_FRAMES`] frames
     /// is walked faster; `None` also when the spawns are not finite.
@@ -300,9 +338,13 @@ impl BspMap {
         }
         let bounds = self.scene.bounds();
         let diag = bounds.extent().length().max(10.0);
+        let far = match self.far_plane() {
+            Some(f) => f.clamp(1.0, diag * 1.5),
+            None => diag * 1.5,
+        };
         let lens = |frames| CameraPath {
-            near: 0.05,
-            far: diag * 1.5,
+            near: NEAR,
+            far,
             ..CameraPath::new(frames)
         };
         match eyes.len() {
@@ -339,8 +381,10 @@ impl BspMap {
                 }
                 let step = (self.speed.max(0.01) / 30.0).max(length / MAX_PATH_FRAMES as f32);
                 let mut frames = CameraPath::along(&tour, step, 2.0).frames;
-                // Frames whose eye is in solid space (the line crosses a wall) are dropped.
-                let inside = |f: &PathFrame| self.cluster_of(Vec3::from(f.eye)).is_some();
+                // Frames whose eye, or the space just in front of it, is in solid space
+                // (the line crosses a wall) are dropped: a near plane inside a wall sees
+                // through it, into rooms the PVS rightly hides.
+                let inside = |f: &PathFrame| self.clear_ahead(Vec3::from(f.eye), Vec3::from(f.target));
                 if frames.iter().any(inside) {
                     frames.retain(inside);
                 }
