@@ -236,14 +236,17 @@ impl TiledZBuffer {
             let l = &self.upper[k - 1];
             (l.0, &l.2[..])
         };
+        // At most 2×2 texels here (the start level is chosen so, and a
+        // texel's children are 2×2). First the cheap verdict: a failing texel
+        // wholly inside the rectangle has its farthest sample inside too.
+        let side = TILE << k;
+        let mut partial = [(0u32, 0u32); 4];
+        let mut n = 0;
         for ty in t[1] >> k..=t[3] >> k {
             for tx in t[0] >> k..=t[2] >> k {
                 if z > texels[(ty * w + tx) as usize] + DEPTH_MARGIN {
                     continue;
                 }
-                // A texel wholly inside the rectangle has its farthest sample
-                // inside too: the rectangle is not behind, without descending.
-                let side = TILE << k;
                 let inside = r.x0 <= tx * side
                     && r.y0 <= ty * side
                     && r.x1 >= ((tx + 1) * side).min(self.width)
@@ -251,24 +254,25 @@ impl TiledZBuffer {
                 if inside {
                     return false;
                 }
-                let behind = if k == 0 {
-                    self.tile_behind(tx, ty, r)
-                } else {
-                    // This texel's tiles, within the rectangle's.
-                    let sub = [
-                        t[0].max(tx << k),
-                        t[1].max(ty << k),
-                        t[2].min(((tx + 1) << k) - 1),
-                        t[3].min(((ty + 1) << k) - 1),
-                    ];
-                    self.region_behind(k - 1, r, sub)
-                };
-                if !behind {
-                    return false;
-                }
+                partial[n] = (tx, ty);
+                n += 1;
             }
         }
-        true
+        // Then descend into the failing texels the rectangle only partly covers.
+        partial[..n].iter().all(|&(tx, ty)| {
+            if k == 0 {
+                self.tile_behind(tx, ty, r)
+            } else {
+                // This texel's tiles, within the rectangle's.
+                let sub = [
+                    t[0].max(tx << k),
+                    t[1].max(ty << k),
+                    t[2].min(((tx + 1) << k) - 1),
+                    t[3].min(((ty + 1) << k) - 1),
+                ];
+                self.region_behind(k - 1, r, sub)
+            }
+        })
     }
 
     /// Whether every sample of tile `(tx, ty)` inside `r` is behind `r.z_near`.
