@@ -3,22 +3,17 @@
 //! everything the oracle sees lies in a cluster the map's own PVS marks visible.
 //! Skips, saying why, when the cache is missing.
 
+mod common;
+
 use hom::cull::CullOutput;
 use hom_render::{Framebuffer, Renderer};
 use hom_scene::bsp::{self, BspOptions};
-use std::path::PathBuf;
 
 #[test]
 fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
-    let pk3 = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
-    if !pk3.exists() {
-        eprintln!(
-            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
-            pk3.display()
-        );
+    let Some(pk3) = common::openarena_maps() else {
         return;
-    }
+    };
     let renderer = Renderer::new(0).unwrap();
     for name in ["oa_dm1", "oa_dm4"] {
         let options = BspOptions {
@@ -71,15 +66,9 @@ fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
 /// inside both HOM alone and the PVS alone, which lie inside the frustum.
 #[test]
 fn pvs_yardstick_on_an_openarena_map() {
-    let pk3 = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
-    if !pk3.exists() {
-        eprintln!(
-            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
-            pk3.display()
-        );
+    let Some(pk3) = common::openarena_maps() else {
         return;
-    }
+    };
     let spec = format!("{}:oa_dm1", pk3.display());
     let map = hom_walk::pvs::open_map(&spec).unwrap();
     assert!(map.cluster_count() > 1, "oa_dm1 has visibility data");

@@ -87,3 +87,18 @@ pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
     }
     b.build().unwrap()
 }
+
+/// OpenArena's `pak1-maps.pk3` from the fetched cache, or `None` after
+/// printing why the calling test skips (run `scripts/fetch-scenes.sh --tests-only`).
+pub fn openarena_maps() -> Option<std::path::PathBuf> {
+    let pk3 = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if pk3.exists() {
+        return Some(pk3);
+    }
+    eprintln!(
+        "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+        pk3.display()
+    );
+    None
+}
