@@ -19,16 +19,14 @@
 //! the camera the culler was given; occluder stand-in meshes that are not
 //! contained in the object they stand for; and transparent occluders.
 
-use super::frustum::refit_if_dynamic;
-use super::traversal::{count_occluders, occluded_share, Traversal};
+use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{DepthEstimationBuffer, SingleZPlane};
-use crate::geom::{project_box_clipped, Aabb, Camera, Frustum, ScreenRect};
+use crate::geom::{project_box_clipped, Camera, ScreenRect};
 use crate::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
-use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
+use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, SelectionConfig};
 use crate::raster::{CoverageBuffer, OccluderRasterizer};
 use crate::scene::Scene;
-use crate::spatial::{Bvh, BvhConfig};
 
 /// How opaque a map pixel must be to hide what lies behind it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,49 +117,36 @@ impl HomConfig {
 /// The HOM culler; see the module docs for its guarantee.
 pub struct HomCuller {
     config: HomConfig,
-    bvh: Bvh,
-    boxes: Vec<Aabb>,
-    db: OccluderDb,
-    selector: OccluderSelector,
+    common: OccluderCulling,
     raster: OccluderRasterizer,
     coverage: CoverageBuffer,
     pyramid: Option<Pyramid>,
     thresholds: Option<Thresholds>,
     depth: Option<Depth>,
-    is_occluder: Vec<bool>,
-    culled_pct: f32,
 }
 
 impl HomCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
-        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig::default());
-        let db = OccluderDb::build(scene, &config.occluder_db);
         HomCuller {
-            selector: OccluderSelector::new(config.selection.clone()),
+            common: OccluderCulling::new(scene, &config.selection, &config.occluder_db),
             config,
-            bvh,
-            boxes,
-            db,
             raster: OccluderRasterizer::default(),
             coverage: CoverageBuffer::default(),
             pyramid: None,
             thresholds: None,
             depth: None,
-            is_occluder: vec![false; scene.objects().len()],
-            culled_pct: 0.0,
         }
     }
 
     /// The occluder database (with its report of what was kept and why).
     pub fn occluder_db(&self) -> &OccluderDb {
-        &self.db
+        &self.common.db
     }
 
     /// Mutable occluder database, to give occluders stand-in meshes.
     pub fn occluder_db_mut(&mut self) -> &mut OccluderDb {
-        &mut self.db
+        &mut self.common.db
     }
 
     /// The last frame's occlusion pyramid (for pictures).
@@ -180,12 +165,6 @@ impl HomCuller {
     /// The current settings.
     pub fn config(&self) -> &HomConfig {
         &self.config
-    }
-
-    /// The worst hole of the last frame's coarsest map, as an NDC rectangle.
-    fn worst_hole(&self) -> Option<Hole> {
-        let p = self.pyramid.as_ref()?;
-        find_worst_hole(p, self.config.selection.hole_opacity)
     }
 
     fn ensure_buffers(&mut self, camera: &Camera) {
@@ -289,45 +268,30 @@ impl Culler for HomCuller {
             ("budget", c.selection.budget.to_string()),
             ("adaptive_budget", c.selection.adaptive.to_string()),
             ("hole_filling", c.selection.hole_filling.to_string()),
-            ("occluders", self.db.report()),
+            ("occluders", self.common.db.report()),
         ]
     }
 
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
-        camera.validate()?;
-        out.clear();
-        {
-            let Self { bvh, boxes, .. } = self;
-            out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
-        }
-        self.ensure_buffers(camera);
-        let view_proj = camera.view_proj();
-        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
-        let (w, h) = (camera.width, camera.height);
-
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
-        let hole = if self.selector.wants_hole() {
-            out.time("hole", || self.worst_hole())
-        } else {
-            None
-        };
-        let mut occluders = std::mem::take(&mut out.occluders);
-        let sel = out.time("selection", || {
-            self.selector
-                .select(&self.db, scene, camera, &frustum, hole.as_ref(), &mut occluders)
-        });
+        let hole_opacity = self.config.selection.hole_opacity;
+        let last = &self.pyramid;
+        let frame = self.common.select(scene, camera, out, || {
+            last.as_ref().and_then(|p| find_worst_hole(p, hole_opacity))
+        })?;
+        self.ensure_buffers(camera);
+        let (w, h, view_proj) = (camera.width, camera.height, frame.view_proj);
+        let occluders = &frame.occluders;
 
         // 2. Occluder coverage at output resolution.
         let depth_mode = self.config.depth;
         let Self {
             raster,
             coverage,
-            db,
+            common,
             pyramid,
             depth,
             thresholds,
-            bvh,
-            is_occluder,
             ..
         } = self;
         let depth = depth.as_mut().expect("ensured");
@@ -337,7 +301,7 @@ impl Culler for HomCuller {
                 Depth::Buffer(b) if rasterized_depth => Some(b),
                 _ => None,
             };
-            raster.rasterize(coverage, scene, db, &occluders, camera, gather)
+            raster.rasterize(coverage, scene, &common.db, occluders, camera, gather)
         });
 
         // 3. The pyramid.
@@ -353,7 +317,7 @@ impl Culler for HomCuller {
                     Depth::Buffer(b) => b.clear(),
                     Depth::Plane(p) => *p = SingleZPlane::default(),
                 }
-                for &id in &occluders {
+                for &id in occluders {
                     let o = scene.object(id);
                     let corners = if o.is_dynamic() {
                         o.obb.corners()
@@ -372,40 +336,16 @@ impl Culler for HomCuller {
 
         // 5. Traversal: frustum → depth → overlap, front to back.
         let thresholds = thresholds.as_ref().expect("ensured");
-        let mut visible = std::mem::take(&mut out.visible);
-        let mut occluded = std::mem::take(&mut out.occluded);
         let mut overlap = OverlapStats::default();
-        let traversal = Traversal {
-            scene,
-            bvh,
-            boxes: &self.boxes,
-            frustum: &frustum,
-            view_proj,
-            width: w,
-            height: h,
-            eye: camera.eye,
-            occluders: &occluders,
-        };
-        let box_tests = out.time("traversal", || {
-            traversal.run(
-                is_occluder,
-                |r| depth.is_behind(r) && rect_covered(pyramid, thresholds, r, &mut overlap),
-                &mut visible,
-                &mut occluded,
-            )
+        common.traverse(scene, camera, out, frame, drawn, |r| {
+            depth.is_behind(r) && rect_covered(pyramid, thresholds, r, &mut overlap)
         });
-        self.culled_pct = occluded_share(scene, &visible, &occluded);
-        out.visible = visible;
-        out.occluded = occluded;
-        out.occluders = occluders;
-        out.count("box_tests", box_tests);
         out.count("overlap_pixels", overlap.pixels);
         out.count("levels_visited", overlap.levels);
-        count_occluders(out, &sel, drawn);
         Ok(())
     }
 
     fn frame_done(&mut self, frame_ms: Option<f64>) {
-        self.selector.feedback(self.culled_pct, frame_ms);
+        self.common.feedback(frame_ms);
     }
 }

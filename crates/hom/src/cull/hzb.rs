@@ -26,17 +26,15 @@
 //! (covered = finite depth), with HOM's default geometry, and searched with
 //! [`super::hom::find_worst_hole`].
 
-use super::frustum::refit_if_dynamic;
 use super::hom::find_worst_hole;
-use super::traversal::{count_occluders, occluded_share, Traversal};
+use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
-use crate::geom::{Aabb, Camera, Frustum};
+use crate::geom::Camera;
 use crate::map::Pyramid;
-use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
+use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, SelectionConfig};
 use crate::raster::TiledRasterizer;
 use crate::scene::Scene;
-use crate::spatial::{Bvh, BvhConfig};
 
 /// Settings of the HZB culler: HOM's occluder selection and database.
 #[derive(Clone, Debug, PartialEq, Default)]
@@ -65,43 +63,30 @@ impl HzbConfig {
 /// The HZB culler; see the module docs for its guarantee.
 pub struct HzbCuller {
     config: HzbConfig,
-    bvh: Bvh,
-    boxes: Vec<Aabb>,
-    db: OccluderDb,
-    selector: OccluderSelector,
+    common: OccluderCulling,
     raster: TiledRasterizer,
     zbuffer: TiledZBuffer,
-    is_occluder: Vec<bool>,
-    culled_pct: f32,
 }
 
 impl HzbCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
-        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig::default());
-        let db = OccluderDb::build(scene, &config.occluder_db);
         HzbCuller {
-            selector: OccluderSelector::new(config.selection.clone()),
+            common: OccluderCulling::new(scene, &config.selection, &config.occluder_db),
             config,
-            bvh,
-            boxes,
-            db,
             raster: TiledRasterizer::new(),
             zbuffer: TiledZBuffer::default(),
-            is_occluder: vec![false; scene.objects().len()],
-            culled_pct: 0.0,
         }
     }
 
     /// The occluder database.
     pub fn occluder_db(&self) -> &OccluderDb {
-        &self.db
+        &self.common.db
     }
 
     /// Mutable occluder database, to give occluders stand-in meshes.
     pub fn occluder_db_mut(&mut self) -> &mut OccluderDb {
-        &mut self.db
+        &mut self.common.db
     }
 
     /// The last frame's occluder depth and its pyramid.
@@ -115,8 +100,7 @@ impl HzbCuller {
     }
 
     /// The worst hole of the last frame's occluder coverage (see the module docs).
-    fn worst_hole(&self) -> Option<Hole> {
-        let zb = &self.zbuffer;
+    fn worst_hole(zb: &TiledZBuffer, hole_opacity: f32) -> Option<Hole> {
         let (w, h) = (zb.width(), zb.height());
         if w == 0 || h == 0 {
             return None;
@@ -128,7 +112,7 @@ impl HzbCuller {
         zb.coverage_bits(&mut bits);
         let mut p = Pyramid::new(w, h, block, defaults.min_level_side);
         p.build_from_coverage(&bits, wpr);
-        find_worst_hole(&p, self.config.selection.hole_opacity)
+        find_worst_hole(&p, hole_opacity)
     }
 }
 
@@ -148,80 +132,38 @@ impl Culler for HzbCuller {
             ("budget", c.selection.budget.to_string()),
             ("adaptive_budget", c.selection.adaptive.to_string()),
             ("hole_filling", c.selection.hole_filling.to_string()),
-            ("occluders", self.db.report()),
+            ("occluders", self.common.db.report()),
         ]
     }
 
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
-        camera.validate()?;
-        out.clear();
-        {
-            let Self { bvh, boxes, .. } = self;
-            out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
-        }
-        let view_proj = camera.view_proj();
-        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
-        let (w, h) = (camera.width, camera.height);
-
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
-        let hole = if self.selector.wants_hole() {
-            out.time("hole", || self.worst_hole())
-        } else {
-            None
-        };
-        let mut occluders = std::mem::take(&mut out.occluders);
-        let sel = out.time("selection", || {
-            self.selector
-                .select(&self.db, scene, camera, &frustum, hole.as_ref(), &mut occluders)
-        });
-
-        // 2. Occluder depth per output sample.
+        let hole_opacity = self.config.selection.hole_opacity;
         let Self {
+            common,
             raster,
             zbuffer,
-            db,
-            bvh,
-            is_occluder,
-            boxes,
             ..
         } = self;
-        // (The pyramid above the tiles is built by the render.)
+        let last = &*zbuffer;
+        let frame = common.select(scene, camera, out, || HzbCuller::worst_hole(last, hole_opacity))?;
+
+        // 2. Occluder depth per output sample (the render also builds the pyramid above the tiles).
         let drawn = out.time("raster", || {
-            zbuffer.clear(w, h);
+            zbuffer.clear(camera.width, camera.height);
             raster.clear();
-            let drawn = raster.setup_occluders(scene, db, &occluders, camera);
+            let drawn = raster.setup_occluders(scene, &common.db, &frame.occluders, camera);
             raster.render(zbuffer);
             drawn
         });
 
         // 3. Traversal: frustum → Z-pyramid, front to back.
-        let mut visible = std::mem::take(&mut out.visible);
-        let mut occluded = std::mem::take(&mut out.occluded);
         let zbuffer = &*zbuffer;
-        let traversal = Traversal {
-            scene,
-            bvh,
-            boxes,
-            frustum: &frustum,
-            view_proj,
-            width: w,
-            height: h,
-            eye: camera.eye,
-            occluders: &occluders,
-        };
-        let box_tests = out.time("traversal", || {
-            traversal.run(is_occluder, |r| zbuffer.is_behind(r), &mut visible, &mut occluded)
-        });
-        self.culled_pct = occluded_share(scene, &visible, &occluded);
-        out.visible = visible;
-        out.occluded = occluded;
-        out.occluders = occluders;
-        out.count("box_tests", box_tests);
-        count_occluders(out, &sel, drawn);
+        common.traverse(scene, camera, out, frame, drawn, |r| zbuffer.is_behind(r));
         Ok(())
     }
 
     fn frame_done(&mut self, frame_ms: Option<f64>) {
-        self.selector.feedback(self.culled_pct, frame_ms);
+        self.common.feedback(frame_ms);
     }
 }

@@ -1,18 +1,137 @@
-//! The occlusion traversal shared by the image-space cullers (HOM, HZB): the
-//! BVH front to back, the frustum's three-way test, then an occlusion test of
-//! each node's and object's screen rectangle. An occluded node culls its whole
+//! What the occluder-based cullers (HOM, HZB) share, so that they differ
+//! only in how occlusion is represented: the model database (object boxes in
+//! a BVH, refit when objects move), the occluder database, per-frame occluder
+//! selection with its feedback, and the occlusion traversal — the BVH front
+//! to back, the frustum's three-way test, then an occlusion test of each
+//! node's and object's screen rectangle. An occluded node culls its whole
 //! subtree; boxes straddling the near plane are never image-tested; this
 //! frame's occluders are always drawn.
 
-use super::CullOutput;
-use crate::geom::{project_points, Aabb, Containment, Footprint, Frustum, ScreenRect};
-use crate::occluders::SelectionStats;
+use super::frustum::refit_if_dynamic;
+use super::{CullError, CullOutput};
+use crate::geom::{project_points, Aabb, Camera, Containment, Footprint, Frustum, ScreenRect};
+use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig, SelectionStats};
 use crate::scene::Scene;
-use crate::spatial::Bvh;
+use crate::spatial::{Bvh, BvhConfig};
 use glam::{Mat4, Vec3};
 
+/// The representation-independent state of an occluder-based culler.
+pub(crate) struct OccluderCulling {
+    bvh: Bvh,
+    /// Current object boxes (the BVH's items).
+    boxes: Vec<Aabb>,
+    /// The occluder database.
+    pub db: OccluderDb,
+    selector: OccluderSelector,
+    /// Scratch: one flag per object.
+    is_occluder: Vec<bool>,
+    /// Last frame's share of triangles culled, for the selection's feedback.
+    culled_pct: f32,
+}
+
+/// One frame after occluder selection.
+pub(crate) struct Selected {
+    pub frustum: Frustum,
+    pub view_proj: Mat4,
+    /// This frame's occluders (ascending ids): drawn, and rasterized by the culler.
+    pub occluders: Vec<u32>,
+    stats: SelectionStats,
+}
+
+impl OccluderCulling {
+    /// Builds the BVH over the objects' boxes and the occluder database.
+    pub fn new(scene: &Scene, selection: &SelectionConfig, db: &OccluderDbConfig) -> OccluderCulling {
+        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
+        OccluderCulling {
+            bvh: Bvh::build(&boxes, &BvhConfig::default()),
+            boxes,
+            db: OccluderDb::build(scene, db),
+            selector: OccluderSelector::new(selection.clone()),
+            is_occluder: vec![false; scene.objects().len()],
+            culled_pct: 0.0,
+        }
+    }
+
+    /// Starts a frame: validates the camera, clears `out`, refits the BVH to
+    /// moved objects, finds last frame's worst hole with `worst_hole` (only
+    /// when the selection asks for one) and selects this frame's occluders;
+    /// each step timed.
+    pub fn select(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        out: &mut CullOutput,
+        worst_hole: impl FnOnce() -> Option<Hole>,
+    ) -> Result<Selected, CullError> {
+        camera.validate()?;
+        out.clear();
+        let Self { bvh, boxes, .. } = self;
+        out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
+        let view_proj = camera.view_proj();
+        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
+        let hole = if self.selector.wants_hole() {
+            out.time("hole", worst_hole)
+        } else {
+            None
+        };
+        let mut occluders = std::mem::take(&mut out.occluders);
+        let stats = out.time("selection", || {
+            self.selector
+                .select(&self.db, scene, camera, &frustum, hole.as_ref(), &mut occluders)
+        });
+        Ok(Selected {
+            frustum,
+            view_proj,
+            occluders,
+            stats,
+        })
+    }
+
+    /// Ends a frame: the timed traversal with `is_occluded` deciding each
+    /// screen rectangle, then the visible, occluded and occluder sets and the
+    /// counters into `out`. `occluder_triangles` is what the culler drew.
+    pub fn traverse(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        out: &mut CullOutput,
+        frame: Selected,
+        occluder_triangles: u64,
+        is_occluded: impl FnMut(&ScreenRect) -> bool,
+    ) {
+        let mut visible = std::mem::take(&mut out.visible);
+        let mut occluded = std::mem::take(&mut out.occluded);
+        let traversal = Traversal {
+            scene,
+            bvh: &self.bvh,
+            boxes: &self.boxes,
+            frustum: &frame.frustum,
+            view_proj: frame.view_proj,
+            width: camera.width,
+            height: camera.height,
+            eye: camera.eye,
+            occluders: &frame.occluders,
+        };
+        let is_occluder = &mut self.is_occluder;
+        let box_tests = out.time("traversal", || {
+            traversal.run(is_occluder, is_occluded, &mut visible, &mut occluded)
+        });
+        self.culled_pct = occluded_share(scene, &visible, &occluded);
+        out.visible = visible;
+        out.occluded = occluded;
+        out.occluders = frame.occluders;
+        out.count("box_tests", box_tests);
+        count_occluders(out, &frame.stats, occluder_triangles);
+    }
+
+    /// Feeds the frame's outcome back into occluder selection.
+    pub fn feedback(&mut self, frame_ms: Option<f64>) {
+        self.selector.feedback(self.culled_pct, frame_ms);
+    }
+}
+
 /// What one frame's traversal looks at.
-pub(crate) struct Traversal<'a> {
+struct Traversal<'a> {
     pub scene: &'a Scene,
     pub bvh: &'a Bvh,
     /// Current object boxes (the BVH's items).
@@ -111,7 +230,7 @@ impl Traversal<'_> {
 
 /// Percentage of the triangles in `visible` and `occluded` that are occluded:
 /// the culling rate the occluder selection's feedback learns from.
-pub(crate) fn occluded_share(scene: &Scene, visible: &[u32], occluded: &[u32]) -> f32 {
+fn occluded_share(scene: &Scene, visible: &[u32], occluded: &[u32]) -> f32 {
     let tris = |ids: &[u32]| ids.iter().map(|&i| scene.object(i).triangles as u64).sum::<u64>();
     let (tv, to) = (tris(visible), tris(occluded));
     if tv + to > 0 {
@@ -122,7 +241,7 @@ pub(crate) fn occluded_share(scene: &Scene, visible: &[u32], occluded: &[u32]) -
 }
 
 /// The counters every occluder-based culler reports about its occluders.
-pub(crate) fn count_occluders(out: &mut CullOutput, sel: &SelectionStats, occluder_triangles: u64) {
+fn count_occluders(out: &mut CullOutput, sel: &SelectionStats, occluder_triangles: u64) {
     out.count("occluders", sel.selected as u64);
     out.count("occluder_triangles", occluder_triangles);
     out.count("hole_fillers", sel.hole_fillers as u64);
