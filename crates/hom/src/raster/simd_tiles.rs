@@ -187,12 +187,15 @@ mod x86 {
         // SAFETY: loads and stores are unaligned and stay within the tile.
         unsafe {
             let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-            let mut e = [0, 1, 2].map(|q| {
+            // (Plain per-edge code, not array `map` closures: those do not inline
+            // into a target-feature function and cost a call each.)
+            let edge = |q: usize| {
                 _mm256_add_epi32(
                     _mm256_set1_epi32(k.e[q] + k.step_y[q] * k.row0 as i32),
                     _mm256_mullo_epi32(_mm256_set1_epi32(k.step_x[q]), lanes),
                 )
-            });
+            };
+            let mut e = [edge(0), edge(1), edge(2)];
             let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k.cols), lanes);
             let dx = _mm256_add_epi32(_mm256_set1_epi32(k.dx0), lanes);
             let dz = _mm256_mul_ps(_mm256_set1_ps(k.dzdx), _mm256_cvtepi32_ps(dx));
@@ -238,13 +241,14 @@ mod x86 {
             let row = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1);
             // Pairs of rows start at the even row at or above row0.
             let p0 = k.row0 & !1;
-            let mut e = [0, 1, 2].map(|q| {
+            let edge = |q: usize| {
                 let x = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_x[q]), col);
                 let y = _mm512_mullo_epi32(_mm512_set1_epi32(k.step_y[q]), row);
                 let base = k.e[q] + k.step_y[q] * p0 as i32;
                 _mm512_add_epi32(_mm512_set1_epi32(base), _mm512_add_epi32(x, y))
-            });
-            let sy2 = k.step_y.map(|s| _mm512_set1_epi32(2 * s));
+            };
+            let mut e = [edge(0), edge(1), edge(2)];
+            let sy2 = [0, 1, 2].map(|q| _mm512_set1_epi32(2 * k.step_y[q]));
             let live = _mm512_cmpgt_epi32_mask(_mm512_set1_epi32(k.cols), col);
             let dx = _mm512_add_epi32(_mm512_set1_epi32(k.dx0), col);
             let dz = _mm512_mul_ps(_mm512_set1_ps(k.dzdx), _mm512_cvtepi32_ps(dx));

@@ -260,6 +260,24 @@ fn plane_floor(t: &Tri, xa: u32, xb: u32, ya: u32, yb: u32) -> f32 {
 }
 
 impl Band {
+    /// The farthest of block `b`'s tile maxima (`rows` tile rows). A method,
+    /// not a closure, so that it inlines into each backend's band loop.
+    #[inline(always)]
+    fn block_max(&self, maxima: &[f32], rows: u32, b: u32) -> f32 {
+        let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(self.tiles_x));
+        let mut lanes = [f32::NEG_INFINITY; BLOCK_TILES as usize];
+        for ty in 0..rows {
+            let row = &maxima[(ty * self.tiles_x + x0) as usize..(ty * self.tiles_x + x1) as usize];
+            // Maxima are never NaN, so plain comparisons (which vectorize) give the max.
+            for (m, &v) in lanes.iter_mut().zip(row) {
+                *m = if v > *m { v } else { *m };
+            }
+        }
+        lanes
+            .into_iter()
+            .fold(f32::NEG_INFINITY, |a, v| if v > a { v } else { a })
+    }
+
     /// Draws the triangles `bin` (indices into `tris`) into this band's tiles,
     /// testing each tile with `kernel`. Inlined into each backend's entry
     /// point (`simd_tiles::render_band`), which compiles it with its features.
@@ -273,21 +291,7 @@ impl Band {
         let mut stats = TiledStats::default();
         let rows = (maxima.len() as u32) / self.tiles_x;
         let blocks_x = self.tiles_x.div_ceil(BLOCK_TILES);
-        // Maxima are never NaN, so plain comparisons (which vectorize) give the max.
-        let block_of = |maxima: &[f32], b: u32| {
-            let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(self.tiles_x));
-            let mut lanes = [f32::NEG_INFINITY; BLOCK_TILES as usize];
-            for ty in 0..rows {
-                let row = &maxima[(ty * self.tiles_x + x0) as usize..(ty * self.tiles_x + x1) as usize];
-                for (m, &v) in lanes.iter_mut().zip(row) {
-                    *m = if v > *m { v } else { *m };
-                }
-            }
-            lanes
-                .into_iter()
-                .fold(f32::NEG_INFINITY, |a, v| if v > a { v } else { a })
-        };
-        let mut blocks: Vec<f32> = (0..blocks_x).map(|b| block_of(maxima, b)).collect();
+        let mut blocks: Vec<f32> = (0..blocks_x).map(|b| self.block_max(maxima, rows, b)).collect();
         let (py_band0, py_band1) = (self.ty0 * TILE, ((self.ty0 + rows) * TILE).min(self.height));
         for t in bin {
             let (ya, yb) = (u32::from(t.y0).max(py_band0), (u32::from(t.y1)).min(py_band1) - 1);
@@ -338,7 +342,7 @@ impl Band {
                     }
                 }
                 if changed {
-                    blocks[b as usize] = block_of(maxima, b);
+                    blocks[b as usize] = self.block_max(maxima, rows, b);
                 }
             }
         }
