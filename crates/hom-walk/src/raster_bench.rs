@@ -9,6 +9,7 @@
 //! and MOC's (`*_moc_*.res`). Recorded game frames (`.mocrec`) are rendered
 //! at their own resolution and at 256×256. Times are medians over the runs.
 
+use hom::cull::HomConfig;
 use hom::depth::{DepthEstimationBuffer, TiledZBuffer};
 use hom::geom::ScreenRect;
 use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
@@ -144,7 +145,6 @@ pub struct RasterRow {
 /// coverage counts, conservative thresholds) and a depth estimation buffer
 /// whose cells hold the farthest first-cover depth (`hom::cull::hom`'s default).
 pub struct OcclusionMap {
-    coverage: CoverageBuffer,
     pyramid: Pyramid,
     thresholds: Thresholds,
     depth: DepthEstimationBuffer,
@@ -167,11 +167,10 @@ impl OcclusionMap {
         order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         let sorted: Vec<Tri> = order.iter().map(|&(_, i)| tris[i as usize]).collect();
         raster.rasterize_triangles(&mut coverage, &sorted, width, height, Some(&mut depth));
-        let mut pyramid = Pyramid::new(width, height, width.max(height).div_ceil(256), 4);
+        let mut pyramid = HomConfig::default().new_pyramid(width, height);
         pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row());
         let thresholds = Thresholds::conservative(&pyramid, 0.0);
         OcclusionMap {
-            coverage,
             pyramid,
             thresholds,
             depth,
@@ -181,11 +180,6 @@ impl OcclusionMap {
     /// HOM's test: behind every depth cell under `r`, and `r` wholly opaque in the map.
     pub fn is_behind(&self, r: &ScreenRect) -> bool {
         self.depth.is_behind(r) && rect_covered(&self.pyramid, &self.thresholds, r, &mut OverlapStats::default())
-    }
-
-    /// Samples covered by an occluder.
-    pub fn covered(&self) -> u64 {
-        self.coverage.covered()
     }
 }
 

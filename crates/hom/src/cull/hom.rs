@@ -112,6 +112,17 @@ impl HomConfig {
         c.selection.budget = (scene.triangle_count() / 100).clamp(3_000, 20_000) as u32;
         c
     }
+
+    /// Samples per side of a base map pixel at `width` × `height`: the base
+    /// is at most `map_size` pixels a side (block at most 64).
+    pub fn map_block(&self, width: u32, height: u32) -> u32 {
+        width.max(height).div_ceil(self.map_size.max(1)).clamp(1, 64)
+    }
+
+    /// An empty occlusion pyramid of this map geometry over `width` × `height`.
+    pub fn new_pyramid(&self, width: u32, height: u32) -> Pyramid {
+        Pyramid::new(width, height, self.map_block(width, height), self.min_level_side)
+    }
 }
 
 /// The HOM culler; see the module docs for its guarantee.
@@ -169,13 +180,13 @@ impl HomCuller {
 
     fn ensure_buffers(&mut self, camera: &Camera) {
         let (w, h) = (camera.width, camera.height);
-        let block = w.max(h).div_ceil(self.config.map_size.max(1)).clamp(1, 64);
+        let block = self.config.map_block(w, h);
         let fits = self
             .pyramid
             .as_ref()
             .is_some_and(|p| p.viewport() == (w, h) && p.block() == block);
         if !fits {
-            let p = Pyramid::new(w, h, block, self.config.min_level_side);
+            let p = self.config.new_pyramid(w, h);
             self.thresholds = Some(match self.config.opacity {
                 Opacity::Conservative => Thresholds::conservative(&p, self.config.transparency),
                 Opacity::Threshold(o) => Thresholds::approximate(&p, o, self.config.transparency),
@@ -258,18 +269,16 @@ impl Culler for HomCuller {
 
     fn config(&self) -> Vec<(&'static str, String)> {
         let c = &self.config;
-        vec![
+        [
             ("map_size", c.map_size.to_string()),
             ("min_level_side", c.min_level_side.to_string()),
             ("opacity", format!("{:?}", c.opacity)),
             ("transparency", c.transparency.to_string()),
             ("depth", format!("{:?}", c.depth)),
-            ("selection", format!("{:?}", c.selection.mode)),
-            ("budget", c.selection.budget.to_string()),
-            ("adaptive_budget", c.selection.adaptive.to_string()),
-            ("hole_filling", c.selection.hole_filling.to_string()),
-            ("occluders", self.common.db.report()),
         ]
+        .into_iter()
+        .chain(self.common.describe())
+        .collect()
     }
 
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {

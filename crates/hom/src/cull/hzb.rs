@@ -31,7 +31,6 @@ use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::Camera;
-use crate::map::Pyramid;
 use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, SelectionConfig};
 use crate::raster::TiledRasterizer;
 use crate::scene::Scene;
@@ -105,13 +104,10 @@ impl HzbCuller {
         if w == 0 || h == 0 {
             return None;
         }
-        let defaults = HomConfig::default();
-        let block = w.max(h).div_ceil(defaults.map_size.max(1)).clamp(1, 64);
-        let wpr = (w as usize).div_ceil(64);
         let mut bits = Vec::new();
         zb.coverage_bits(&mut bits);
-        let mut p = Pyramid::new(w, h, block, defaults.min_level_side);
-        p.build_from_coverage(&bits, wpr);
+        let mut p = HomConfig::default().new_pyramid(w, h);
+        p.build_from_coverage(&bits, (w as usize).div_ceil(64));
         find_worst_hole(&p, hole_opacity)
     }
 }
@@ -122,18 +118,11 @@ impl Culler for HzbCuller {
     }
 
     fn config(&self) -> Vec<(&'static str, String)> {
-        let c = &self.config;
-        vec![
-            (
-                "depth",
-                "per-sample tiled z-buffer, pyramid of farthest depth".to_string(),
-            ),
-            ("selection", format!("{:?}", c.selection.mode)),
-            ("budget", c.selection.budget.to_string()),
-            ("adaptive_budget", c.selection.adaptive.to_string()),
-            ("hole_filling", c.selection.hole_filling.to_string()),
-            ("occluders", self.common.db.report()),
-        ]
+        let depth = (
+            "depth",
+            "per-sample tiled z-buffer, pyramid of farthest depth".to_string(),
+        );
+        std::iter::once(depth).chain(self.common.describe()).collect()
     }
 
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {

@@ -124,6 +124,19 @@ impl OccluderCulling {
         count_occluders(out, &frame.stats, occluder_triangles);
     }
 
+    /// The configuration entries every occluder-based culler reports: its
+    /// selection settings and the occluder database's report.
+    pub fn describe(&self) -> [(&'static str, String); 5] {
+        let c = self.selector.config();
+        [
+            ("selection", format!("{:?}", c.mode)),
+            ("budget", c.budget.to_string()),
+            ("adaptive_budget", c.adaptive.to_string()),
+            ("hole_filling", c.hole_filling.to_string()),
+            ("occluders", self.db.report()),
+        ]
+    }
+
     /// Feeds the frame's outcome back into occluder selection.
     pub fn feedback(&mut self, frame_ms: Option<f64>) {
         self.selector.feedback(self.culled_pct, frame_ms);
