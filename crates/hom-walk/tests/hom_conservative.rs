@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{assert_no_false_culls, cube, permissive_occluders, random_scene};
+use common::{
+    assert_culls_a_fair_share, assert_no_false_culls, cube, occluder_raster_case, permissive_occluders, random_scene,
+};
 use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
@@ -240,20 +242,7 @@ fn approximate_mode_culls_at_least_as_much() {
 /// random scenes, HOM must occlusion-cull a good share of objects (and never wrongly).
 #[test]
 fn random_scenes_are_really_culled() {
-    let (mut occluded, mut total) = (0, 0);
-    for seed in 0..60u64 {
-        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
-        let eye = Vec3::new(0.0, 0.5, 13.0);
-        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
-        let mut culler = HomCuller::new(&scene, permissive());
-        let out = assert_no_false_culls(&scene, &camera, &mut culler);
-        occluded += out.occluded.len();
-        total += scene.objects().len();
-    }
-    assert!(
-        occluded * 20 > total,
-        "only {occluded} of {total} objects occlusion-culled"
-    );
+    assert_culls_a_fair_share(|scene| Box::new(HomCuller::new(scene, permissive())));
 }
 
 /// The rasterized depth estimation buffer is never nearer than brute force:
@@ -261,19 +250,7 @@ fn random_scenes_are_really_culled() {
 #[test]
 fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
     for seed in 0..20u64 {
-        let scene = random_scene(seed * 104_729 + 3, 30, seed % 3 == 0);
-        let camera = Camera::new(
-            Vec3::new(1.5, 2.0, 14.0),
-            Vec3::new(0.0, -0.5, 0.0),
-            Vec3::Y,
-            1.1,
-            0.1,
-            100.0,
-            101,
-            77,
-        );
-        let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
-        let db = OccluderDb::all(&scene);
+        let (scene, camera, ids, db) = occluder_raster_case(seed);
         let mut cov = CoverageBuffer::default();
         let mut deb = hom::depth::DepthEstimationBuffer::new(camera.width, camera.height, 13, 11);
         OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera, Some(&mut deb));

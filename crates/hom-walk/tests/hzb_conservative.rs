@@ -4,12 +4,13 @@
 
 mod common;
 
-use common::{assert_no_false_culls, permissive_occluders, random_scene};
+use common::{
+    assert_culls_a_fair_share, assert_no_false_culls, occluder_raster_case, permissive_occluders, random_scene,
+};
 use hom::cull::{Culler, HzbConfig, HzbCuller};
 use hom::depth::TiledZBuffer;
 use hom::geom::Camera;
 use hom::glam::Vec3;
-use hom::occluders::OccluderDb;
 use hom::raster::TiledRasterizer;
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use proptest::prelude::*;
@@ -48,20 +49,7 @@ proptest! {
 /// The property test above is only meaningful if culling happens.
 #[test]
 fn random_scenes_are_really_culled() {
-    let (mut occluded, mut total) = (0, 0);
-    for seed in 0..60u64 {
-        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
-        let eye = Vec3::new(0.0, 0.5, 13.0);
-        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
-        let mut culler = HzbCuller::new(&scene, permissive());
-        let out = assert_no_false_culls(&scene, &camera, &mut culler);
-        occluded += out.occluded.len();
-        total += scene.objects().len();
-    }
-    assert!(
-        occluded * 20 > total,
-        "only {occluded} of {total} objects occlusion-culled"
-    );
+    assert_culls_a_fair_share(|scene| Box::new(HzbCuller::new(scene, permissive())));
 }
 
 /// The rasterizer's per-sample depth equals the renderer's depth buffer
@@ -69,19 +57,7 @@ fn random_scenes_are_really_culled() {
 #[test]
 fn per_sample_depth_equals_the_renderers_depth_buffer() {
     for seed in 0..20u64 {
-        let scene = random_scene(seed * 104_729 + 3, 30, seed % 3 == 0);
-        let camera = Camera::new(
-            Vec3::new(1.5, 2.0, 14.0),
-            Vec3::new(0.0, -0.5, 0.0),
-            Vec3::Y,
-            1.1,
-            0.1,
-            100.0,
-            101,
-            77,
-        );
-        let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
-        let db = OccluderDb::all(&scene);
+        let (scene, camera, ids, db) = occluder_raster_case(seed);
         // The HZB culler's tiled rasterizer (rejection, vector kernels).
         let mut raster = TiledRasterizer::new();
         raster.setup_occluders(&scene, &db, &ids, &camera);

@@ -88,6 +88,45 @@ pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
     b.build().unwrap()
 }
 
+/// Over 60 random scenes, the culler `make` builds occlusion-culls at least
+/// one object in 20 and never wrongly: the conservative property tests are
+/// only meaningful if culling happens.
+pub fn assert_culls_a_fair_share(mut make: impl FnMut(&Scene) -> Box<dyn Culler>) {
+    let (mut occluded, mut total) = (0, 0);
+    for seed in 0..60u64 {
+        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
+        let eye = Vec3::new(0.0, 0.5, 13.0);
+        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        let out = assert_no_false_culls(&scene, &camera, make(&scene).as_mut());
+        occluded += out.occluded.len();
+        total += scene.objects().len();
+    }
+    assert!(
+        occluded * 20 > total,
+        "only {occluded} of {total} objects occlusion-culled"
+    );
+}
+
+/// The case of the tests that compare an occluder raster with the renderer:
+/// a random scene (`seed`), a 101×77 camera on it, every other object as an
+/// occluder, and an occluder database holding every object.
+pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>, hom::occluders::OccluderDb) {
+    let scene = random_scene(seed * 104_729 + 3, 30, seed.is_multiple_of(3));
+    let camera = Camera::new(
+        Vec3::new(1.5, 2.0, 14.0),
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::Y,
+        1.1,
+        0.1,
+        100.0,
+        101,
+        77,
+    );
+    let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
+    let db = hom::occluders::OccluderDb::all(&scene);
+    (scene, camera, ids, db)
+}
+
 /// OpenArena's `pak1-maps.pk3` from the fetched cache, or `None` after
 /// printing why the calling test skips (run `scripts/fetch-scenes.sh --tests-only`).
 pub fn openarena_maps() -> Option<std::path::PathBuf> {
