@@ -136,14 +136,14 @@ impl HomArgs {
             if !(o > 0.0 && o <= 1.0) {
                 bail!("--opacity must be in (0, 1], got {o}");
             }
-            c.opacity = if o == 1.0 {
+            c.map.opacity = if o == 1.0 {
                 Opacity::Conservative
             } else {
                 Opacity::Threshold(o)
             };
         }
         if let Some(d) = &self.depth {
-            c.depth = match d.as_str() {
+            c.map.depth = match d.as_str() {
                 "rasterized" => DepthMode::Rasterized(64, 64),
                 "box" => DepthMode::EstimationBuffer(64, 64),
                 "plane" => DepthMode::SingleZPlane,
@@ -154,7 +154,7 @@ impl HomArgs {
             if !(1..=4096).contains(&m) {
                 bail!("--map-size must be 1..=4096, got {m}");
             }
-            c.map_size = m;
+            c.map.map_size = m;
         }
         if let Some(s) = &self.selection {
             c.selection.mode = match s.as_str() {

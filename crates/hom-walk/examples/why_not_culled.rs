@@ -8,7 +8,6 @@
 
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
 use hom::geom::{project_points, Containment, Footprint, Frustum};
-use hom::map::{rect_covered, OverlapStats, Thresholds};
 use hom_render::{Framebuffer, Renderer};
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -28,9 +27,8 @@ fn main() {
     let counts = hom_render::oracle_pixel_counts(&r, &scene, &cam, &mut fb);
     let vp = cam.view_proj();
     let f = Frustum::from_view_proj(&vp).unwrap();
-    let p = c.pyramid().unwrap();
-    let th = Thresholds::conservative(p, 0.0);
-    let deb = c.depth_buffer().unwrap();
+    // The culler's own occlusion buffer of this frame, asked its two tests separately.
+    let buf = c.buffer_mut().unwrap();
     let (mut straddle, mut not_cov, mut not_behind, mut both, mut occl, mut occluder) =
         (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
     for (id, o) in scene.objects().iter().enumerate() {
@@ -49,8 +47,8 @@ fn main() {
         match project_points(&o.aabb.corners(), &vp, cam.width, cam.height) {
             Footprint::Straddles => straddle += t,
             Footprint::Rect(rect) => {
-                let cov = rect_covered(p, &th, &rect, &mut OverlapStats::default());
-                let beh = deb.is_behind(&rect);
+                let cov = buf.rect_is_opaque(&rect);
+                let beh = buf.depth_is_behind(&rect);
                 match (cov, beh) {
                     (false, true) => not_cov += t,
                     (true, false) => not_behind += t,

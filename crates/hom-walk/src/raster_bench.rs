@@ -2,19 +2,22 @@
 //! inputs Intel's Masked Occlusion Culling (MOC) was measured on
 //! (`bench-data/moc/`, formats in its README), next to MOC's own figures.
 //!
-//! For each `.mocscene` and resolution: set up and render the occluders into
-//! hom's tiled hierarchical z-buffer ([`hom::depth::TiledZBuffer`], exact per
-//! sample) with one thread and with two, then answer the 100,000 rectangle
-//! queries and compare every answer with the exact ones (`*_exact_*.res`)
-//! and MOC's (`*_moc_*.res`). Recorded game frames (`.mocrec`) are rendered
-//! at their own resolution and at 256×256. Times are medians over the runs.
+//! Everything goes through hom's front door, [`hom::occlusion`], as an
+//! engine would use it: for each `.mocscene` and resolution, the occluders
+//! are drawn into an [`HzBuffer`] (the hierarchical z-buffer, exact per
+//! sample) with one thread and with two, then the 100,000 rectangle queries
+//! are answered with [`OcclusionBuffer::test_rect`] and every answer is
+//! compared with the exact ones (`*_exact_*.res`) and MOC's (`*_moc_*.res`);
+//! the same for a [`HomBuffer`] (occlusion map + depth estimation buffer).
+//! Recorded game frames (`.mocrec`) are rendered at their own resolution and
+//! at 256×256. Times are medians over the runs.
+//!
+//! The reference answers come from a rasterizer that does not snap vertices,
+//! so the buffers use [`Sampling::Conservative`] (their default), and MOC's
+//! rectangles cover every pixel they touch, as `test_rect` does.
 
-use hom::cull::HomConfig;
-use hom::depth::{DepthEstimationBuffer, TiledZBuffer};
-use hom::geom::ScreenRect;
-use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
-use hom::raster::setup::{SetupRule, Tri};
-use hom::raster::{CoverageBuffer, OccluderRasterizer, TiledRasterizer};
+use glam::{Vec2, Vec4};
+use hom::occlusion::{BufferOptions, FaceCull, HomBuffer, HzBuffer, OcclusionBuffer, Visibility};
 use hom_scene::moc::{self, MocRecording, MocScene};
 use hom_scene::LoadError;
 use serde::Serialize;
@@ -118,7 +121,7 @@ pub struct RasterRow {
     pub triangles: usize,
     /// Threads.
     pub threads: usize,
-    /// Median setup time (clip, snap, edge functions), ms.
+    /// Median setup time (submission, clip, snap, edge functions), ms.
     pub setup_ms: f64,
     /// Median render time (binning, tiles, pyramid), ms.
     pub render_ms: f64,
@@ -130,8 +133,8 @@ pub struct RasterRow {
     pub tiles_drawn: u64,
     /// Tiles and blocks of tiles skipped by depth, last run.
     pub rejected: u64,
-    /// Median time to render the occlusion map from the same set-up
-    /// triangles (coverage, pyramid, depth estimation cells), ms.
+    /// Median time to draw the same triangles, nearest first, into a
+    /// [`HomBuffer`] (submission, setup, coverage, pyramid, depth estimation cells), ms.
     pub map_ms: f64,
     /// MOC AVX2 and AVX-512 single-thread render times, ms (README), where measured.
     pub peer_ms: Option<(f64, f64)>,
@@ -139,48 +142,6 @@ pub struct RasterRow {
     pub queries: Option<QueryScore>,
     /// Query answers on the occlusion map and depth estimation buffer (HOM).
     pub map_queries: Option<QueryScore>,
-}
-
-/// HOM's representation of the same occluders: an occlusion map (exact
-/// coverage counts, conservative thresholds) and a depth estimation buffer
-/// whose cells hold the farthest first-cover depth (`hom::cull::hom`'s default).
-pub struct OcclusionMap {
-    pyramid: Pyramid,
-    thresholds: Thresholds,
-    depth: DepthEstimationBuffer,
-}
-
-/// The nearest depth of `t`'s plane over its bounding box.
-fn nearest(t: &Tri) -> f32 {
-    let (w, h) = (f32::from(t.x1 - t.x0 - 1), f32::from(t.y1 - t.y0 - 1));
-    t.zref + (t.dzdx * w).min(0.0) + (t.dzdy * h).min(0.0)
-}
-
-impl OcclusionMap {
-    /// Renders the set-up triangles `tris` at `width` × `height`, nearest
-    /// first as HOM draws its occluders (so that a depth cell's first cover is
-    /// mostly the nearest).
-    pub fn render(raster: &mut OccluderRasterizer, tris: &[Tri], width: u32, height: u32) -> OcclusionMap {
-        let mut coverage = CoverageBuffer::default();
-        let mut depth = DepthEstimationBuffer::new(width, height, 64, 64);
-        let mut order: Vec<(f32, u32)> = tris.iter().zip(0..).map(|(t, i)| (nearest(t), i)).collect();
-        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        let sorted: Vec<Tri> = order.iter().map(|&(_, i)| tris[i as usize]).collect();
-        raster.rasterize_triangles(&mut coverage, &sorted, width, height, Some(&mut depth));
-        let mut pyramid = HomConfig::default().new_pyramid(width, height);
-        pyramid.build_from_coverage(coverage.bits(), coverage.words_per_row());
-        let thresholds = Thresholds::conservative(&pyramid, 0.0);
-        OcclusionMap {
-            pyramid,
-            thresholds,
-            depth,
-        }
-    }
-
-    /// HOM's test: behind every depth cell under `r`, and `r` wholly opaque in the map.
-    pub fn is_behind(&self, r: &ScreenRect) -> bool {
-        self.depth.is_behind(r) && rect_covered(&self.pyramid, &self.thresholds, r, &mut OverlapStats::default())
-    }
 }
 
 /// The whole run.
@@ -202,58 +163,84 @@ fn ms(t: Instant) -> f64 {
 }
 
 /// What one input renders: `(vertices, triangles, cull)` batches.
-type Batches<'a> = Vec<(&'a [glam::Vec4], &'a [[u32; 3]], hom::raster::setup::FaceCull)>;
+type Batches<'a> = Vec<(&'a [Vec4], &'a [[u32; 3]], FaceCull)>;
 
-/// The truth of these inputs does not snap vertices, so hom sets up with the
-/// inner rule to stay conservative against it.
-fn rule(cull: hom::raster::setup::FaceCull) -> SetupRule {
-    SetupRule { cull, inner: true }
+/// The same triangles nearest first (by their nearest vertex), as an engine
+/// would submit occluders to the HOM buffer, whose depth cells keep the first
+/// cover: runs of one face-culling mode, each with its own vertices.
+fn nearest_first(batches: &Batches) -> Vec<(Vec<Vec4>, Vec<[u32; 3]>, FaceCull)> {
+    let depth = |v: Vec4| if v.w > 0.0 { v.z / v.w } else { f32::NEG_INFINITY };
+    let mut tris: Vec<(f32, Vec4, Vec4, Vec4, FaceCull)> = Vec::new();
+    for (v, t, cull) in batches {
+        for &[a, b, c] in t.iter() {
+            let [a, b, c] = [a, b, c].map(|i| v[i as usize]);
+            tris.push((depth(a).min(depth(b)).min(depth(c)), a, b, c, *cull));
+        }
+    }
+    tris.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut runs: Vec<(Vec<Vec4>, Vec<[u32; 3]>, FaceCull)> = Vec::new();
+    for (_, a, b, c, cull) in tris {
+        if runs.last().is_none_or(|r| r.2 != cull) {
+            runs.push((Vec::new(), Vec::new(), cull));
+        }
+        let run = runs.last_mut().expect("pushed");
+        let k = run.0.len() as u32;
+        run.0.extend([a, b, c]);
+        run.1.push([k, k + 1, k + 2]);
+    }
+    runs
+}
+
+/// Clears `buf`, draws `batches` and flushes; returns (setup ms, raster ms,
+/// total ms) and the buffer's statistics.
+fn draw(
+    buf: &mut impl OcclusionBuffer,
+    batches: &[(&[Vec4], &[[u32; 3]], FaceCull)],
+) -> Result<(f64, f64, f64), RasterBenchError> {
+    let t0 = Instant::now();
+    buf.clear();
+    for &(v, t, cull) in batches {
+        buf.render_clip_triangles(v, t, cull)
+            .map_err(|e| RasterBenchError::Options(e.to_string()))?;
+    }
+    buf.flush();
+    let total = ms(t0);
+    let raster = buf.stats().raster_ms;
+    Ok((total - raster, raster, total))
 }
 
 /// Times setup and render of `batches` at `width` × `height`; returns the row
-/// (without queries) and the rendered buffer.
+/// (without queries) and the rendered buffers.
 fn time_render(
     input: &str,
     batches: &Batches,
     (width, height): (u32, u32),
     threads: usize,
     runs: usize,
-) -> Result<(RasterRow, TiledZBuffer, OcclusionMap), RasterBenchError> {
+) -> Result<(RasterRow, HzBuffer, HomBuffer), RasterBenchError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| RasterBenchError::Options(format!("thread pool of {threads}: {e}")))?;
-    let mut raster = TiledRasterizer::new();
-    let mut zb = TiledZBuffer::default();
-    let (mut setup, mut render, mut total) = (Vec::new(), Vec::new(), Vec::new());
-    let mut stats = Default::default();
+    let buffer_error = |e: hom::occlusion::OcclusionError| RasterBenchError::Options(e.to_string());
+    let mut zb = HzBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
+    let mut map = HomBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
+    let (mut setup, mut render, mut total, mut map_times) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let sorted = nearest_first(batches);
+    let sorted: Vec<(&[Vec4], &[[u32; 3]], FaceCull)> = sorted.iter().map(|(v, t, c)| (&v[..], &t[..], *c)).collect();
     pool.install(|| {
         for _ in 0..runs {
-            let t0 = Instant::now();
-            zb.clear(width, height);
-            raster.clear();
-            for (v, t, cull) in batches {
-                raster.setup(v, t, rule(*cull), width, height);
-            }
-            let s = ms(t0);
-            let t1 = Instant::now();
-            stats = raster.render(&mut zb);
-            render.push(ms(t1));
+            let (s, r, t) = draw(&mut zb, batches)?;
             setup.push(s);
-            total.push(ms(t0));
+            render.push(r);
+            total.push(t);
         }
-    });
-    let mut occ = OccluderRasterizer::new();
-    let mut map_times = Vec::new();
-    let map = pool.install(|| {
-        let mut map = None;
         for _ in 0..runs {
-            let t0 = Instant::now();
-            map = Some(OcclusionMap::render(&mut occ, raster.triangles(), width, height));
-            map_times.push(ms(t0));
+            map_times.push(draw(&mut map, &sorted)?.2);
         }
-        map.expect("at least one run")
-    });
+        Ok::<(), RasterBenchError>(())
+    })?;
+    let stats = zb.stats();
     let triangles = batches.iter().map(|b| b.1.len()).sum();
     let total_ms = median(total);
     let peer = PEER_RENDER_MS
@@ -271,7 +258,7 @@ fn time_render(
         total_ms,
         triangles_per_s: triangles as f64 / (total_ms / 1e3),
         tiles_drawn: stats.tiles_drawn,
-        rejected: stats.tiles_rejected + stats.blocks_rejected,
+        rejected: stats.tiles_rejected,
         map_ms: median(map_times),
         peer_ms: peer,
         queries: None,
@@ -295,13 +282,13 @@ fn answers(path: &Path, expected: usize) -> Result<Option<Vec<bool>>, RasterBenc
     Ok(Some(a))
 }
 
-/// Answers the scene's rectangle queries on `zb`, timed, and scores them.
+/// Answers the scene's rectangle queries with `buf.test_rect`, timed, and scores them.
 fn score_queries(
     data: &Path,
     input: &str,
     scene: &MocScene,
     (w, h): (u32, u32),
-    is_behind: impl Fn(&ScreenRect) -> bool,
+    buf: &mut impl OcclusionBuffer,
     runs: usize,
 ) -> Result<Option<QueryScore>, RasterBenchError> {
     let Some(exact) = answers(&data.join(format!("{input}_exact_{w}x{h}.res")), scene.rects.len())? else {
@@ -313,7 +300,11 @@ fn score_queries(
     for _ in 0..runs {
         ours.clear();
         let t0 = Instant::now();
-        ours.extend(scene.rects.iter().map(|r| is_behind(&r.footprint(w, h, scene.near_w))));
+        ours.extend(scene.rects.iter().map(|r| {
+            let depth = 1.0 - scene.near_w / r.wmin; // the readers' z / w (see hom_scene::moc)
+            let v = buf.test_rect(Vec2::new(r.xmin, r.ymin), Vec2::new(r.xmax, r.ymax), depth);
+            v == Visibility::Occluded
+        }));
         times.push(ms(t0));
     }
     let count =
@@ -378,11 +369,11 @@ pub fn run_raster_bench(
         };
         for &res in &resolutions {
             for (k, &threads) in options.threads.iter().enumerate() {
-                let (mut row, zb, map) = time_render(&input, &batches, res, threads, options.runs)?;
+                let (mut row, mut zb, mut map) = time_render(&input, &batches, res, threads, options.runs)?;
                 if let (Some(s), 0) = (&scene, k) {
                     let (data, runs) = (&options.data, options.runs);
-                    row.queries = score_queries(data, &input, s, res, |r| zb.is_behind(r), runs)?;
-                    row.map_queries = score_queries(data, &input, s, res, |r| map.is_behind(r), runs)?;
+                    row.queries = score_queries(data, &input, s, res, &mut zb, runs)?;
+                    row.map_queries = score_queries(data, &input, s, res, &mut map, runs)?;
                 }
                 progress(&format!(
                     "{input} {}x{} {} thread(s): {:.2} ms",

@@ -4,13 +4,13 @@
 mod common;
 
 use common::{
-    assert_culls_a_fair_share, assert_no_false_culls, cube, occluder_raster_case, permissive_occluders, random_scene,
+    assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
+    permissive_occluders, random_scene,
 };
 use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
-use hom::occluders::OccluderDb;
-use hom::raster::{CoverageBuffer, OccluderRasterizer};
+use hom::occlusion::{HomBuffer, MapOptions};
 use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use proptest::prelude::*;
@@ -39,8 +39,8 @@ proptest! {
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
         prop_assume!(camera.validate().is_ok());
         let mut config = permissive();
-        config.map_size = map_size;
-        config.depth = [DepthMode::Rasterized(13, 9), DepthMode::EstimationBuffer(16, 16), DepthMode::SingleZPlane][depth_mode];
+        config.map.map_size = map_size;
+        config.map.depth = [DepthMode::Rasterized(13, 9), DepthMode::EstimationBuffer(16, 16), DepthMode::SingleZPlane][depth_mode];
         let mut culler = HomCuller::new(&scene, config);
         // Two frames, so the second uses the feedback (hole filling) of the first.
         assert_no_false_culls(&scene, &camera, &mut culler);
@@ -56,9 +56,9 @@ fn occluder_coverage_equals_the_renderers_item_buffer() {
         let scene = random_scene(seed * 7919 + 1, 25, false);
         let camera = Camera::new(Vec3::new(0.5, 1.0, 15.0), Vec3::ZERO, Vec3::Y, 1.1, 0.1, 100.0, 97, 61);
         let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 3 != 0).collect();
-        let db = OccluderDb::all(&scene);
-        let mut cov = CoverageBuffer::default();
-        OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera, None);
+        let mut buf = HomBuffer::new(camera.width, camera.height, exact()).unwrap();
+        draw_objects(&mut buf, &scene, &ids, &camera);
+        let cov = buf.coverage();
         let renderer = Renderer::new(2).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
         renderer.render(&scene, &ids, &camera, &hom_render::RenderOptions::default(), &mut fb);
@@ -223,16 +223,12 @@ fn approximate_mode_culls_at_least_as_much() {
         400,
         300,
     );
-    let mut exact = HomCuller::new(&scene, walls_only());
-    let mut approx = HomCuller::new(
-        &scene,
-        HomConfig {
-            opacity: Opacity::NegligibleHole(4),
-            ..walls_only()
-        },
-    );
+    let mut conservative = HomCuller::new(&scene, walls_only());
+    let mut config = walls_only();
+    config.map.opacity = Opacity::NegligibleHole(4);
+    let mut approx = HomCuller::new(&scene, config);
     let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
-    exact.cull(&scene, &camera, &mut a).unwrap();
+    conservative.cull(&scene, &camera, &mut a).unwrap();
     approx.cull(&scene, &camera, &mut b).unwrap();
     assert!(b.occluded.len() >= a.occluded.len());
     assert_eq!(b.occluded, vec![2], "the thin gap is a negligible hole");
@@ -250,10 +246,15 @@ fn random_scenes_are_really_culled() {
 #[test]
 fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
     for seed in 0..20u64 {
-        let (scene, camera, ids, db) = occluder_raster_case(seed);
-        let mut cov = CoverageBuffer::default();
-        let mut deb = hom::depth::DepthEstimationBuffer::new(camera.width, camera.height, 13, 11);
-        OccluderRasterizer::default().rasterize(&mut cov, &scene, &db, &ids, &camera, Some(&mut deb));
+        let (scene, camera, ids) = occluder_raster_case(seed);
+        let map = MapOptions {
+            depth: DepthMode::Rasterized(13, 11),
+            ..MapOptions::default()
+        };
+        let mut buf = HomBuffer::with_map(camera.width, camera.height, exact(), map).unwrap();
+        draw_objects(&mut buf, &scene, &ids, &camera);
+        let (cells, (cols, _)) = buf.depth_cells().unwrap();
+        let (cw, ch) = (camera.width.div_ceil(13), camera.height.div_ceil(11));
         let renderer = Renderer::new(1).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);
         let item_only = hom_render::RenderOptions {
@@ -261,8 +262,6 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
             ..Default::default()
         };
         renderer.render(&scene, &ids, &camera, &item_only, &mut fb);
-        let (cols, _) = deb.size();
-        let (cw, ch) = deb.cell_size();
         let mut covered_cells = 0;
         for y in 0..camera.height {
             for x in 0..camera.width {
@@ -270,7 +269,7 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
                 if fb.items()[i] == NO_OBJECT {
                     continue;
                 }
-                let cell = deb.cells()[((y / ch) * cols + x / cw) as usize];
+                let cell = cells[((y / ch) * cols + x / cw) as usize];
                 assert!(
                     cell >= fb.depth()[i],
                     "seed {seed} sample {x},{y}: cell {cell} nearer than {}",

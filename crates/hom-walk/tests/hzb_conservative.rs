@@ -5,13 +5,13 @@
 mod common;
 
 use common::{
-    assert_culls_a_fair_share, assert_no_false_culls, occluder_raster_case, permissive_occluders, random_scene,
+    assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
+    random_scene,
 };
 use hom::cull::{Culler, HzbConfig, HzbCuller};
-use hom::depth::TiledZBuffer;
 use hom::geom::Camera;
 use hom::glam::Vec3;
-use hom::raster::TiledRasterizer;
+use hom::occlusion::HzBuffer;
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use proptest::prelude::*;
 
@@ -57,15 +57,12 @@ fn random_scenes_are_really_culled() {
 #[test]
 fn per_sample_depth_equals_the_renderers_depth_buffer() {
     for seed in 0..20u64 {
-        let (scene, camera, ids, db) = occluder_raster_case(seed);
-        // The HZB culler's tiled rasterizer (rejection, vector kernels).
-        let mut raster = TiledRasterizer::new();
-        raster.setup_occluders(&scene, &db, &ids, &camera);
-        let mut zb = TiledZBuffer::default();
-        zb.clear(camera.width, camera.height);
-        raster.render(&mut zb);
+        let (scene, camera, ids) = occluder_raster_case(seed);
+        // The HZB culler's buffer (tiled rasterizer: rejection, vector kernels).
+        let mut buf = HzBuffer::new(camera.width, camera.height, exact()).unwrap();
+        draw_objects(&mut buf, &scene, &ids, &camera);
         let mut depth = Vec::new();
-        zb.to_row_major(&mut depth);
+        buf.zbuffer().to_row_major(&mut depth);
         assert_eq!(depth.len(), (camera.width * camera.height) as usize);
         let renderer = Renderer::new(2).unwrap();
         let mut fb = Framebuffer::new(camera.width, camera.height);

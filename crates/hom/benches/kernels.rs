@@ -9,10 +9,12 @@
 //!   log-uniform size); throughput is box tests per second.
 //! - `depth`: the depth estimation buffer (64×64 cells): insert 200 occluder
 //!   rectangles, and 10k occludee tests.
-//! - `raster`: the occluder coverage rasterizer on the frame's selected
-//!   occluders, with and without the rasterized depth estimation buffer, once
-//!   per raster backend the CPU supports (`[scalar]`, `[sse41]`, `[avx2]`,
-//!   `[avx512]`; the ones it lacks are named on stderr and skipped).
+//! - `raster`: the frame's selected occluders drawn through the front door
+//!   (clear, `render_triangles` per occluder, flush): into a `HomBuffer`
+//!   with a single Z plane (coverage and pyramid), with the rasterized depth
+//!   estimation buffer (the default), and into an `HzBuffer`; once per raster
+//!   backend the CPU supports (`[scalar]`, `[sse41]`, `[avx2]`, `[avx512]`;
+//!   the ones it lacks are named on stderr and skipped).
 //!
 //! `cargo bench -p hom --bench kernels -- --warm-up-time 1 --measurement-time 2`
 //! (append `raster` for the raster group alone)
@@ -22,7 +24,8 @@ use hom::depth::DepthEstimationBuffer;
 use hom::geom::{project_box_clipped, project_points, Camera, Footprint, ScreenRect};
 use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
-use hom::raster::{CoverageBuffer, OccluderRasterizer, RasterBackend};
+use hom::occlusion::{BufferOptions, DepthMode, FaceCull, HomBuffer, HzBuffer, MapOptions, OcclusionBuffer, Sampling};
+use hom::raster::{CoverageBuffer, RasterBackend};
 use hom::scene::Scene;
 use std::hint::black_box;
 use std::time::Duration;
@@ -36,7 +39,6 @@ const OCCLUDERS: usize = 200;
 struct Frame {
     scene: Scene,
     camera: Camera,
-    db: OccluderDb,
     occluders: Vec<u32>,
     coverage: CoverageBuffer,
 }
@@ -51,15 +53,37 @@ fn city_frame() -> Frame {
     let mut selector = OccluderSelector::new(SelectionConfig::default());
     let mut occluders = Vec::new();
     selector.select(&db, &scene, &camera, &frustum, None, &mut occluders);
-    let mut coverage = CoverageBuffer::default();
-    OccluderRasterizer::default().rasterize(&mut coverage, &scene, &db, &occluders, &camera, None);
+    let mut map = HomBuffer::new(SIDE, SIDE, exact(None)).expect("a valid size");
+    draw_occluders(&mut map, &scene, &occluders, &camera);
+    let coverage = map.coverage().clone();
     Frame {
         scene,
         camera,
-        db,
         occluders,
         coverage,
     }
+}
+
+/// Buffer options with the renderer's exact sampling (as the cullers use).
+fn exact(backend: Option<RasterBackend>) -> BufferOptions {
+    BufferOptions {
+        sampling: Sampling::Exact,
+        backend,
+        ..BufferOptions::default()
+    }
+}
+
+/// Clears `buf`, queues every occluder's mesh and draws them.
+fn draw_occluders(buf: &mut impl OcclusionBuffer, scene: &Scene, occluders: &[u32], camera: &Camera) {
+    buf.clear();
+    let vp = camera.view_proj();
+    for &id in occluders {
+        let o = scene.object(id);
+        let m = scene.mesh_of(o);
+        buf.render_triangles(m.positions(), m.triangles(), &(vp * o.transform), FaceCull::None)
+            .expect("scene meshes are valid");
+    }
+    buf.flush();
 }
 
 /// xorshift64*: deterministic, dependency-free.
@@ -218,8 +242,6 @@ fn raster(c: &mut Criterion, frame: &Frame) {
         .map(|&id| frame.scene.object(id).triangles as u64)
         .sum();
     eprintln!("raster: {} occluders, {triangles} triangles", frame.occluders.len());
-    let mut coverage = CoverageBuffer::default();
-    let mut deb = DepthEstimationBuffer::new(SIDE, SIDE, 64, 64);
     let mut g = c.benchmark_group("raster");
     g.throughput(Throughput::Elements(triangles));
     // The scalar path against every vector backend this CPU supports.
@@ -238,35 +260,25 @@ fn raster(c: &mut Criterion, frame: &Frame) {
         eprintln!("raster: skipped (CPU lacks them): {}", skipped.join(", "));
     }
     for backend in RasterBackend::supported() {
-        let mut rasterizer = OccluderRasterizer::with_backend(backend);
         let name = backend.name();
-        g.bench_function(format!("rasterize city frame 100 at 1024x1024 [{name}]"), |b| {
-            b.iter(|| {
-                rasterizer.rasterize(
-                    &mut coverage,
-                    &frame.scene,
-                    &frame.db,
-                    &frame.occluders,
-                    &frame.camera,
-                    None,
-                )
-            })
+        for (label, depth) in [
+            ("single Z plane", DepthMode::SingleZPlane),
+            ("depth buffer", DepthMode::Rasterized(64, 64)),
+        ] {
+            let map = MapOptions {
+                depth,
+                ..MapOptions::default()
+            };
+            let mut buf = HomBuffer::with_map(SIDE, SIDE, exact(Some(backend)), map).expect("a valid size");
+            g.bench_function(
+                format!("HomBuffer, {label}, city frame 100 at 1024x1024 [{name}]"),
+                |b| b.iter(|| draw_occluders(&mut buf, &frame.scene, &frame.occluders, &frame.camera)),
+            );
+        }
+        let mut buf = HzBuffer::new(SIDE, SIDE, exact(Some(backend))).expect("a valid size");
+        g.bench_function(format!("HzBuffer, city frame 100 at 1024x1024 [{name}]"), |b| {
+            b.iter(|| draw_occluders(&mut buf, &frame.scene, &frame.occluders, &frame.camera))
         });
-        g.bench_function(
-            format!("rasterize city frame 100 at 1024x1024 + depth buffer [{name}]"),
-            |b| {
-                b.iter(|| {
-                    rasterizer.rasterize(
-                        &mut coverage,
-                        &frame.scene,
-                        &frame.db,
-                        &frame.occluders,
-                        &frame.camera,
-                        Some(&mut deb),
-                    )
-                })
-            },
-        );
     }
     g.finish();
 }

@@ -25,6 +25,7 @@ pub mod depth;
 pub mod geom;
 pub mod map;
 pub mod occluders;
+pub mod occlusion;
 pub mod raster;
 pub mod scene;
 pub mod spatial;

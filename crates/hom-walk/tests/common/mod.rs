@@ -108,9 +108,8 @@ pub fn assert_culls_a_fair_share(mut make: impl FnMut(&Scene) -> Box<dyn Culler>
 }
 
 /// The case of the tests that compare an occluder raster with the renderer:
-/// a random scene (`seed`), a 101×77 camera on it, every other object as an
-/// occluder, and an occluder database holding every object.
-pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>, hom::occluders::OccluderDb) {
+/// a random scene (`seed`), a 101×77 camera on it, every other object as an occluder.
+pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>) {
     let scene = random_scene(seed * 104_729 + 3, 30, seed.is_multiple_of(3));
     let camera = Camera::new(
         Vec3::new(1.5, 2.0, 14.0),
@@ -123,8 +122,29 @@ pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>, hom::occlude
         77,
     );
     let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
-    let db = hom::occluders::OccluderDb::all(&scene);
-    (scene, camera, ids, db)
+    (scene, camera, ids)
+}
+
+/// Clears `buf`, queues the meshes of the objects `ids` of `scene` as seen by
+/// `camera` (two-sided) and draws them: an occlusion buffer as an engine fills it.
+pub fn draw_objects(buf: &mut impl hom::occlusion::OcclusionBuffer, scene: &Scene, ids: &[u32], camera: &Camera) {
+    buf.clear();
+    for &id in ids {
+        let o = scene.object(id);
+        let m = scene.mesh_of(o);
+        let mvp = camera.view_proj() * o.transform;
+        buf.render_triangles(m.positions(), m.triangles(), &mvp, hom::occlusion::FaceCull::None)
+            .unwrap();
+    }
+    buf.flush();
+}
+
+/// Buffer options with the reference renderer's sampling, for comparisons with it.
+pub fn exact() -> hom::occlusion::BufferOptions {
+    hom::occlusion::BufferOptions {
+        sampling: hom::occlusion::Sampling::Exact,
+        ..Default::default()
+    }
 }
 
 /// OpenArena's `pak1-maps.pk3` from the fetched cache, or `None` after

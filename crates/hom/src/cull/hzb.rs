@@ -5,8 +5,8 @@
 //! of occlusion maps plus a depth estimation buffer, so a comparison of the
 //! two isolates the representation.
 //!
-//! Per frame: select occluders → rasterize their per-sample depth into a
-//! [`TiledZBuffer`] (the renderer's own depth formula, `f32::INFINITY` where
+//! Per frame: select occluders → draw them into an [`HzBuffer`]: per-sample
+//! depth in a tiled z-buffer (the renderer's own depth formula, `f32::INFINITY` where
 //! uncovered; occluders hidden by nearer ones are rejected a tile or a block
 //! at a time) with its pyramid of farthest depths above → traverse the BVH
 //! front to back, culling a node or object when its screen rectangle is
@@ -23,16 +23,17 @@
 //! Hole filling (occluder selection's feedback) needs the opacity of screen
 //! regions, which the Z-pyramid does not hold: when the selector asks for the
 //! worst hole, an opacity pyramid is built from the last frame's depth
-//! (covered = finite depth), with HOM's default geometry, and searched with
-//! [`super::hom::find_worst_hole`].
+//! (covered = finite depth), with HOM's default geometry, and searched
+//! ([`crate::map::worst_hole_of_coverage`]).
 
-use super::hom::find_worst_hole;
+use super::hom::culler_buffer_options;
 use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
-use crate::geom::Camera;
-use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, SelectionConfig};
-use crate::raster::TiledRasterizer;
+use crate::geom::{Camera, Eye};
+use crate::map::worst_hole_of_coverage;
+use crate::occluders::{draw_occluders, OccluderDb, OccluderDbConfig, SelectionConfig};
+use crate::occlusion::{HzBuffer, MapOptions, OcclusionBuffer};
 use crate::scene::Scene;
 
 /// Settings of the HZB culler: HOM's occluder selection and database.
@@ -63,8 +64,7 @@ impl HzbConfig {
 pub struct HzbCuller {
     config: HzbConfig,
     common: OccluderCulling,
-    raster: TiledRasterizer,
-    zbuffer: TiledZBuffer,
+    buffer: Option<HzBuffer>,
 }
 
 impl HzbCuller {
@@ -73,8 +73,7 @@ impl HzbCuller {
         HzbCuller {
             common: OccluderCulling::new(scene, &config.selection, &config.occluder_db),
             config,
-            raster: TiledRasterizer::new(),
-            zbuffer: TiledZBuffer::default(),
+            buffer: None,
         }
     }
 
@@ -89,26 +88,13 @@ impl HzbCuller {
     }
 
     /// The last frame's occluder depth and its pyramid.
-    pub fn zbuffer(&self) -> &TiledZBuffer {
-        &self.zbuffer
+    pub fn zbuffer(&self) -> Option<&TiledZBuffer> {
+        self.buffer.as_ref().map(|b| b.last_zbuffer())
     }
 
     /// The current settings.
     pub fn config(&self) -> &HzbConfig {
         &self.config
-    }
-
-    /// The worst hole of the last frame's occluder coverage (see the module docs).
-    fn worst_hole(zb: &TiledZBuffer, hole_opacity: f32) -> Option<Hole> {
-        let (w, h) = (zb.width(), zb.height());
-        if w == 0 || h == 0 {
-            return None;
-        }
-        let mut bits = Vec::new();
-        zb.coverage_bits(&mut bits);
-        let mut p = HomConfig::default().new_pyramid(w, h);
-        p.build_from_coverage(&bits, (w as usize).div_ceil(64));
-        find_worst_hole(&p, hole_opacity)
     }
 }
 
@@ -128,27 +114,32 @@ impl Culler for HzbCuller {
     fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole_opacity = self.config.selection.hole_opacity;
-        let Self {
-            common,
-            raster,
-            zbuffer,
-            ..
-        } = self;
-        let last = &*zbuffer;
-        let frame = common.select(scene, camera, out, || HzbCuller::worst_hole(last, hole_opacity))?;
+        let last = &self.buffer;
+        let frame = self.common.select(scene, camera, out, || {
+            let zb = last.as_ref()?.last_zbuffer();
+            let mut bits = Vec::new();
+            zb.coverage_bits(&mut bits);
+            worst_hole_of_coverage(&bits, zb.width(), zb.height(), &MapOptions::default(), hole_opacity)
+        })?;
+        let (w, h) = (camera.width, camera.height);
+        let buffer = match &mut self.buffer {
+            Some(b) if (b.width(), b.height()) == (w, h) => b,
+            slot => slot
+                .insert(HzBuffer::new(w, h, culler_buffer_options()).expect("a validated camera has a valid viewport")),
+        };
 
         // 2. Occluder depth per output sample (the render also builds the pyramid above the tiles).
+        let common = &mut self.common;
         let drawn = out.time("raster", || {
-            zbuffer.clear(camera.width, camera.height);
-            raster.clear();
-            let drawn = raster.setup_occluders(scene, &common.db, &frame.occluders, camera);
-            raster.render(zbuffer);
-            drawn
+            buffer.clear();
+            let eye = Eye::Point(camera.eye);
+            let n = draw_occluders(buffer, scene, &common.db, &frame.occluders, &frame.view_proj, &eye);
+            buffer.flush();
+            n
         });
 
         // 3. Traversal: frustum → Z-pyramid, front to back.
-        let zbuffer = &*zbuffer;
-        common.traverse(scene, camera, out, frame, drawn, |r| zbuffer.is_behind(r));
+        common.traverse(scene, camera, out, frame, drawn, |r| buffer.rect_is_occluded(r));
         Ok(())
     }
 

@@ -10,7 +10,8 @@
 use super::frustum::refit_if_dynamic;
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Aabb, Camera, Containment, Footprint, Frustum, ScreenRect};
-use crate::occluders::{Hole, OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig, SelectionStats};
+use crate::map::Hole;
+use crate::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig, SelectionStats};
 use crate::scene::Scene;
 use crate::spatial::{Bvh, BvhConfig};
 use glam::{Mat4, Vec3};

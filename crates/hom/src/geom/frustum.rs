@@ -24,15 +24,26 @@ pub struct Frustum {
 
 impl Frustum {
     /// The frustum of a view-projection matrix whose clip space has `-w <= x, y <= w`
-    /// and `0 <= z <= w` (glam's `perspective_rh`; Gribb & Hartmann's extraction).
+    /// and `0 <= z <= w` (glam's `perspective_rh`; Gribb & Hartmann's extraction;
+    /// other conventions go through [`super::View::world_to_clip`] first).
     ///
     /// Returns `None` when the matrix is degenerate or not finite.
+    /// An infinite far plane (`perspective_infinite`, reversed-Z infinite) is
+    /// kept as a plane every point is inside.
     pub fn from_view_proj(m: &Mat4) -> Option<Frustum> {
         let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
-        let planes = [r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2];
+        Frustum::from_plane_rows([r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2])
+    }
+
+    fn from_plane_rows(planes: [glam::Vec4; 6]) -> Option<Frustum> {
         let mut out = [Plane::from_point_normal(Vec3::ZERO, Vec3::X); 6];
-        for (o, p) in out.iter_mut().zip(planes) {
-            *o = Plane::from_coefficients(p)?;
+        for (i, (o, p)) in out.iter_mut().zip(planes).enumerate() {
+            *o = match Plane::from_coefficients(p) {
+                Some(plane) => plane,
+                // The far plane at infinity: `0 x + 0 y + 0 z + d >= 0` with d > 0.
+                None if i == 5 && p.truncate() == Vec3::ZERO && p.w > 0.0 && p.w.is_finite() => Plane::EVERYWHERE,
+                None => return None,
+            };
         }
         Some(Frustum { planes: out })
     }
@@ -46,12 +57,7 @@ impl Frustum {
         }
         let (r0, r1, r2, r3) = (m.row(0), m.row(1), m.row(2), m.row(3));
         // x/w >= left  <=>  x - left * w >= 0 (w > 0 inside the frustum), and so on.
-        let planes = [r0 - r3 * x.0, r3 * x.1 - r0, r1 - r3 * y.0, r3 * y.1 - r1, r2, r3 - r2];
-        let mut out = [Plane::from_point_normal(Vec3::ZERO, Vec3::X); 6];
-        for (o, p) in out.iter_mut().zip(planes) {
-            *o = Plane::from_coefficients(p)?;
-        }
-        Some(Frustum { planes: out })
+        Frustum::from_plane_rows([r0 - r3 * x.0, r3 * x.1 - r0, r1 - r3 * y.0, r3 * y.1 - r1, r2, r3 - r2])
     }
 
     /// Three-way test of an axis-aligned box.

@@ -6,6 +6,7 @@ mod frustum;
 mod obb;
 mod plane;
 pub mod screen;
+mod view;
 
 pub use aabb::Aabb;
 pub use camera::{Camera, CameraError, MAX_VIEWPORT_SIDE};
@@ -13,3 +14,4 @@ pub use frustum::{Containment, Frustum};
 pub use obb::Obb;
 pub use plane::Plane;
 pub use screen::{project_box_clipped, project_points, Footprint, ScreenRect};
+pub use view::{ClipConvention, Eye, View, ViewError};

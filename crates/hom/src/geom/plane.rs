@@ -12,6 +12,13 @@ pub struct Plane {
 }
 
 impl Plane {
+    /// The "plane" every point is inside (signed distance 1 everywhere): an
+    /// infinite far plane.
+    pub const EVERYWHERE: Plane = Plane {
+        normal: Vec3::ZERO,
+        d: 1.0,
+    };
+
     /// A plane from `(a, b, c, d)` with `a x + b y + c z + d >= 0` inside, normalised.
     ///
     /// Returns `None` when `(a, b, c)` has no length or a coefficient is not finite.

@@ -196,6 +196,12 @@ impl OccluderDb {
         &self.config
     }
 
+    /// The stand-in mesh of `object`, when it is an occluder that has one.
+    pub fn stand_in(&self, object: u32) -> Option<&Mesh> {
+        let i = self.occluders.binary_search_by_key(&object, |o| o.object).ok()?;
+        self.occluders[i].stand_in.as_deref()
+    }
+
     /// Replaces an occluder's stand-in mesh (for example a simplified one).
     /// Returns false when `object` is not an occluder.
     pub fn set_stand_in(&mut self, object: u32, mesh: Arc<Mesh>) -> bool {

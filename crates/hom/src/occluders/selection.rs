@@ -17,6 +17,7 @@
 
 use super::database::OccluderDb;
 use crate::geom::{Camera, Containment, Frustum};
+use crate::map::Hole;
 use crate::scene::Scene;
 use std::collections::VecDeque;
 
@@ -69,17 +70,6 @@ impl Default for SelectionConfig {
             queue_gain_pct: 2.0,
         }
     }
-}
-
-/// A hole region of the coarsest map: normalized device rectangle and its mean opacity.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hole {
-    /// NDC x range (left, right).
-    pub x: (f32, f32),
-    /// NDC y range (bottom, top).
-    pub y: (f32, f32),
-    /// Mean opacity over the region.
-    pub opacity: f32,
 }
 
 /// What selection did this frame.

@@ -12,12 +12,9 @@
 //! spans from [`Tri::row_span`]) defines the result, and the vector kernels of
 //! [`super::simd`] produce bit-identical coverage and depth cells.
 
-use super::setup::{setup_triangle, Tri, Vertex, Viewport};
+use super::setup::Tri;
 use super::simd::{row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
-use crate::geom::Camera;
-use crate::occluders::OccluderDb;
-use crate::scene::Scene;
 use rayon::prelude::*;
 
 /// One bit per output sample: bit `x % 64` of word `y * words_per_row + x / 64`.
@@ -158,100 +155,45 @@ fn raise_cells(cells: &mut [f32], cell_w: u32, base: u32, fresh: u64, z: impl Fn
     }
 }
 
-/// Sets up every triangle of the occluders `ids` (their stand-in meshes
-/// where they have one), nearest occluder first, onto `tris`.
-/// Returns the number of occluder triangles submitted.
-pub(crate) fn setup_occluders(
-    scene: &Scene,
-    db: &OccluderDb,
-    ids: &[u32],
-    camera: &Camera,
-    tris: &mut Vec<Tri>,
-) -> u64 {
-    let vp = Viewport::new(camera.width, camera.height);
-    let view_proj = camera.view_proj();
-    // Triangle setup, in parallel over occluders, concatenated nearest first.
-    let mut order = ids.to_vec();
-    let eye = camera.eye;
-    let near = |id: &u32| scene.object(*id).aabb.distance_squared(eye);
-    order.sort_by(|a, b| near(a).total_cmp(&near(b)).then(a.cmp(b)));
-    let ids = &order[..];
-    let stand_ins: Vec<Option<&crate::scene::Mesh>> = ids
-        .iter()
-        .map(|&id| {
-            db.occluders()
-                .binary_search_by_key(&id, |o| o.object)
-                .ok()
-                .and_then(|i| db.occluders()[i].stand_in.as_deref())
-        })
-        .collect();
-    let per_object: Vec<Vec<Tri>> = ids
-        .par_iter()
-        .zip(stand_ins.par_iter())
-        .map(|(&id, stand_in)| {
-            let o = scene.object(id);
-            let mesh = stand_in.unwrap_or_else(|| scene.mesh_of(o));
-            let mvp = view_proj * o.transform;
-            let verts: Vec<Vertex> = mesh
-                .positions()
-                .iter()
-                .map(|p| Vertex::new(mvp * p.extend(1.0), &vp))
-                .collect();
-            let mut out = Vec::with_capacity(mesh.triangle_count());
-            for t in mesh.triangles() {
-                let [a, b, c] = t.map(|i| &verts[i as usize]);
-                setup_triangle([a, b, c], &vp, 0, [0; 4], &mut out);
-            }
-            out
-        })
-        .collect();
-    let submitted = ids.iter().map(|&id| scene.object(id).triangles as u64).sum();
-    for v in per_object {
-        tris.extend(v);
-    }
-    submitted
-}
-
 /// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 16;
 
 /// Rows whose masks a vector kernel computes per call.
 const MASK_ROWS: usize = 32;
 
-/// Rasterizes occluders' coverage; keeps its scratch between frames.
+/// Rasterizes set-up triangles' coverage (and depth cells); keeps its
+/// scratch between frames.
 #[derive(Clone, Debug)]
-pub struct OccluderRasterizer {
-    tris: Vec<Tri>,
+pub struct CoverageRasterizer {
     bins: Vec<Vec<u32>>,
     backend: RasterBackend,
 }
 
-impl Default for OccluderRasterizer {
+impl Default for CoverageRasterizer {
     /// A rasterizer using [`RasterBackend::active`].
-    fn default() -> OccluderRasterizer {
-        OccluderRasterizer::with_backend(RasterBackend::active())
+    fn default() -> CoverageRasterizer {
+        CoverageRasterizer::with_backend(RasterBackend::active())
     }
 }
 
-impl OccluderRasterizer {
+impl CoverageRasterizer {
     /// A rasterizer using [`RasterBackend::active`] (the fastest backend the CPU
     /// supports, the one `HOM_RASTER_BACKEND` names, or `Scalar` under
     /// `HOM_FORCE_SCALAR=1`).
-    pub fn new() -> OccluderRasterizer {
-        OccluderRasterizer::default()
+    pub fn new() -> CoverageRasterizer {
+        CoverageRasterizer::default()
     }
 
     /// A rasterizer using `backend`; every backend covers the same samples.
     ///
     /// # Panics
     /// If the CPU does not support `backend` ([`RasterBackend::is_supported`]).
-    pub fn with_backend(backend: RasterBackend) -> OccluderRasterizer {
+    pub fn with_backend(backend: RasterBackend) -> CoverageRasterizer {
         assert!(
             backend.is_supported(),
             "raster backend {backend:?} is not supported by this CPU"
         );
-        OccluderRasterizer {
-            tris: Vec::new(),
+        CoverageRasterizer {
             bins: Vec::new(),
             backend,
         }
@@ -262,58 +204,22 @@ impl OccluderRasterizer {
         self.backend
     }
 
-    /// Sets up the occluders' triangles into `self.tris`; see [`setup_occluders`].
-    fn setup(&mut self, scene: &Scene, db: &OccluderDb, ids: &[u32], camera: &Camera) -> u64 {
-        self.tris.clear();
-        setup_occluders(scene, db, ids, camera, &mut self.tris)
-    }
-
-    /// Clears `coverage` to the camera's viewport and covers every sample the
-    /// occluders `ids` cover (their stand-in meshes where they have one).
+    /// Covers, in `coverage` (which keeps what it holds), every sample the
+    /// triangles `tris` cover; they were set up for its viewport, and are
+    /// drawn in order.
     ///
-    /// With `depth`, also fills its cells with the farthest depth the renderer
-    /// would compute at any covered sample in each cell (`f32::INFINITY` where
-    /// nothing is covered); its cells must be laid over the same viewport.
-    /// Returns the number of occluder triangles submitted.
+    /// With `depth` (laid over the same viewport), also raises each cell to
+    /// the farthest depth the renderer computes at any sample *first* covered
+    /// in it by these triangles; a cell where nothing is covered holds
+    /// `f32::INFINITY`. Submitting occluders nearest first makes that mostly
+    /// the nearest occluder's depth; in any order it bounds it from above.
     pub fn rasterize(
         &mut self,
         coverage: &mut CoverageBuffer,
-        scene: &Scene,
-        db: &OccluderDb,
-        ids: &[u32],
-        camera: &Camera,
-        depth: Option<&mut DepthEstimationBuffer>,
-    ) -> u64 {
-        let submitted = self.setup(scene, db, ids, camera);
-        self.fill(coverage, camera.width, camera.height, depth);
-        submitted
-    }
-
-    /// [`OccluderRasterizer::rasterize`] for triangles already set up for a
-    /// `width` × `height` viewport (by [`crate::raster::setup`], for example
-    /// through [`crate::raster::TiledRasterizer::setup`]), in the given order.
-    pub fn rasterize_triangles(
-        &mut self,
-        coverage: &mut CoverageBuffer,
         tris: &[Tri],
-        width: u32,
-        height: u32,
         depth: Option<&mut DepthEstimationBuffer>,
     ) {
-        self.tris.clear();
-        self.tris.extend_from_slice(tris);
-        self.fill(coverage, width, height, depth);
-    }
-
-    /// Covers the samples of `self.tris` (and gathers depth cells) at `width` × `height`.
-    fn fill(
-        &mut self,
-        coverage: &mut CoverageBuffer,
-        width: u32,
-        height: u32,
-        depth: Option<&mut DepthEstimationBuffer>,
-    ) {
-        coverage.reset(width, height);
+        let height = coverage.height;
         // Bands of rows: one row of depth cells each when gathering depth, so
         // every band writes only its own cells.
         let (cols, band_rows, cell_w) = match depth.as_deref() {
@@ -326,13 +232,13 @@ impl OccluderRasterizer {
         for bin in &mut self.bins {
             bin.clear();
         }
-        for (i, t) in self.tris.iter().enumerate() {
+        for (i, t) in tris.iter().enumerate() {
             for band in u32::from(t.y0) / band_rows..=(u32::from(t.y1) - 1) / band_rows {
                 self.bins[band as usize].push(i as u32);
             }
         }
 
-        let (tris, bins, backend) = (&self.tris, &self.bins, self.backend);
+        let (bins, backend) = (&self.bins, self.backend);
         let wpr = coverage.words_per_row;
         // One row of depth cells per band (none when not gathering depth).
         let mut cell_rows: Vec<&mut [f32]> = match depth {
@@ -350,7 +256,13 @@ impl OccluderRasterizer {
                 let y0 = band as u32 * band_rows;
                 let y1 = y0 + (words.len() / wpr) as u32;
                 let gather = !cells.is_empty();
-                cells.fill(f32::NEG_INFINITY);
+                // Cells with nothing covered hold INFINITY; while drawing they hold
+                // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
+                for c in cells.iter_mut() {
+                    if *c == f32::INFINITY {
+                        *c = f32::NEG_INFINITY;
+                    }
+                }
                 let mut masks = [0u64; MASK_ROWS];
                 for &i in bin {
                     let t = &tris[i as usize];
@@ -410,7 +322,9 @@ impl OccluderRasterizer {
 mod tests {
     use super::*;
     use crate::geom::Camera;
-    use crate::scene::{Mesh, SceneBuilder};
+    use crate::raster::queue::TriangleQueue;
+    use crate::raster::setup::{FaceCull, Viewport};
+    use crate::scene::{Mesh, Scene, SceneBuilder};
     use glam::{Mat4, Quat, Vec3};
     use proptest::prelude::*;
 
@@ -480,18 +394,31 @@ mod tests {
         b.build().unwrap()
     }
 
+    /// Every triangle of every object of `scene`, set up for `camera` in id order.
+    fn scene_tris(scene: &Scene, camera: &Camera) -> Vec<Tri> {
+        let mut q = TriangleQueue::default();
+        for o in scene.objects() {
+            let m = scene.mesh_of(o);
+            let mvp = camera.view_proj() * o.transform;
+            q.push_model(m.positions(), m.triangles(), &mvp, FaceCull::None)
+                .unwrap();
+        }
+        let mut tris = Vec::new();
+        q.set_up(&Viewport::new(camera.width, camera.height), false, &mut tris);
+        tris
+    }
+
     /// Coverage and depth cells from `backend`.
     fn run(
         backend: RasterBackend,
         scene: &Scene,
-        db: &OccluderDb,
-        ids: &[u32],
         camera: &Camera,
         cells: Option<(u32, u32)>,
     ) -> (CoverageBuffer, Vec<u32>) {
         let mut cov = CoverageBuffer::default();
+        cov.reset(camera.width, camera.height);
         let mut deb = cells.map(|(c, r)| DepthEstimationBuffer::new(camera.width, camera.height, c, r));
-        OccluderRasterizer::with_backend(backend).rasterize(&mut cov, scene, db, ids, camera, deb.as_mut());
+        CoverageRasterizer::with_backend(backend).rasterize(&mut cov, &scene_tris(scene, camera), deb.as_mut());
         let cells = deb.map_or(Vec::new(), |d| d.cells().iter().map(|c| c.to_bits()).collect());
         (cov, cells)
     }
@@ -512,11 +439,9 @@ mod tests {
             let eye = Vec3::new(eye.0, eye.1, eye.2);
             let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 1000.0, w, h);
             prop_assume!(camera.validate().is_ok());
-            let db = OccluderDb::all(&scene);
-            let ids: Vec<u32> = (0..scene.objects().len() as u32).collect();
-            let (want, want_cells) = run(RasterBackend::Scalar, &scene, &db, &ids, &camera, cells);
+            let (want, want_cells) = run(RasterBackend::Scalar, &scene, &camera, cells);
             for backend in RasterBackend::supported() {
-                let (got, got_cells) = run(backend, &scene, &db, &ids, &camera, cells);
+                let (got, got_cells) = run(backend, &scene, &camera, cells);
                 prop_assert_eq!((got.width(), got.height()), (w, h));
                 prop_assert!(got.bits() == want.bits(), "{:?}: coverage differs from scalar", backend);
                 prop_assert!(got_cells == want_cells, "{:?}: depth cells differ from scalar", backend);
@@ -563,12 +488,10 @@ mod tests {
             1000,
             750,
         );
-        let db = OccluderDb::all(&scene);
-        let ids: Vec<u32> = (0..scene.objects().len() as u32).collect();
-        let (want, want_cells) = run(RasterBackend::Scalar, &scene, &db, &ids, &camera, Some((64, 64)));
+        let (want, want_cells) = run(RasterBackend::Scalar, &scene, &camera, Some((64, 64)));
         assert!(want.covered() > 0);
         for backend in supported {
-            let (got, got_cells) = run(backend, &scene, &db, &ids, &camera, Some((64, 64)));
+            let (got, got_cells) = run(backend, &scene, &camera, Some((64, 64)));
             assert!(got.bits() == want.bits() && got_cells == want_cells, "{backend:?}");
         }
     }

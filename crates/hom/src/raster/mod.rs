@@ -14,14 +14,15 @@
 //! bit-identical samples. In the environment, `HOM_RASTER_BACKEND=scalar|sse41|avx2|avx512`
 //! picks one ([`BACKEND_ENV`]) and `HOM_FORCE_SCALAR=1` forces the scalar path
 //! ([`FORCE_SCALAR_ENV`], which wins); in code,
-//! [`OccluderRasterizer::with_backend`].
+//! [`CoverageRasterizer::with_backend`].
 
 mod coverage;
+pub(crate) mod queue;
 pub mod setup;
 mod simd;
 mod simd_tiles;
 mod tiled;
 
-pub use coverage::{CoverageBuffer, OccluderRasterizer};
+pub use coverage::{CoverageBuffer, CoverageRasterizer};
 pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV, MASK_MAX};
 pub use tiled::{TiledRasterizer, TiledStats};

@@ -19,23 +19,16 @@
 //! cannot make nearer. Bands are independent, so the result is the same for
 //! any thread count.
 
-use super::coverage::setup_occluders;
-use super::setup::{setup_triangle_with, SetupRule, Tri, Vertex, Viewport, HALF, ONE};
+use super::setup::{Tri, HALF, ONE};
 use super::simd::RasterBackend;
 use super::simd_tiles::{render_band, TileKernel};
 use crate::depth::tiled::{TiledZBuffer, TILE, TILE_SAMPLES};
-use crate::geom::Camera;
-use crate::occluders::OccluderDb;
-use crate::scene::Scene;
-use glam::Vec4;
 use rayon::prelude::*;
 
 /// Tile rows per band (each band is filled by one thread).
 const BAND_TILES: u32 = 4;
 /// Tiles per block side: blocks are `BAND_TILES` × `BLOCK_TILES` tiles.
 const BLOCK_TILES: u32 = 8;
-/// Triangles set up per parallel task.
-const SETUP_CHUNK: usize = 2048;
 /// Relative slack on a plane's depth bound: covers the few `f32` roundings
 /// of the renderer's formula and of the bound itself.
 const PLANE_SLACK: f32 = 1.0 / (1 << 19) as f32;
@@ -62,12 +55,10 @@ impl std::ops::AddAssign for TiledStats {
     }
 }
 
-/// Sets up triangles and renders their depth into a [`TiledZBuffer`]; keeps
-/// its scratch between frames.
+/// Renders set-up triangles' depth into a [`TiledZBuffer`]; keeps its
+/// scratch between frames.
 #[derive(Clone, Debug, Default)]
 pub struct TiledRasterizer {
-    verts: Vec<Vertex>,
-    tris: Vec<Tri>,
     /// Per band of rows, copies of the triangles overlapping it (read in order, from cache).
     bins: Vec<Vec<Tri>>,
     backend: RasterBackend,
@@ -94,57 +85,10 @@ impl TiledRasterizer {
         }
     }
 
-    /// Forgets the triangles set up so far.
-    pub fn clear(&mut self) {
-        self.tris.clear();
-    }
-
-    /// The triangles set up so far.
-    pub fn triangles(&self) -> &[Tri] {
-        &self.tris
-    }
-
-    /// Sets up a clip-space triangle list for a `width` × `height` viewport
-    /// (clipping, snapping, face culling and coverage as `rule` says), in
-    /// parallel, appending to the triangles to render.
-    ///
-    /// # Panics
-    /// If a triangle indexes past `vertices`.
-    pub fn setup(&mut self, vertices: &[Vec4], triangles: &[[u32; 3]], rule: SetupRule, width: u32, height: u32) {
-        let vp = Viewport::new(width, height);
-        vertices
-            .par_iter()
-            .map(|&v| Vertex::new(v, &vp))
-            .collect_into_vec(&mut self.verts);
-        let verts = &self.verts;
-        let chunks: Vec<Vec<Tri>> = triangles
-            .par_chunks(SETUP_CHUNK)
-            .map(|chunk| {
-                let mut out = Vec::with_capacity(chunk.len());
-                for t in chunk {
-                    let [a, b, c] = t.map(|i| &verts[i as usize]);
-                    setup_triangle_with([a, b, c], &vp, rule, 0, [0; 4], &mut out);
-                }
-                out
-            })
-            .collect();
-        for c in chunks {
-            self.tris.extend(c);
-        }
-    }
-
-    /// Sets up the triangles of the occluders `ids` of `scene` (their stand-in
-    /// meshes where they have one) for `camera`, two-sided, as the renderer
-    /// does, appending to the triangles to render. Returns the number of
-    /// occluder triangles submitted.
-    pub fn setup_occluders(&mut self, scene: &Scene, db: &OccluderDb, ids: &[u32], camera: &Camera) -> u64 {
-        setup_occluders(scene, db, ids, camera, &mut self.tris)
-    }
-
-    /// Renders the triangles set up so far into `zb` (which keeps what it
-    /// holds: clear it first for a new frame) and builds its pyramid. Uses the
-    /// current rayon pool; the result does not depend on its size.
-    pub fn render(&mut self, zb: &mut TiledZBuffer) -> TiledStats {
+    /// Renders `tris` (set up for `zb`'s viewport) into `zb`, which keeps
+    /// what it holds (clear it first for a new frame), and builds its
+    /// pyramid. Uses the current rayon pool; the result does not depend on its size.
+    pub fn render(&mut self, tris: &[Tri], zb: &mut TiledZBuffer) -> TiledStats {
         let (tiles_x, tiles_y) = zb.tiles();
         let (width, height) = (zb.width(), zb.height());
         let bands = tiles_y.div_ceil(BAND_TILES) as usize;
@@ -154,12 +98,12 @@ impl TiledRasterizer {
             bin.clear();
         }
         let band_px = BAND_TILES * TILE;
-        for t in &self.tris {
+        for t in tris {
             for band in u32::from(t.y0) / band_px..=(u32::from(t.y1) - 1) / band_px {
                 self.bins[band as usize].push(*t);
             }
         }
-        let (tris, backend) = (&self.tris, self.backend);
+        let backend = self.backend;
         let (samples, maxima, touched) = zb.parts_mut();
         let band_tiles = (tiles_x * BAND_TILES) as usize;
         let stats = samples
@@ -397,8 +341,19 @@ fn draw_tile_wide(t: &Tri, px: u32, py: u32, width: u32, height: u32, tile: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::raster::setup::FaceCull;
+    use crate::raster::queue::TriangleQueue;
+    use crate::raster::setup::{FaceCull, Viewport};
+    use glam::Vec4;
     use proptest::prelude::*;
+
+    /// `t` over `v` set up for a `w` × `h` viewport under `rule`.
+    fn set_up(v: &[Vec4], t: &[[u32; 3]], cull: FaceCull, inner: bool, w: u32, h: u32) -> Vec<Tri> {
+        let mut q = TriangleQueue::default();
+        q.push_clip(v, t, |v| v, cull).unwrap();
+        let mut out = Vec::new();
+        q.set_up(&Viewport::new(w, h), inner, &mut out);
+        out
+    }
 
     /// The obvious reference: every triangle, every sample of its box, the
     /// renderer's formula, nearest wins; row-major, `INFINITY` where uncovered.
@@ -458,18 +413,15 @@ mod tests {
             // Stale samples from another frame must not leak through the lazy clear.
             let mut zb = TiledZBuffer::default();
             let (sv, st) = soup(!seed, 60);
-            let mut stale = TiledRasterizer::new();
-            stale.setup(&sv, &st, SetupRule::default(), w, h);
             zb.clear(w, h);
-            stale.render(&mut zb);
+            TiledRasterizer::new().render(&set_up(&sv, &st, FaceCull::None, false, w, h), &mut zb);
+            let tris = set_up(&v, &t, cull, seed % 2 == 0, w, h);
+            let expect = brute_force(&tris, w, h);
             for backend in RasterBackend::supported() {
-            let mut r = TiledRasterizer::with_backend(backend);
-            r.setup(&v, &t, SetupRule { cull, inner: seed % 2 == 0 }, w, h);
             zb.clear(w, h);
-            r.render(&mut zb);
+            TiledRasterizer::with_backend(backend).render(&tris, &mut zb);
             let mut got = Vec::new();
             zb.to_row_major(&mut got);
-            let expect = brute_force(r.triangles(), w, h);
             for (i, (g, e)) in got.iter().zip(&expect).enumerate() {
                 prop_assert!(g == e, "{:?} sample {},{}: tiled {} brute force {}", backend, i as u32 % w, i as u32 / w, g, e);
             }
@@ -495,11 +447,10 @@ mod tests {
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             pool.install(|| {
-                let mut r = TiledRasterizer::new();
-                r.setup(&v, &t, SetupRule::default(), 333, 257);
+                let tris = set_up(&v, &t, FaceCull::None, false, 333, 257);
                 let mut zb = TiledZBuffer::default();
                 zb.clear(333, 257);
-                let stats = r.render(&mut zb);
+                let stats = TiledRasterizer::new().render(&tris, &mut zb);
                 let mut d = Vec::new();
                 zb.to_row_major(&mut d);
                 (d, stats)

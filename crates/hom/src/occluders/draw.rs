@@ -1,0 +1,41 @@
+//! Handing the selected occluders to an occlusion buffer: each occluder's
+//! mesh (its stand-in where it has one) under `world_to_clip · transform`,
+//! two-sided, nearest occluder first — the order both buffers want (the
+//! HZB then skips what is already hidden; HOM's depth cells keep the first,
+//! nearest cover).
+
+use super::OccluderDb;
+use crate::geom::{Eye, View};
+use crate::occlusion::{FaceCull, OcclusionBuffer};
+use crate::scene::{Mesh, Scene};
+use glam::Mat4;
+
+/// Queues the occluders `ids` of `scene` in `buffer` (whose clip convention
+/// is hom's, [`crate::geom::ClipConvention::ZeroToOne`]), nearest first as
+/// seen from `eye`. Returns the number of occluder triangles submitted.
+pub(crate) fn draw_occluders(
+    buffer: &mut impl OcclusionBuffer,
+    scene: &Scene,
+    db: &OccluderDb,
+    ids: &[u32],
+    world_to_clip: &Mat4,
+    eye: &Eye,
+) -> u64 {
+    let mut order: Vec<(f32, u32)> = ids
+        .iter()
+        .map(|&id| (View::nearness(eye, &scene.object(id).aabb), id))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut submitted = 0;
+    for (_, id) in order {
+        let o = scene.object(id);
+        let mesh: &Mesh = db.stand_in(id).unwrap_or_else(|| scene.mesh_of(o));
+        let mvp = *world_to_clip * o.transform;
+        // Scene meshes hold only valid indices and the matrix is finite for a
+        // validated view and scene, so a refusal here would be a bug upstream.
+        let drawn = buffer.render_triangles(mesh.positions(), mesh.triangles(), &mvp, FaceCull::None);
+        debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
+        submitted += u64::from(o.triangles);
+    }
+    submitted
+}

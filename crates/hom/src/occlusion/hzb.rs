@@ -1,0 +1,65 @@
+//! [`HzBuffer`]: the hierarchical Z-buffer (Greene, Kass and Miller 1993;
+//! RTR section 7.2) as an occlusion buffer — occluder depth per sample in a
+//! [`TiledZBuffer`] (8×8 tiles, each with its farthest depth, a max-pyramid
+//! above), drawn by [`TiledRasterizer`], which skips blocks and tiles that
+//! are already nearer than the triangle.
+//!
+//! A rectangle is occluded when every sample under it holds an occluder
+//! nearer than the rectangle's nearest depth by [`crate::depth::DEPTH_MARGIN`]
+//! (coarse to fine through the pyramid: [`TiledZBuffer::is_behind`]).
+
+use super::{occlusion_buffer, BufferOptions, Front, OcclusionError};
+use crate::depth::TiledZBuffer;
+use crate::geom::ScreenRect;
+use crate::raster::TiledRasterizer;
+
+/// The hierarchical Z-buffer occlusion buffer; see the [module docs](crate::occlusion).
+#[derive(Clone, Debug)]
+pub struct HzBuffer {
+    front: Front,
+    raster: TiledRasterizer,
+    zbuffer: TiledZBuffer,
+}
+
+impl HzBuffer {
+    /// An empty `width` × `height` buffer (each side 1..=16384).
+    pub fn new(width: u32, height: u32, options: BufferOptions) -> Result<HzBuffer, OcclusionError> {
+        let front = Front::new(width, height, options)?;
+        let mut zbuffer = TiledZBuffer::default();
+        zbuffer.clear(width, height);
+        zbuffer.build_pyramid();
+        Ok(HzBuffer {
+            raster: TiledRasterizer::with_backend(front.backend),
+            front,
+            zbuffer,
+        })
+    }
+
+    /// The occluder depth drawn so far and its pyramid (draws what is queued first).
+    pub fn zbuffer(&mut self) -> &TiledZBuffer {
+        <Self as super::OcclusionBuffer>::flush(self);
+        &self.zbuffer
+    }
+
+    /// The z-buffer as it stands, without drawing what is queued (the culler's hole search).
+    pub(crate) fn last_zbuffer(&self) -> &TiledZBuffer {
+        &self.zbuffer
+    }
+
+    fn reset(&mut self) {
+        self.zbuffer.clear(self.front.width, self.front.height);
+        self.zbuffer.build_pyramid();
+    }
+
+    fn draw(&mut self) {
+        let s = self.raster.render(&self.front.tris, &mut self.zbuffer);
+        self.front.stats.tiles_drawn += s.tiles_drawn;
+        self.front.stats.tiles_rejected += s.tiles_rejected + s.blocks_rejected;
+    }
+
+    fn is_behind(&self, r: &ScreenRect) -> bool {
+        self.zbuffer.is_behind(r)
+    }
+}
+
+occlusion_buffer!(HzBuffer);

@@ -1,0 +1,570 @@
+//! # Occlusion buffers: the front door for engines
+//!
+//! Clear a buffer, draw occluder triangles, test boxes — three calls a frame,
+//! with the engine's own meshes and matrices:
+//!
+//! ```
+//! use hom::glam::{Mat4, Vec3};
+//! use hom::geom::Aabb;
+//! use hom::occlusion::{BufferOptions, ClipConvention, FaceCull, HzBuffer, OcclusionBuffer, Visibility};
+//!
+//! let proj = hom::glam::camera::rh::proj::directx::perspective_infinite_reverse(1.0, 16.0 / 9.0, 0.1);
+//! let view = hom::glam::camera::rh::view::look_at_mat4(Vec3::new(0.0, 1.0, 10.0), Vec3::ZERO, Vec3::Y);
+//! let view_proj = proj * view;
+//! let options = BufferOptions { clip: ClipConvention::ReversedZ, ..Default::default() };
+//! let mut buf = HzBuffer::new(320, 180, options)?;
+//!
+//! // A 20 m × 10 m wall at z = 0, two triangles.
+//! let wall = [Vec3::new(-10.0, -5.0, 0.0), Vec3::new(10.0, -5.0, 0.0), Vec3::new(10.0, 5.0, 0.0), Vec3::new(-10.0, 5.0, 0.0)];
+//! buf.clear();
+//! buf.render_triangles(&wall, &[[0, 1, 2], [0, 2, 3]], &view_proj, FaceCull::None)?;
+//!
+//! let behind = Aabb::new(Vec3::new(-1.0, 0.0, -5.0), Vec3::new(1.0, 2.0, -3.0));
+//! let in_front = Aabb::new(Vec3::new(-1.0, 0.0, 3.0), Vec3::new(1.0, 2.0, 5.0));
+//! let off_screen = Aabb::new(Vec3::new(-1.0, 0.0, 30.0), Vec3::new(1.0, 2.0, 32.0));
+//! assert_eq!(buf.test_aabb(&behind, &view_proj), Visibility::Occluded);
+//! assert_eq!(buf.test_aabb(&in_front, &view_proj), Visibility::Visible);
+//! assert_eq!(buf.test_aabb(&off_screen, &view_proj), Visibility::ViewCulled);
+//! # Ok::<(), hom::occlusion::OcclusionError>(())
+//! ```
+//!
+//! ## Conventions
+//! - Matrices are column-major [`glam::Mat4`]; `model_to_clip` maps the
+//!   vertices (or box) you pass to clip space in the buffer's
+//!   [`ClipConvention`] (`BufferOptions::clip`): pass `view_proj * model`.
+//!   Perspective and orthographic projections both work.
+//! - NDC x and y are in `[-1, 1]`, y up; pixel (0, 0) is the top-left of the
+//!   buffer and samples sit at pixel centres.
+//! - Depths passed to [`OcclusionBuffer::test_rect`] are `z / w` in the
+//!   buffer's convention (reversed Z: larger is nearer).
+//! - A box or rectangle that reaches in front of the near plane is never
+//!   [`Visibility::Occluded`]. Non-finite vertices are skipped; a NaN box is
+//!   [`Visibility::Visible`].
+//! - Answers are exact for an image of the buffer's own size. A box is
+//!   `Occluded` when no sample of the buffer sees any part of it; an engine
+//!   that renders at a higher resolution than the buffer may see it through a
+//!   gap narrower than a buffer pixel, as with any point-sampled occlusion
+//!   buffer (Masked Occlusion Culling included).
+//! - Submit occluders nearest first: it costs nothing and makes both buffers
+//!   tighter (HZB skips what is already hidden; HOM's depth cells keep the
+//!   first, nearest cover).
+//!
+//! ## The two buffers
+//! - [`HzBuffer`]: the hierarchical Z-buffer (Greene, Kass and Miller 1993) —
+//!   per-sample occluder depth in 8×8 tiles with a pyramid of farthest
+//!   depths. Finds every hidden box the samples can prove hidden.
+//! - [`HomBuffer`]: hierarchical occlusion maps (Zhang et al. 1997) — an
+//!   opacity pyramid of exact coverage counts plus a depth estimation buffer;
+//!   optionally approximate ([`Opacity::Threshold`]).
+//!
+//! Triangles are queued by `render_*` and set up and drawn, in parallel on
+//! the current rayon pool, at the first test after them (or at
+//! [`OcclusionBuffer::flush`]); rendering and testing may be interleaved.
+
+mod hom;
+mod hzb;
+
+pub use self::hom::{DepthMode, HomBuffer, MapOptions, Opacity};
+pub use self::hzb::HzBuffer;
+pub use crate::geom::ClipConvention;
+pub use crate::raster::setup::FaceCull;
+
+use crate::geom::{project_points, Aabb, Footprint, Obb, ScreenRect, MAX_VIEWPORT_SIDE};
+use crate::raster::queue::{QueueError, TriangleQueue, MAX_QUEUED_TRIANGLES};
+use crate::raster::setup::{Tri, Viewport};
+use crate::raster::RasterBackend;
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::time::Instant;
+use thiserror::Error;
+
+/// The answer to a test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Visibility {
+    /// May be seen: draw it.
+    Visible,
+    /// Wholly outside the view frustum.
+    ViewCulled,
+    /// In the frustum, but no sample of the buffer sees any part of it.
+    Occluded,
+}
+
+/// Which samples a triangle covers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Sampling {
+    /// Only samples the true, unsnapped triangle covers, with depth no nearer
+    /// than its own: conservative against any rasterizer drawing the final
+    /// image at the buffer's resolution. The default.
+    #[default]
+    Conservative,
+    /// Exactly the samples, and depths, of hom's reference renderer
+    /// (`hom-render`: pixel centres, 8 sub-pixel bits, top-left rule — the
+    /// Direct3D/Vulkan rules). For images drawn with that rule; slightly
+    /// more culling along edges.
+    Exact,
+}
+
+/// Options shared by both buffers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BufferOptions {
+    /// The clip convention of every matrix, clip-space vertex and depth passed in.
+    pub clip: ClipConvention,
+    /// Which samples a triangle covers.
+    pub sampling: Sampling,
+    /// The vector kernels to draw with; `None` picks [`RasterBackend::active`]
+    /// (the widest the CPU has, or `HOM_RASTER_BACKEND` / `HOM_FORCE_SCALAR`).
+    /// Every backend gives the same answers.
+    pub backend: Option<RasterBackend>,
+}
+
+/// Why a buffer refused a call.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum OcclusionError {
+    /// Zero or absurd buffer size.
+    #[error("occlusion buffer must be 1..={max} pixels a side, got {width}x{height}", max = MAX_VIEWPORT_SIDE)]
+    Size {
+        /// Width asked for.
+        width: u32,
+        /// Height asked for.
+        height: u32,
+    },
+    /// A triangle names a vertex that was not passed.
+    #[error("triangle {triangle} uses vertex {index}, but only {vertex_count} vertices were passed")]
+    IndexOutOfRange {
+        /// Triangle index in the call.
+        triangle: usize,
+        /// The bad vertex index.
+        index: u32,
+        /// Vertices passed.
+        vertex_count: usize,
+    },
+    /// The matrix has a NaN or infinite entry.
+    #[error("model-to-clip matrix has a non-finite entry: {0:?}")]
+    NonFiniteMatrix([f32; 16]),
+    /// More triangles in one frame than a buffer queues.
+    #[error("{queued} triangles are queued and {adding} more would exceed {max}; clear the buffer each frame", max = MAX_QUEUED_TRIANGLES)]
+    TooManyTriangles {
+        /// Already queued.
+        queued: usize,
+        /// In this call.
+        adding: usize,
+    },
+    /// `BufferOptions::backend` names vector kernels this CPU lacks.
+    #[error("raster backend {0} is not supported by this CPU (supported: {1})")]
+    UnsupportedBackend(&'static str, String),
+}
+
+impl From<QueueError> for OcclusionError {
+    fn from(e: QueueError) -> OcclusionError {
+        match e {
+            QueueError::Index {
+                triangle,
+                index,
+                vertex_count,
+            } => OcclusionError::IndexOutOfRange {
+                triangle,
+                index,
+                vertex_count,
+            },
+            QueueError::Full { queued, adding } => OcclusionError::TooManyTriangles { queued, adding },
+        }
+    }
+}
+
+/// What a buffer did since its last [`OcclusionBuffer::clear`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BufferStats {
+    /// Triangles passed to `render_*`.
+    pub triangles_submitted: u64,
+    /// Triangles drawn after clipping (a clipped triangle counts once per fan
+    /// piece), face culling and dropping those that cover no sample.
+    pub triangles_drawn: u64,
+    /// [`HzBuffer`]: 8×8 tiles whose samples were tested; `tiles_rejected`,
+    /// tiles and blocks skipped because everything there was nearer.
+    pub tiles_drawn: u64,
+    /// See `tiles_drawn`.
+    pub tiles_rejected: u64,
+    /// Tests answered (`test_*`).
+    pub tests: u64,
+    /// Of those, answered [`Visibility::Occluded`].
+    pub occluded: u64,
+    /// Of those, answered [`Visibility::ViewCulled`].
+    pub view_culled: u64,
+    /// Time setting queued triangles up (clip, snap, edge functions), ms.
+    pub setup_ms: f64,
+    /// Time drawing them into the buffer, ms.
+    pub raster_ms: f64,
+}
+
+/// What [`HzBuffer`] and [`HomBuffer`] share: draw occluders, test boxes.
+///
+/// Every test is conservative (see the module docs): `Occluded` only when no
+/// sample of the buffer sees any part of the box or rectangle.
+pub trait OcclusionBuffer {
+    /// Width in pixels (samples).
+    fn width(&self) -> u32;
+
+    /// Height in pixels (samples).
+    fn height(&self) -> u32;
+
+    /// The options the buffer was made with.
+    fn options(&self) -> &BufferOptions;
+
+    /// Empties the buffer (nothing occludes) and its statistics. Cheap: call it every frame.
+    fn clear(&mut self);
+
+    /// Clears and changes the size.
+    fn resize(&mut self, width: u32, height: u32) -> Result<(), OcclusionError>;
+
+    /// Queues occluder triangles: `indices` into `positions`, which
+    /// `model_to_clip` takes to clip space (`view_proj * model`, in the
+    /// buffer's convention). Triangles with a non-finite vertex are skipped.
+    fn render_triangles(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+        cull: FaceCull,
+    ) -> Result<(), OcclusionError>;
+
+    /// Queues occluder triangles whose vertices are already in clip space (the buffer's convention).
+    fn render_clip_triangles(
+        &mut self,
+        vertices: &[Vec4],
+        indices: &[[u32; 3]],
+        cull: FaceCull,
+    ) -> Result<(), OcclusionError>;
+
+    /// Draws what is queued now instead of at the next test (for timing).
+    fn flush(&mut self);
+
+    /// Tests an axis-aligned box given in the space `model_to_clip` maps from.
+    fn test_aabb(&mut self, aabb: &Aabb, model_to_clip: &Mat4) -> Visibility;
+
+    /// Tests an oriented box given in the space `model_to_clip` maps from.
+    fn test_obb(&mut self, obb: &Obb, model_to_clip: &Mat4) -> Visibility;
+
+    /// Tests a screen rectangle in NDC (`min` bottom-left, `max` top-right)
+    /// at `nearest_depth`, the nearest `z / w` of what it bounds in the
+    /// buffer's convention. It covers every pixel it touches.
+    fn test_rect(&mut self, min: Vec2, max: Vec2, nearest_depth: f32) -> Visibility;
+
+    /// What the buffer did since the last clear.
+    fn stats(&self) -> BufferStats;
+}
+
+/// Where a test lands before the image is consulted.
+pub(crate) enum Placement {
+    /// Wholly outside the frustum.
+    ViewCulled,
+    /// Reaches in front of the near plane, or not finite: visible.
+    Visible,
+    /// A rectangle of samples and the nearest depth (hom's convention).
+    Rect(ScreenRect),
+}
+
+/// The placement of a box's eight corners under `to_clip` (hom's convention).
+pub(crate) fn place_corners(corners: &[Vec3; 8], to_clip: &Mat4, width: u32, height: u32) -> Placement {
+    let mut all_out = 0x3fu32;
+    for p in corners {
+        let c = *to_clip * p.extend(1.0);
+        let code = u32::from(c.x < -c.w)
+            | u32::from(c.x > c.w) << 1
+            | u32::from(c.y < -c.w) << 2
+            | u32::from(c.y > c.w) << 3
+            | u32::from(c.z < 0.0) << 4
+            | u32::from(c.z > c.w) << 5;
+        all_out &= code;
+    }
+    if all_out != 0 {
+        return Placement::ViewCulled;
+    }
+    match project_points(corners, to_clip, width, height) {
+        Footprint::Straddles => Placement::Visible,
+        Footprint::Rect(r) => Placement::Rect(r),
+    }
+}
+
+/// The placement of an NDC rectangle at a depth already in hom's convention:
+/// every pixel it touches (columns `trunc((x + 1) / 2 · W)`, inclusive).
+pub(crate) fn place_ndc_rect(min: Vec2, max: Vec2, depth: f32, width: u32, height: u32) -> Placement {
+    if !(min.is_finite() && max.is_finite() && depth.is_finite()) || min.x > max.x || min.y > max.y || depth < 0.0 {
+        return Placement::Visible;
+    }
+    if max.x < -1.0 || min.x > 1.0 || max.y < -1.0 || min.y > 1.0 || depth > 1.0 {
+        return Placement::ViewCulled;
+    }
+    let col = |x: f32| ((x + 1.0) * 0.5 * width as f32) as i64;
+    let row = |y: f32| ((1.0 - y) * 0.5 * height as f32) as i64;
+    let clamp = |v: i64, n: u32| v.clamp(0, i64::from(n) - 1) as u32;
+    Placement::Rect(ScreenRect {
+        x0: clamp(col(min.x), width),
+        x1: clamp(col(max.x), width) + 1,
+        y0: clamp(row(max.y), height),
+        y1: clamp(row(min.y), height) + 1,
+        z_near: depth,
+        z_far: depth,
+    })
+}
+
+/// What both buffers keep besides their representation: size, options, the
+/// queue of triangles not drawn yet, statistics.
+#[derive(Clone, Debug)]
+pub(crate) struct Front {
+    width: u32,
+    height: u32,
+    options: BufferOptions,
+    backend: RasterBackend,
+    queue: TriangleQueue,
+    /// Scratch: the queued triangles set up.
+    tris: Vec<Tri>,
+    stats: BufferStats,
+}
+
+impl Front {
+    fn new(width: u32, height: u32, options: BufferOptions) -> Result<Front, OcclusionError> {
+        check_size(width, height)?;
+        let backend = match options.backend {
+            None => RasterBackend::active(),
+            Some(b) if b.is_supported() => b,
+            Some(b) => {
+                let names: Vec<&str> = RasterBackend::supported().iter().map(|b| b.name()).collect();
+                return Err(OcclusionError::UnsupportedBackend(b.name(), names.join(", ")));
+            }
+        };
+        Ok(Front {
+            width,
+            height,
+            options,
+            backend,
+            queue: TriangleQueue::default(),
+            tris: Vec::new(),
+            stats: BufferStats::default(),
+        })
+    }
+
+    fn clear(&mut self) {
+        self.queue.clear();
+        self.stats = BufferStats::default();
+    }
+
+    fn resize(&mut self, width: u32, height: u32) -> Result<(), OcclusionError> {
+        check_size(width, height)?;
+        (self.width, self.height) = (width, height);
+        self.clear();
+        Ok(())
+    }
+
+    fn render_triangles(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+        cull: FaceCull,
+    ) -> Result<(), OcclusionError> {
+        if !model_to_clip.is_finite() {
+            return Err(OcclusionError::NonFiniteMatrix(model_to_clip.to_cols_array()));
+        }
+        let m = self.options.clip.to_zero_to_one() * *model_to_clip;
+        self.queue.push_model(positions, indices, &m, cull)?;
+        self.stats.triangles_submitted += indices.len() as u64;
+        Ok(())
+    }
+
+    fn render_clip_triangles(
+        &mut self,
+        vertices: &[Vec4],
+        indices: &[[u32; 3]],
+        cull: FaceCull,
+    ) -> Result<(), OcclusionError> {
+        let clip = self.options.clip;
+        self.queue
+            .push_clip(vertices, indices, |v| clip.vertex_to_zero_to_one(v), cull)?;
+        self.stats.triangles_submitted += indices.len() as u64;
+        Ok(())
+    }
+
+    /// Sets the queued triangles up into `self.tris` (timed) and empties the
+    /// queue; false when nothing was queued.
+    fn set_up(&mut self) -> bool {
+        if self.queue.is_empty() {
+            return false;
+        }
+        let start = Instant::now();
+        let inner = self.options.sampling == Sampling::Conservative;
+        self.queue
+            .set_up(&Viewport::new(self.width, self.height), inner, &mut self.tris);
+        self.queue.clear();
+        self.stats.triangles_drawn += self.tris.len() as u64;
+        self.stats.setup_ms += ms(start);
+        true
+    }
+
+    /// Counts a test's answer.
+    fn answer(&mut self, v: Visibility) -> Visibility {
+        self.stats.tests += 1;
+        match v {
+            Visibility::Occluded => self.stats.occluded += 1,
+            Visibility::ViewCulled => self.stats.view_culled += 1,
+            Visibility::Visible => {}
+        }
+        v
+    }
+
+    /// The matrix taking `model_to_clip`'s output to hom's convention; `None` when not finite.
+    fn to_hom(&self, model_to_clip: &Mat4) -> Option<Mat4> {
+        model_to_clip
+            .is_finite()
+            .then(|| self.options.clip.to_zero_to_one() * *model_to_clip)
+    }
+
+    fn place_aabb(&self, aabb: &Aabb, model_to_clip: &Mat4) -> Placement {
+        match self.to_hom(model_to_clip) {
+            Some(m) if aabb.is_finite() => place_corners(&aabb.corners(), &m, self.width, self.height),
+            _ => Placement::Visible,
+        }
+    }
+
+    fn place_obb(&self, obb: &Obb, model_to_clip: &Mat4) -> Placement {
+        let corners = obb.corners();
+        match self.to_hom(model_to_clip) {
+            Some(m) if corners.iter().all(|c| c.is_finite()) => place_corners(&corners, &m, self.width, self.height),
+            _ => Placement::Visible,
+        }
+    }
+
+    fn place_rect(&self, min: Vec2, max: Vec2, depth: f32) -> Placement {
+        let z = self.options.clip.depth_to_zero_to_one(depth);
+        place_ndc_rect(min, max, z, self.width, self.height)
+    }
+}
+
+fn check_size(width: u32, height: u32) -> Result<(), OcclusionError> {
+    if (1..=MAX_VIEWPORT_SIDE).contains(&width) && (1..=MAX_VIEWPORT_SIDE).contains(&height) {
+        Ok(())
+    } else {
+        Err(OcclusionError::Size { width, height })
+    }
+}
+
+fn ms(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// Implements [`OcclusionBuffer`] for a buffer with a `front: Front`, an
+/// inherent `draw(&mut self)` (draws `front.tris`), `reset(&mut self)`
+/// (empties the representation) and `is_behind(&self, &ScreenRect) -> bool`.
+macro_rules! occlusion_buffer {
+    ($buffer:ty) => {
+        impl $crate::occlusion::OcclusionBuffer for $buffer {
+            fn width(&self) -> u32 {
+                self.front.width
+            }
+
+            fn height(&self) -> u32 {
+                self.front.height
+            }
+
+            fn options(&self) -> &$crate::occlusion::BufferOptions {
+                &self.front.options
+            }
+
+            fn clear(&mut self) {
+                self.front.clear();
+                self.reset();
+            }
+
+            fn resize(&mut self, width: u32, height: u32) -> Result<(), $crate::occlusion::OcclusionError> {
+                self.front.resize(width, height)?;
+                self.reset();
+                Ok(())
+            }
+
+            fn render_triangles(
+                &mut self,
+                positions: &[glam::Vec3],
+                indices: &[[u32; 3]],
+                model_to_clip: &glam::Mat4,
+                cull: $crate::occlusion::FaceCull,
+            ) -> Result<(), $crate::occlusion::OcclusionError> {
+                self.front
+                    .render_triangles(positions, indices, model_to_clip, cull)
+            }
+
+            fn render_clip_triangles(
+                &mut self,
+                vertices: &[glam::Vec4],
+                indices: &[[u32; 3]],
+                cull: $crate::occlusion::FaceCull,
+            ) -> Result<(), $crate::occlusion::OcclusionError> {
+                self.front.render_clip_triangles(vertices, indices, cull)
+            }
+
+            fn flush(&mut self) {
+                if self.front.set_up() {
+                    let start = std::time::Instant::now();
+                    self.draw();
+                    self.front.stats.raster_ms += start.elapsed().as_secs_f64() * 1e3;
+                }
+            }
+
+            fn test_aabb(
+                &mut self,
+                aabb: &$crate::geom::Aabb,
+                model_to_clip: &glam::Mat4,
+            ) -> $crate::occlusion::Visibility {
+                let p = self.front.place_aabb(aabb, model_to_clip);
+                self.decide(p)
+            }
+
+            fn test_obb(
+                &mut self,
+                obb: &$crate::geom::Obb,
+                model_to_clip: &glam::Mat4,
+            ) -> $crate::occlusion::Visibility {
+                let p = self.front.place_obb(obb, model_to_clip);
+                self.decide(p)
+            }
+
+            fn test_rect(
+                &mut self,
+                min: glam::Vec2,
+                max: glam::Vec2,
+                nearest_depth: f32,
+            ) -> $crate::occlusion::Visibility {
+                let p = self.front.place_rect(min, max, nearest_depth);
+                self.decide(p)
+            }
+
+            fn stats(&self) -> $crate::occlusion::BufferStats {
+                self.front.stats
+            }
+        }
+
+        impl $buffer {
+            /// Answers a placement: the image decides only rectangles.
+            fn decide(&mut self, p: $crate::occlusion::Placement) -> $crate::occlusion::Visibility {
+                use $crate::occlusion::{Placement, Visibility};
+                let v = match p {
+                    Placement::ViewCulled => Visibility::ViewCulled,
+                    Placement::Visible => Visibility::Visible,
+                    Placement::Rect(r) => {
+                        if self.rect_is_occluded(&r) {
+                            Visibility::Occluded
+                        } else {
+                            Visibility::Visible
+                        }
+                    }
+                };
+                self.front.answer(v)
+            }
+
+            /// Whether every sample of `r` (pixels, hom's depth convention) is
+            /// hidden; draws what is queued first. An empty rectangle is hidden.
+            pub(crate) fn rect_is_occluded(&mut self, r: &$crate::geom::ScreenRect) -> bool {
+                <Self as $crate::occlusion::OcclusionBuffer>::flush(self);
+                r.is_empty() || self.is_behind(r)
+            }
+        }
+    };
+}
+pub(crate) use occlusion_buffer;

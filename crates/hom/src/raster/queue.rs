@@ -1,0 +1,213 @@
+//! Triangles waiting for setup: what an occlusion buffer collects between
+//! `clear` and its first test. Submission only transforms and copies; the
+//! setup ([`super::setup`]: clip, snap, edge functions) of everything queued
+//! runs at once, in parallel, in submission order.
+
+use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewport};
+use glam::{Mat4, Vec3, Vec4};
+use rayon::prelude::*;
+
+/// Triangles set up per parallel task.
+const SETUP_CHUNK: usize = 2048;
+
+/// Most triangles a queue holds (64 Mi): more in one frame is a runaway caller.
+pub const MAX_QUEUED_TRIANGLES: usize = 1 << 26;
+
+/// Why a submission was refused (the occlusion buffers turn these into their
+/// public error type).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum QueueError {
+    /// Triangle `triangle` names vertex `index` of `vertex_count`.
+    Index {
+        triangle: usize,
+        index: u32,
+        vertex_count: usize,
+    },
+    /// The queue would exceed [`MAX_QUEUED_TRIANGLES`] or `u32` vertex indices.
+    Full { queued: usize, adding: usize },
+}
+
+/// One submission: its first triangle and which winding it drops.
+#[derive(Clone, Copy, Debug)]
+struct Batch {
+    first: usize,
+    cull: FaceCull,
+}
+
+/// Clip-space triangles in submission order, with their face culling; see the module docs.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct TriangleQueue {
+    /// Clip-space vertices, hom's convention (clip `0 <= z <= w`).
+    verts: Vec<Vec4>,
+    /// Indices into `verts`.
+    tris: Vec<[u32; 3]>,
+    batches: Vec<Batch>,
+    prepared: Vec<Vertex>,
+}
+
+impl TriangleQueue {
+    /// Forgets everything queued. Batch `k` of the next submissions sets up
+    /// triangles with `item = k`.
+    pub fn clear(&mut self) {
+        self.verts.clear();
+        self.tris.clear();
+        self.batches.clear();
+    }
+
+    /// True when nothing is queued.
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    fn check(&self, indices: &[[u32; 3]], vertex_count: usize) -> Result<(), QueueError> {
+        if let Some((triangle, index)) = indices
+            .iter()
+            .enumerate()
+            .find_map(|(i, t)| t.iter().find(|&&v| v as usize >= vertex_count).map(|&v| (i, v)))
+        {
+            return Err(QueueError::Index {
+                triangle,
+                index,
+                vertex_count,
+            });
+        }
+        let full = self.tris.len() + indices.len() > MAX_QUEUED_TRIANGLES
+            || self.verts.len() + vertex_count > u32::MAX as usize;
+        if full {
+            return Err(QueueError::Full {
+                queued: self.tris.len(),
+                adding: indices.len(),
+            });
+        }
+        Ok(())
+    }
+
+    fn push_indices(&mut self, base: usize, indices: &[[u32; 3]], cull: FaceCull) {
+        self.batches.push(Batch {
+            first: self.tris.len(),
+            cull,
+        });
+        let base = base as u32;
+        self.tris.extend(indices.iter().map(|t| t.map(|i| base + i)));
+    }
+
+    /// Queues `indices` over `positions` transformed by `model_to_clip`
+    /// (which must already produce hom's clip convention).
+    pub fn push_model(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+        cull: FaceCull,
+    ) -> Result<(), QueueError> {
+        self.check(indices, positions.len())?;
+        let base = self.verts.len();
+        self.verts
+            .extend(positions.iter().map(|p| *model_to_clip * p.extend(1.0)));
+        self.push_indices(base, indices, cull);
+        Ok(())
+    }
+
+    /// Queues `indices` over clip-space `vertices`, each mapped by `to_hom`
+    /// into hom's clip convention.
+    pub fn push_clip(
+        &mut self,
+        vertices: &[Vec4],
+        indices: &[[u32; 3]],
+        to_hom: impl Fn(Vec4) -> Vec4,
+        cull: FaceCull,
+    ) -> Result<(), QueueError> {
+        self.check(indices, vertices.len())?;
+        let base = self.verts.len();
+        self.verts.extend(vertices.iter().map(|&v| to_hom(v)));
+        self.push_indices(base, indices, cull);
+        Ok(())
+    }
+
+    /// Sets up every queued triangle for `vp` into `out` (cleared first), in
+    /// submission order, each fan piece with `item` = its batch's index.
+    /// Non-finite vertices, triangles outside the view and culled windings
+    /// produce nothing. Uses the current rayon pool.
+    pub fn set_up(&mut self, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
+        out.clear();
+        self.verts
+            .par_iter()
+            .map(|&v| Vertex::new(v, vp))
+            .collect_into_vec(&mut self.prepared);
+        let (verts, batches) = (&self.prepared, &self.batches);
+        let chunks: Vec<Vec<Tri>> = self
+            .tris
+            .par_chunks(SETUP_CHUNK)
+            .enumerate()
+            .map(|(k, chunk)| {
+                let first = k * SETUP_CHUNK;
+                // The batch holding the chunk's first triangle, then onwards.
+                let mut b = batches.partition_point(|b| b.first <= first) - 1;
+                let mut out = Vec::with_capacity(chunk.len());
+                for (i, t) in chunk.iter().enumerate() {
+                    while b + 1 < batches.len() && batches[b + 1].first <= first + i {
+                        b += 1;
+                    }
+                    let rule = SetupRule {
+                        cull: batches[b].cull,
+                        inner,
+                    };
+                    let [a, bb, c] = t.map(|i| &verts[i as usize]);
+                    setup_triangle_with([a, bb, c], vp, rule, b as u32, [0; 4], &mut out);
+                }
+                out
+            })
+            .collect();
+        for c in chunks {
+            out.extend(c);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batches_keep_their_rule_and_index_across_chunks() {
+        // Many one-triangle batches alternating the culled winding, more than a chunk.
+        let ccw = [
+            Vec4::new(-0.5, -0.5, 0.5, 1.0),
+            Vec4::new(0.5, -0.5, 0.5, 1.0),
+            Vec4::new(0.0, 0.5, 0.5, 1.0),
+        ];
+        let mut q = TriangleQueue::default();
+        let n = SETUP_CHUNK * 2 + 7;
+        for k in 0..n {
+            let cull = if k % 2 == 0 {
+                FaceCull::Clockwise
+            } else {
+                FaceCull::CounterClockwise
+            };
+            q.push_clip(&ccw, &[[0, 1, 2]], |v| v, cull).unwrap();
+        }
+        let mut out = Vec::new();
+        q.set_up(&Viewport::new(32, 32), false, &mut out);
+        // The counter-clockwise triangle survives only where clockwise ones are dropped.
+        let items: Vec<u32> = out.iter().map(|t| t.item).collect();
+        let want: Vec<u32> = (0..n as u32).filter(|k| k % 2 == 0).collect();
+        assert_eq!(items, want);
+    }
+
+    #[test]
+    fn bad_indices_and_overflow_are_refused() {
+        let mut q = TriangleQueue::default();
+        let v = [Vec3::ZERO; 3];
+        assert_eq!(
+            q.push_model(&v, &[[0, 1, 2], [0, 3, 1]], &Mat4::IDENTITY, FaceCull::None),
+            Err(QueueError::Index {
+                triangle: 1,
+                index: 3,
+                vertex_count: 3
+            })
+        );
+        assert!(q.is_empty(), "a refused submission queues nothing");
+        q.push_model(&v, &[[0, 1, 2]], &Mat4::IDENTITY, FaceCull::None).unwrap();
+        assert!(!q.is_empty());
+    }
+}
