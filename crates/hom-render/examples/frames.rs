@@ -26,7 +26,7 @@ fn main() {
     let renderer = Renderer::new(threads).expect("renderer");
     for name in names {
         let b = hom_scene::builtin(name).expect("scene");
-        let (mut scene, path) = (b.scene, b.path);
+        let (mut scene, path, animation) = (b.scene, b.path, b.animation);
         let mut culler = FrustumCuller::new(&scene);
         let mut out = CullOutput::default();
         let mut fb = Framebuffer::new(path.width, path.height);
@@ -39,9 +39,9 @@ fn main() {
                 ..RenderOptions::default()
             };
             for i in 0..frames.min(path.frames.len()) {
-                scene.set_time(i as f32 / 30.0);
+                animation.apply(&mut scene, i as f32 / 30.0);
                 let camera = path.camera(i);
-                culler.cull(&scene, &camera, &mut out).expect("cull");
+                culler.cull(&scene, &camera.to_view(), &mut out).expect("cull");
                 if std::env::var_os("EMPTY").is_some() {
                     out.visible.clear();
                 }

@@ -391,7 +391,7 @@ impl Renderer {
 
     /// Clears `fb` (resizing it to `camera.width` × `camera.height`) to the
     /// background, then draws the objects `ids` of `scene` in that order, each
-    /// with its current `transform`, as seen by `camera`.
+    /// with its current `transform`, as seen by `camera` (removed objects draw nothing).
     ///
     /// An invalid camera ([`Camera::validate`] fails) draws nothing; the
     /// framebuffer is still cleared (each side capped at
@@ -431,7 +431,12 @@ impl Renderer {
         let mut total = 0u64;
         for &id in ids {
             scratch.starts.push(total);
-            total += scene.mesh_of(scene.object(id)).triangle_count() as u64;
+            let o = scene.object(id);
+            total += if o.is_removed() {
+                0
+            } else {
+                scene.mesh_of(o).triangle_count() as u64
+            };
         }
         scratch.starts.push(total);
         let chunk_count = total.div_ceil(CHUNK_TRIANGLES) as usize;
@@ -606,11 +611,11 @@ fn shade(base: [u8; 3], w: [glam::Vec3; 3], eye: glam::Vec3) -> [u8; 4] {
     [r, g, b, 255]
 }
 
-/// Renders every object of `scene` with [`Shading::ItemOnly`] and returns the
+/// Renders every live object of `scene` with [`Shading::ItemOnly`] and returns the
 /// pixels each object id owns (index = object id): the visibility oracle.
 pub fn oracle_pixel_counts(renderer: &Renderer, scene: &Scene, camera: &Camera, fb: &mut Framebuffer) -> Vec<u32> {
     let n = scene.objects().len();
-    let ids: Vec<u32> = (0..n as u32).collect();
+    let ids: Vec<u32> = scene.live_objects().map(|(id, _)| id).collect();
     let options = RenderOptions {
         shading: Shading::ItemOnly,
         ..RenderOptions::default()

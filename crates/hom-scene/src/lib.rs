@@ -13,12 +13,14 @@ mod error;
 pub mod export;
 pub mod gltf;
 pub mod moc;
+pub mod motion;
 pub mod obj;
 pub mod split;
 
 pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED};
 pub use camera_path::{CameraPath, CameraPathError, PathFrame};
 pub use error::LoadError;
+pub use motion::{Animation, Motion};
 
 use hom::scene::Scene;
 use std::path::{Path, PathBuf};

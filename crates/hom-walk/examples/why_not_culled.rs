@@ -17,11 +17,11 @@ fn main() {
     };
     let b = hom_scene::builtin(scene_name).unwrap();
     let mut scene = b.scene;
-    scene.set_time(frame as f32 / 30.0);
+    b.animation.apply(&mut scene, frame as f32 / 30.0);
     let cam = b.path.camera(frame);
     let mut c = HomCuller::new(&scene, HomConfig::for_scene(&scene));
     let mut out = CullOutput::default();
-    c.cull(&scene, &cam, &mut out).unwrap();
+    c.cull(&scene, &cam.to_view(), &mut out).unwrap();
     let r = Renderer::new(0).unwrap();
     let mut fb = Framebuffer::new(cam.width, cam.height);
     let counts = hom_render::oracle_pixel_counts(&r, &scene, &cam, &mut fb);

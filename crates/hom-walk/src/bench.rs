@@ -197,7 +197,7 @@ pub fn run_bench(
             scene: spec.to_string(),
             source,
         };
-        let (mut scene, mut path) = crate::open_scene(spec).map_err(scene_error)?;
+        let (mut scene, mut path, animation) = crate::open_scene(spec).map_err(scene_error)?;
         if let Some(w) = options.width {
             path.width = w;
         }
@@ -220,13 +220,20 @@ pub fn run_bench(
                 culler_names.len()
             ));
             let mut culler = cullers::make(name, &scene).ok_or_else(|| unknown(name))?;
-            let result = crate::walk(&mut scene, &path, culler.as_mut(), &renderer, &walk_options, |_| {}).map_err(
-                |source| BenchError::Walk {
-                    scene: scene.name().to_string(),
-                    culler: name.to_string(),
-                    source,
-                },
-            )?;
+            let result = crate::walk(
+                &mut scene,
+                &animation,
+                &path,
+                culler.as_mut(),
+                &renderer,
+                &walk_options,
+                |_| {},
+            )
+            .map_err(|source| BenchError::Walk {
+                scene: scene.name().to_string(),
+                culler: name.to_string(),
+                source,
+            })?;
             walks.push((name.to_string(), result));
         }
         let oracle_speedup = scene_oracle_speedup(&walks);

@@ -29,18 +29,19 @@ pub use walk::summarize;
 pub use walk::{walk, WalkError, WalkOptions, WalkResult};
 
 use hom::scene::Scene;
-use hom_scene::{CameraPath, LoadError};
+use hom_scene::{Animation, CameraPath, LoadError};
 use std::path::Path;
 
-/// A scene and the camera path to walk it: a built-in scene name or a file.
+/// A scene, the camera path to walk it and how its objects move: a built-in
+/// scene name or a file (files do not move).
 ///
 /// Files get their own walkthrough where they have one (a Quake 3 map: spawn to
 /// spawn, see [`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3),
 /// else [`CameraPath::orbit`] around their bounds.
-pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath), LoadError> {
+pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath, Animation), LoadError> {
     if hom_scene::BUILTIN_SCENES.iter().any(|(n, _)| *n == spec) {
         let b = hom_scene::builtin(spec)?;
-        return Ok((b.scene, b.path));
+        return Ok((b.scene, b.path, b.animation));
     }
     let path = Path::new(spec);
     if !hom_scene::split_map_spec(path).0.exists() {
@@ -55,7 +56,7 @@ pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath), LoadError> {
         Some(p) => p,
         None => CameraPath::orbit(&loaded.scene.bounds(), 120),
     };
-    Ok((loaded.scene, walk))
+    Ok((loaded.scene, walk, Animation::none()))
 }
 
 /// The README's Rust examples, compiled as doc tests.

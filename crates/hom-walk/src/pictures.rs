@@ -567,7 +567,7 @@ mod tests {
         let mut culler = HomCuller::new(&b.scene, HomConfig::default());
         let camera = b.path.camera(100);
         let mut out = CullOutput::default();
-        culler.cull(&b.scene, &camera, &mut out).unwrap();
+        culler.cull(&b.scene, &camera.to_view(), &mut out).unwrap();
         let pyramid = culler.pyramid().unwrap();
         let file = out_dir().join("pyramid_city.png");
         write_pyramid_levels(&file, pyramid, 0.5).unwrap();

@@ -5,7 +5,7 @@ use hom::cull::{CullError, CullOutput, Culler, FrustumCuller};
 use hom::geom::{Containment, Frustum};
 use hom::scene::Scene;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
-use hom_scene::CameraPath;
+use hom_scene::{Animation, CameraPath};
 use std::collections::BTreeMap;
 use std::time::Instant;
 use thiserror::Error;
@@ -72,10 +72,13 @@ fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-/// Walks `path` through `scene` with `culler`, rendering with `renderer`.
+/// Walks `path` through `scene` with `culler`, rendering with `renderer`;
+/// `animation` moves the scene's dynamic objects each frame (the culler sees
+/// them through [`Scene::set_transform`], as an engine's would).
 /// `on_frame` sees each record as it is made (for progress and streaming reports).
 pub fn walk(
     scene: &mut Scene,
+    animation: &Animation,
     path: &CameraPath,
     culler: &mut dyn Culler,
     renderer: &Renderer,
@@ -94,11 +97,12 @@ pub fn walk(
     let mut frames = Vec::with_capacity(frame_count);
     for i in 0..frame_count {
         let time_s = i as f32 / options.frame_rate;
-        scene.set_time(time_s);
+        animation.apply(scene, time_s);
         let camera = path.camera(i);
+        let view = camera.to_view();
         // On the renderer's threads: one pool, no two pools fighting for the cores.
         renderer
-            .install(|| culler.cull(scene, &camera, &mut out))
+            .install(|| culler.cull(scene, &view, &mut out))
             .map_err(|source| WalkError::Cull { frame: i, source })?;
         let cull_ms = out.total_ms();
         let start = Instant::now();
@@ -109,7 +113,7 @@ pub fn walk(
 
         let baseline_frame_ms = match baseline.as_mut() {
             Some(b) => {
-                b.cull(scene, &camera, &mut base_out)
+                b.cull(scene, &view, &mut base_out)
                     .map_err(|source| WalkError::Cull { frame: i, source })?;
                 let start = Instant::now();
                 renderer.render(scene, &base_out.visible, &camera, &draw, &mut fb);

@@ -29,7 +29,9 @@ fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
         for i in (0..path.frames.len()).step_by(4).take(60) {
             let camera = path.camera(i);
             let mut out = CullOutput::default();
-            renderer.install(|| culler.cull(scene, &camera, &mut out)).unwrap();
+            renderer
+                .install(|| culler.cull(scene, &camera.to_view(), &mut out))
+                .unwrap();
             let counts = hom_render::oracle_pixel_counts(&renderer, scene, &camera, &mut fb);
             let cluster = map.cluster_of(camera.eye);
             for (id, &n) in counts.iter().enumerate() {
@@ -82,7 +84,16 @@ fn pvs_yardstick_on_an_openarena_map() {
         baseline: false,
         ..hom_walk::WalkOptions::default()
     };
-    let result = hom_walk::walk(&mut scene, &path, culler.as_mut(), &renderer, &options, |_| {}).unwrap();
+    let result = hom_walk::walk(
+        &mut scene,
+        &hom_scene::Animation::none(),
+        &path,
+        culler.as_mut(),
+        &renderer,
+        &options,
+        |_| {},
+    )
+    .unwrap();
     let frames: Vec<_> = result
         .frames
         .iter()

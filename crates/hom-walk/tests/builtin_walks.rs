@@ -9,7 +9,7 @@ fn sampled_builtin_walks_have_no_false_culls() {
     let renderer = Renderer::new(0).unwrap();
     for (name, _) in hom_scene::BUILTIN_SCENES {
         let built = hom_scene::builtin(name).unwrap();
-        let mut scene = built.scene;
+        let (mut scene, animation) = (built.scene, built.animation);
         // Every 12th frame at a reduced size keeps this quick; `hom bench` walks every frame at full size.
         let mut path = built.path.with_viewport(320, 240);
         path.frames = path.frames.iter().copied().step_by(12).collect();
@@ -20,7 +20,16 @@ fn sampled_builtin_walks_have_no_false_culls() {
                 baseline: false,
                 ..WalkOptions::default()
             };
-            let result = walk(&mut scene, &path, culler.as_mut(), &renderer, &options, |_| {}).unwrap();
+            let result = walk(
+                &mut scene,
+                &animation,
+                &path,
+                culler.as_mut(),
+                &renderer,
+                &options,
+                |_| {},
+            )
+            .unwrap();
             for f in &result.frames {
                 let oracle = f.oracle.as_ref().unwrap();
                 assert!(

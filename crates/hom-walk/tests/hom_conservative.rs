@@ -5,7 +5,7 @@ mod common;
 
 use common::{
     assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
-    permissive_occluders, random_scene,
+    permissive_occluders, random_moving_scene, random_scene,
 };
 use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::geom::Camera;
@@ -33,8 +33,8 @@ proptest! {
         look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), map_size in 8u32..48, depth_mode in 0usize..3,
         dynamic in any::<bool>(), time in 0.0f32..5.0,
     ) {
-        let mut scene = random_scene(seed, n, dynamic);
-        scene.set_time(time);
+        let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
+        animation.apply(&mut scene, time);
         let eye = Vec3::new(eye.0, eye.1, eye.2);
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
         prop_assume!(camera.validate().is_ok());
@@ -207,7 +207,7 @@ fn nan_camera_is_an_error_not_a_cull() {
         64,
     );
     let mut out = CullOutput::default();
-    assert!(culler.cull(&scene, &camera, &mut out).is_err());
+    assert!(culler.cull(&scene, &camera.to_view(), &mut out).is_err());
 }
 
 #[test]
@@ -228,8 +228,8 @@ fn approximate_mode_culls_at_least_as_much() {
     config.map.opacity = Opacity::NegligibleHole(4);
     let mut approx = HomCuller::new(&scene, config);
     let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
-    conservative.cull(&scene, &camera, &mut a).unwrap();
-    approx.cull(&scene, &camera, &mut b).unwrap();
+    conservative.cull(&scene, &camera.to_view(), &mut a).unwrap();
+    approx.cull(&scene, &camera.to_view(), &mut b).unwrap();
     assert!(b.occluded.len() >= a.occluded.len());
     assert_eq!(b.occluded, vec![2], "the thin gap is a negligible hole");
 }

@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::random_scene;
+use common::{random_moving_scene, random_scene};
 use hom::cull::{CullOutput, Culler, HvConfig, HvCuller};
 use hom::geom::Camera;
 use hom::glam::Vec3;
@@ -29,7 +29,7 @@ fn counter(out: &CullOutput, name: &str) -> u64 {
 fn assert_exact(scene: &Scene, camera: &Camera, hv: &mut HvCuller) -> CullOutput {
     let renderer = Renderer::new(1).unwrap();
     let mut out = CullOutput::default();
-    hv.cull(scene, camera, &mut out).unwrap();
+    hv.cull(scene, &camera.to_view(), &mut out).unwrap();
     let mut fb = Framebuffer::new(camera.width, camera.height);
     let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
     for (i, (&a, &b)) in hv.depth().iter().zip(fb.depth()).enumerate() {
@@ -66,7 +66,7 @@ proptest! {
         look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), dynamic in any::<bool>(), time in 0.0f32..5.0,
         size in (8u32..120, 8u32..90), threshold in 1usize..20, max_depth in 0u32..8, triangle_tests in any::<bool>(), keep_large in any::<bool>(),
     ) {
-        let mut scene = random_scene(seed, n, dynamic);
+        let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
         let eye = Vec3::new(eye.0, eye.1, eye.2);
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, size.0, size.1);
         prop_assume!(camera.validate().is_ok());
@@ -74,7 +74,7 @@ proptest! {
         hv.octree().assert_well_formed(&scene);
         assert_exact(&scene, &camera, &mut hv);
         // A later frame: dynamic objects have moved, the octree is unchanged.
-        scene.set_time(time);
+        animation.apply(&mut scene, time);
         assert_exact(&scene, &camera, &mut hv);
     }
 }
@@ -107,7 +107,7 @@ fn sampled_builtin_walks_are_exact() {
     let renderer = Renderer::new(0).unwrap();
     for (name, _) in hom_scene::BUILTIN_SCENES {
         let built = hom_scene::builtin(name).unwrap();
-        let mut scene = built.scene;
+        let (mut scene, animation) = (built.scene, built.animation);
         let mut path = built.path.with_viewport(320, 240);
         path.frames = path.frames.iter().copied().step_by(25).collect();
         let mut culler = HvCuller::new(&scene, HvConfig::default());
@@ -117,7 +117,7 @@ fn sampled_builtin_walks_are_exact() {
             baseline: false,
             ..WalkOptions::default()
         };
-        let result = walk(&mut scene, &path, &mut culler, &renderer, &options, |_| {}).unwrap();
+        let result = walk(&mut scene, &animation, &path, &mut culler, &renderer, &options, |_| {}).unwrap();
         for f in &result.frames {
             let oracle = f.oracle.as_ref().unwrap();
             assert!(

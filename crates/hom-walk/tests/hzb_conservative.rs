@@ -6,7 +6,7 @@ mod common;
 
 use common::{
     assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
-    random_scene,
+    random_moving_scene,
 };
 use hom::cull::{Culler, HzbConfig, HzbCuller};
 use hom::geom::Camera;
@@ -33,8 +33,8 @@ proptest! {
         look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), dynamic in any::<bool>(), time in 0.0f32..5.0,
         size in (8u32..120, 8u32..90),
     ) {
-        let mut scene = random_scene(seed, n, dynamic);
-        scene.set_time(time);
+        let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
+        animation.apply(&mut scene, time);
         let eye = Vec3::new(eye.0, eye.1, eye.2);
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, size.0, size.1);
         prop_assume!(camera.validate().is_ok());

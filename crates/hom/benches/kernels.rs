@@ -52,7 +52,16 @@ fn city_frame() -> Frame {
     let frustum = camera.frustum().expect("a valid camera");
     let mut selector = OccluderSelector::new(SelectionConfig::default());
     let mut occluders = Vec::new();
-    selector.select(&db, &scene, &camera, &frustum, None, &mut occluders);
+    let view = camera.to_view();
+    selector.select(
+        &db,
+        &scene,
+        &view.world_to_clip(),
+        &view.eye(),
+        &frustum,
+        None,
+        &mut occluders,
+    );
     let mut map = HomBuffer::new(SIDE, SIDE, exact(None)).expect("a valid size");
     draw_occluders(&mut map, &scene, &occluders, &camera);
     let coverage = map.coverage().clone();

@@ -1,11 +1,12 @@
 //! The scene model: shared triangle meshes and the objects that place them.
 //!
-//! An object's id is its index in [`Scene::objects`] (file or generation order) and
-//! never changes. Meshes are shared: many objects may name one [`MeshId`].
-//! Dynamic objects carry a [`Motion`]; [`Scene::set_time`] moves them.
+//! An object's id is its index in [`Scene::objects`] (file or generation
+//! order, then the order an engine adds them) and never changes; removed
+//! objects keep theirs. Meshes are shared: many objects may name one
+//! [`MeshId`]. Objects move by [`Scene::set_transform`].
 
 use crate::geom::{Aabb, Obb};
-use glam::{Mat4, Quat, Vec3};
+use glam::{Mat4, Vec3};
 use thiserror::Error;
 
 /// Index of a mesh in [`Scene::meshes`].
@@ -66,11 +67,13 @@ pub enum SceneError {
         /// Object name.
         object: String,
     },
-    /// An object's motion has a NaN or infinite field.
-    #[error("object '{object}': motion has a non-finite field")]
-    BadMotion {
-        /// Object name.
-        object: String,
+    /// An object id that was never added, or was removed.
+    #[error("no object {id}: the scene has {count} object ids, and removed objects cannot be changed")]
+    UnknownObject {
+        /// The id asked for.
+        id: u32,
+        /// Object ids handed out so far.
+        count: usize,
     },
     /// A scene with no objects.
     #[error("scene '{scene}' has no objects (no faces were found)")]
@@ -162,56 +165,6 @@ impl Mesh {
     }
 }
 
-/// Deterministic motion of a dynamic object: drift that bounces inside a region, plus spin.
-///
-/// The pose at time `t` is a pure function of `t`, so any frame can be rendered
-/// alone and every culler sees the same scene.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Motion {
-    /// Drift velocity of the object's origin, metres per second.
-    pub velocity: Vec3,
-    /// The origin bounces off the walls of this box (it must contain the start position).
-    pub region: Aabb,
-    /// Spin axis (any length; normalised when used). Zero means no spin.
-    pub spin_axis: Vec3,
-    /// Spin rate, radians per second, about the object's origin.
-    pub spin_rate: f32,
-}
-
-impl Motion {
-    fn is_finite(&self) -> bool {
-        self.velocity.is_finite() && self.region.is_finite() && self.spin_axis.is_finite() && self.spin_rate.is_finite()
-    }
-
-    /// The world transform at time `t` seconds for an object whose pose at `t = 0` is `base`.
-    pub fn transform_at(&self, base: &Mat4, t: f32) -> Mat4 {
-        let start = base.w_axis.truncate();
-        let moved = start + self.velocity * t;
-        let lo = self.region.min;
-        let size = self.region.extent();
-        // Triangle wave per axis keeps the origin inside the region (reflection at walls).
-        let bounce = |p: f32, lo: f32, s: f32| {
-            if s <= 0.0 {
-                return lo;
-            }
-            let u = (p - lo).rem_euclid(2.0 * s);
-            lo + if u > s { 2.0 * s - u } else { u }
-        };
-        let pos = Vec3::new(
-            bounce(moved.x, lo.x, size.x),
-            bounce(moved.y, lo.y, size.y),
-            bounce(moved.z, lo.z, size.z),
-        );
-        let spin = match self.spin_axis.try_normalize() {
-            Some(axis) => Quat::from_axis_angle(axis, self.spin_rate * t),
-            None => Quat::IDENTITY,
-        };
-        let mut linear = Mat4::from_quat(spin) * Mat4::from_mat3(glam::Mat3::from_mat4(*base));
-        linear.w_axis = pos.extend(1.0);
-        linear
-    }
-}
-
 /// One placed instance of a mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Object {
@@ -221,90 +174,200 @@ pub struct Object {
     pub mesh: MeshId,
     /// Current object-to-world transform.
     pub transform: Mat4,
-    /// Pose at time 0 (equals `transform` for static objects).
-    pub base_transform: Mat4,
-    /// `Some` for a dynamic object.
-    pub motion: Option<Motion>,
     /// Current world-space axis-aligned bounds.
     pub aabb: Aabb,
     /// Current world-space oriented bounds (tight for moving, rotated objects).
     pub obb: Obb,
-    /// Triangle count of its mesh (cached).
+    /// Triangle count of its mesh (cached); 0 once removed.
     pub triangles: u32,
     /// May it hide other objects? False for see-through surfaces (glass, grates,
     /// foliage, liquids, fog): they are drawn and tested like any object but never
-    /// selected as occluders. True unless set with [`SceneBuilder::set_occluder`].
+    /// selected as occluders. True unless set with [`Scene::set_occluder`].
     pub occluder: bool,
+    dynamic: bool,
+    removed: bool,
+    /// The scene's structure revision when this object last changed structurally.
+    changed: u64,
 }
 
 impl Object {
-    /// True for an object that moves ([`Motion`] set).
+    /// True for an object that moves: added with [`Scene::add_dynamic_object`],
+    /// or moved by [`Scene::set_transform`] since. Cullers test it by its
+    /// oriented box and keep it out of structures built for static geometry.
     pub fn is_dynamic(&self) -> bool {
-        self.motion.is_some()
+        self.dynamic
+    }
+
+    /// True once [`Scene::remove_object`] removed it: it owns no triangles and is never drawn.
+    pub fn is_removed(&self) -> bool {
+        self.removed
+    }
+
+    /// The scene's [`Revision::structure`] at which this object was added,
+    /// removed, became dynamic or changed its occluder flag.
+    pub fn changed_at(&self) -> u64 {
+        self.changed
     }
 }
 
-/// A scene: meshes, objects, and the running time of its dynamic objects.
-#[derive(Clone, Debug)]
+/// Where a scene stands, so that cullers built for it know what to update:
+/// `structure` counts additions, removals, objects becoming dynamic and
+/// occluder-flag changes; `transforms` counts [`Scene::set_transform`] calls.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Revision {
+    /// A number unique to this scene value (clones get their own).
+    pub scene: u64,
+    /// Structural changes so far.
+    pub structure: u64,
+    /// Transform changes so far.
+    pub transforms: u64,
+}
+
+/// A scene: meshes and the objects that place them. An engine keeps it in
+/// step with its own world — [`Scene::add_object`], [`Scene::set_transform`],
+/// [`Scene::remove_object`] — and the cullers built for it follow.
+#[derive(Debug)]
 pub struct Scene {
     name: String,
     meshes: Vec<Mesh>,
     objects: Vec<Object>,
-    time: f32,
     triangle_count: u64,
     dynamic_count: usize,
+    live_count: usize,
+    revision: Revision,
 }
 
-/// Collects meshes and objects, validating each, then builds a [`Scene`].
-#[derive(Debug, Default)]
+/// A fresh [`Revision::scene`] number.
+fn next_scene_number() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
+impl Clone for Scene {
+    /// A copy with its own [`Revision::scene`] number, so a culler built for
+    /// one never mistakes the other (which may change differently) for it.
+    fn clone(&self) -> Scene {
+        Scene {
+            name: self.name.clone(),
+            meshes: self.meshes.clone(),
+            objects: self.objects.clone(),
+            triangle_count: self.triangle_count,
+            dynamic_count: self.dynamic_count,
+            live_count: self.live_count,
+            revision: Revision {
+                scene: next_scene_number(),
+                ..self.revision
+            },
+        }
+    }
+}
+
+/// Collects meshes and objects, validating each, then builds a [`Scene`];
+/// unlike [`Scene::new`], refuses to build an empty one (what loaders want).
+#[derive(Debug)]
 pub struct SceneBuilder {
-    name: String,
-    meshes: Vec<Mesh>,
-    objects: Vec<Object>,
+    scene: Scene,
 }
 
 impl SceneBuilder {
     /// An empty builder for a scene called `name`.
     pub fn new(name: impl Into<String>) -> SceneBuilder {
         SceneBuilder {
-            name: name.into(),
-            ..SceneBuilder::default()
+            scene: Scene::new(name),
         }
     }
 
     /// Adds a mesh and returns its id.
     pub fn add_mesh(&mut self, mesh: Mesh) -> MeshId {
-        self.meshes.push(mesh);
-        (self.meshes.len() - 1) as MeshId
+        self.scene.add_mesh(mesh)
     }
 
     /// Number of meshes added so far.
     pub fn mesh_count(&self) -> usize {
-        self.meshes.len()
+        self.scene.meshes.len()
     }
 
     /// Number of objects added so far (the id the next object gets).
     pub fn object_count(&self) -> usize {
-        self.objects.len()
+        self.scene.objects.len()
     }
 
     /// Adds a static object and returns its id.
     pub fn add_object(&mut self, name: impl Into<String>, mesh: MeshId, transform: Mat4) -> Result<u32, SceneError> {
-        self.push(name.into(), mesh, transform, None)
+        self.scene.add_object(name, mesh, transform)
     }
 
-    /// Adds a dynamic object that moves with `motion` and returns its id.
+    /// Adds an object that will move and returns its id.
     pub fn add_dynamic_object(
         &mut self,
         name: impl Into<String>,
         mesh: MeshId,
         transform: Mat4,
-        motion: Motion,
     ) -> Result<u32, SceneError> {
-        self.push(name.into(), mesh, transform, Some(motion))
+        self.scene.add_dynamic_object(name, mesh, transform)
     }
 
-    fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, motion: Option<Motion>) -> Result<u32, SceneError> {
+    /// Marks object `id` as one that may (`true`, the default) or must never (`false`)
+    /// be used as an occluder, for example a see-through surface. Returns false when
+    /// no object has this id.
+    pub fn set_occluder(&mut self, id: u32, occluder: bool) -> bool {
+        self.scene.set_occluder(id, occluder).is_ok()
+    }
+
+    /// The finished scene; an error if it has no objects.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        if self.scene.objects.is_empty() {
+            return Err(SceneError::EmptyScene { scene: self.scene.name });
+        }
+        Ok(self.scene)
+    }
+}
+
+impl Scene {
+    /// An empty scene called `name`: an engine adds its objects as they appear.
+    pub fn new(name: impl Into<String>) -> Scene {
+        Scene {
+            name: name.into(),
+            meshes: Vec::new(),
+            objects: Vec::new(),
+            triangle_count: 0,
+            dynamic_count: 0,
+            live_count: 0,
+            revision: Revision {
+                scene: next_scene_number(),
+                ..Revision::default()
+            },
+        }
+    }
+
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Adds a mesh and returns its id; objects place it by id (many may share one).
+    pub fn add_mesh(&mut self, mesh: Mesh) -> MeshId {
+        self.meshes.push(mesh);
+        (self.meshes.len() - 1) as MeshId
+    }
+
+    /// Adds a static object placing `mesh` with `transform` and returns its
+    /// id (ids are never reused).
+    pub fn add_object(&mut self, name: impl Into<String>, mesh: MeshId, transform: Mat4) -> Result<u32, SceneError> {
+        self.push(name.into(), mesh, transform, false)
+    }
+
+    /// Adds an object that will move ([`Scene::set_transform`]) and returns its id.
+    pub fn add_dynamic_object(
+        &mut self,
+        name: impl Into<String>,
+        mesh: MeshId,
+        transform: Mat4,
+    ) -> Result<u32, SceneError> {
+        self.push(name.into(), mesh, transform, true)
+    }
+
+    fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, dynamic: bool) -> Result<u32, SceneError> {
         let Some(m) = self.meshes.get(mesh as usize) else {
             return Err(SceneError::UnknownMesh {
                 object: name,
@@ -312,68 +375,91 @@ impl SceneBuilder {
                 mesh_count: self.meshes.len(),
             });
         };
-        let det = transform.determinant();
-        if !transform.is_finite() || !det.is_finite() || det == 0.0 {
-            return Err(SceneError::BadTransform { object: name });
-        }
-        if motion.is_some_and(|m| !m.is_finite()) {
-            return Err(SceneError::BadMotion { object: name });
-        }
+        check_transform(&name, &transform)?;
         if self.objects.len() >= (u32::MAX - 1) as usize {
             return Err(SceneError::TooManyObjects {
                 count: self.objects.len() + 1,
             });
         }
         let bounds = m.bounds();
+        let triangles = m.triangle_count() as u32;
+        self.revision.structure += 1;
         self.objects.push(Object {
             name,
             mesh,
             transform,
-            base_transform: transform,
-            motion,
             aabb: bounds.transformed(&transform),
             obb: Obb::from_local(&bounds, &transform),
-            triangles: m.triangle_count() as u32,
+            triangles,
             occluder: true,
+            dynamic,
+            removed: false,
+            changed: self.revision.structure,
         });
+        self.triangle_count += u64::from(triangles);
+        self.dynamic_count += usize::from(dynamic);
+        self.live_count += 1;
         Ok((self.objects.len() - 1) as u32)
     }
 
-    /// Marks object `id` as one that may (`true`, the default) or must never (`false`)
-    /// be used as an occluder, for example a see-through surface. Returns false when
-    /// no object has this id.
-    pub fn set_occluder(&mut self, id: u32, occluder: bool) -> bool {
+    /// The live object `id`, mutably, for the changes below.
+    fn live_mut(&mut self, id: u32) -> Result<&mut Object, SceneError> {
+        let count = self.objects.len();
         match self.objects.get_mut(id as usize) {
-            Some(o) => {
-                o.occluder = occluder;
-                true
-            }
-            None => false,
+            Some(o) if !o.removed => Ok(o),
+            _ => Err(SceneError::UnknownObject { id, count }),
         }
     }
 
-    /// The finished scene; an error if it has no objects.
-    pub fn build(self) -> Result<Scene, SceneError> {
-        if self.objects.is_empty() {
-            return Err(SceneError::EmptyScene { scene: self.name });
+    /// Moves object `id` to `transform` (object to world). The object is
+    /// dynamic from then on (tested by its oriented box); the cullers refit
+    /// their hierarchies at the next frame.
+    pub fn set_transform(&mut self, id: u32, transform: Mat4) -> Result<(), SceneError> {
+        let name = &self.live_mut(id)?.name;
+        check_transform(name, &transform)?;
+        let bounds = self.meshes[self.objects[id as usize].mesh as usize].bounds();
+        self.revision.transforms += 1;
+        let o = &mut self.objects[id as usize];
+        o.transform = transform;
+        o.aabb = bounds.transformed(&transform);
+        o.obb = Obb::from_local(&bounds, &transform);
+        if !o.dynamic {
+            o.dynamic = true;
+            self.dynamic_count += 1;
+            self.revision.structure += 1;
+            o.changed = self.revision.structure;
         }
-        let triangle_count = self.objects.iter().map(|o| o.triangles as u64).sum();
-        let dynamic_count = self.objects.iter().filter(|o| o.is_dynamic()).count();
-        Ok(Scene {
-            name: self.name,
-            meshes: self.meshes,
-            objects: self.objects,
-            time: 0.0,
-            triangle_count,
-            dynamic_count,
-        })
+        Ok(())
     }
-}
 
-impl Scene {
-    /// The scene's name.
-    pub fn name(&self) -> &str {
-        &self.name
+    /// Removes object `id`: it keeps its id (never reused) but owns nothing
+    /// and is never drawn or tested again.
+    pub fn remove_object(&mut self, id: u32) -> Result<(), SceneError> {
+        let structure = self.revision.structure + 1;
+        let o = self.live_mut(id)?;
+        let (triangles, dynamic) = (o.triangles, o.dynamic);
+        o.removed = true;
+        o.triangles = 0;
+        o.occluder = false;
+        o.changed = structure;
+        self.revision.structure = structure;
+        self.triangle_count -= u64::from(triangles);
+        self.dynamic_count -= usize::from(dynamic);
+        self.live_count -= 1;
+        Ok(())
+    }
+
+    /// Marks object `id` as one that may (`true`, the default) or must never
+    /// (`false`) hide other objects, for example a see-through surface.
+    pub fn set_occluder(&mut self, id: u32, occluder: bool) -> Result<(), SceneError> {
+        let structure = self.revision.structure + 1;
+        let o = self.live_mut(id)?;
+        if o.occluder != occluder {
+            o.occluder = occluder;
+            o.changed = structure;
+            self.revision.structure = structure;
+        }
+        Ok(())
     }
 
     /// All meshes; an object's `mesh` indexes this.
@@ -381,12 +467,23 @@ impl Scene {
         &self.meshes
     }
 
-    /// All objects; an object's id is its index here.
+    /// Every object ever added, removed ones included ([`Object::is_removed`]);
+    /// an object's id is its index here.
     pub fn objects(&self) -> &[Object] {
         &self.objects
     }
 
-    /// The object with id `id`.
+    /// The objects not removed, with their ids.
+    pub fn live_objects(&self) -> impl Iterator<Item = (u32, &Object)> + '_ {
+        (0u32..).zip(&self.objects).filter(|(_, o)| !o.removed)
+    }
+
+    /// Number of objects not removed.
+    pub fn live_count(&self) -> usize {
+        self.live_count
+    }
+
+    /// The object with id `id` (removed ones too).
     ///
     /// # Panics
     /// If `id` is not an object id of this scene.
@@ -394,47 +491,45 @@ impl Scene {
         &self.objects[id as usize]
     }
 
+    /// The live object with id `id`, if there is one.
+    pub fn get(&self, id: u32) -> Option<&Object> {
+        self.objects.get(id as usize).filter(|o| !o.removed)
+    }
+
     /// The mesh an object places.
     pub fn mesh_of(&self, object: &Object) -> &Mesh {
         &self.meshes[object.mesh as usize]
     }
 
-    /// Total triangles over all objects (instances counted each time).
+    /// Total triangles over the live objects (instances counted each time).
     pub fn triangle_count(&self) -> u64 {
         self.triangle_count
     }
 
-    /// Number of dynamic objects.
+    /// Number of live dynamic objects.
     pub fn dynamic_count(&self) -> usize {
         self.dynamic_count
     }
 
-    /// The current time of the dynamic objects, seconds.
-    pub fn time(&self) -> f32 {
-        self.time
+    /// Where the scene stands (for cullers to follow it).
+    pub fn revision(&self) -> Revision {
+        self.revision
     }
 
-    /// World bounds of every object at the current time.
+    /// World bounds of every live object.
     pub fn bounds(&self) -> Aabb {
-        self.objects.iter().fold(Aabb::EMPTY, |b, o| b.union(o.aabb))
+        self.live_objects().fold(Aabb::EMPTY, |b, (_, o)| b.union(o.aabb))
     }
+}
 
-    /// Moves every dynamic object to its pose at time `t` seconds (static ones stay).
-    pub fn set_time(&mut self, t: f32) {
-        self.time = t;
-        if self.dynamic_count == 0 {
-            return;
-        }
-        let meshes = &self.meshes;
-        for o in self.objects.iter_mut() {
-            if let Some(m) = o.motion {
-                let bounds = meshes[o.mesh as usize].bounds();
-                o.transform = m.transform_at(&o.base_transform, t);
-                o.aabb = bounds.transformed(&o.transform);
-                o.obb = Obb::from_local(&bounds, &o.transform);
-            }
-        }
+fn check_transform(object: &str, transform: &Mat4) -> Result<(), SceneError> {
+    let det = transform.determinant();
+    if !transform.is_finite() || !det.is_finite() || det == 0.0 {
+        return Err(SceneError::BadTransform {
+            object: object.to_string(),
+        });
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -469,32 +564,44 @@ mod tests {
     }
 
     #[test]
-    fn dynamic_objects_stay_in_region_and_bounds_follow() {
-        let mut b = SceneBuilder::new("s");
-        let m = b.add_mesh(quad());
-        let motion = Motion {
-            velocity: Vec3::new(3.0, -1.0, 7.0),
-            region: Aabb::new(Vec3::splat(-2.0), Vec3::splat(2.0)),
-            spin_axis: Vec3::Y,
-            spin_rate: 1.3,
-        };
-        b.add_dynamic_object("q", m, Mat4::IDENTITY, motion).unwrap();
-        b.add_object("still", m, Mat4::from_translation(Vec3::X * 10.0))
-            .unwrap();
-        assert!(b.set_occluder(1, false));
-        assert!(!b.set_occluder(2, false));
-        let mut s = b.build().unwrap();
-        assert!(s.object(0).occluder && !s.object(1).occluder);
-        for i in 0..200 {
-            s.set_time(i as f32 * 0.1);
-            let o = s.object(0);
-            let origin = o.transform.w_axis.truncate();
-            assert!(motion.region.contains_point(origin), "t={} origin {origin}", s.time());
-            for c in s.mesh_of(o).positions() {
-                let w = o.transform.transform_point3(*c);
-                assert!(o.aabb.min.cmple(w + 1e-4).all() && o.aabb.max.cmpge(w - 1e-4).all());
-            }
-            assert_eq!(s.object(1).transform, Mat4::from_translation(Vec3::X * 10.0));
+    fn objects_move_appear_and_disappear_and_revisions_say_so() {
+        let mut s = Scene::new("engine");
+        assert_eq!((s.live_count(), s.triangle_count()), (0, 0), "an engine starts empty");
+        let m = s.add_mesh(quad());
+        let a = s.add_object("a", m, Mat4::IDENTITY).unwrap();
+        let b = s.add_object("b", m, Mat4::from_translation(Vec3::X * 10.0)).unwrap();
+        let r0 = s.revision();
+        let to = Mat4::from_translation(Vec3::new(0.0, 3.0, 0.0));
+        s.set_transform(a, to).unwrap();
+        let r1 = s.revision();
+        assert!(s.object(a).is_dynamic() && r1.transforms == r0.transforms + 1);
+        assert_eq!(r1.structure, r0.structure + 1, "becoming dynamic is structural");
+        for p in s.mesh_of(s.object(a)).positions() {
+            assert!(s.object(a).aabb.contains_point(to.transform_point3(*p)));
         }
+        s.set_transform(a, Mat4::IDENTITY).unwrap();
+        assert_eq!(s.revision().structure, r1.structure, "moving a dynamic object is not");
+        s.remove_object(b).unwrap();
+        assert!(s.object(b).is_removed() && s.get(b).is_none());
+        assert_eq!((s.live_count(), s.triangle_count(), s.dynamic_count()), (1, 2, 1));
+        assert!(matches!(
+            s.set_transform(b, to),
+            Err(SceneError::UnknownObject { id: 1, .. })
+        ));
+        assert!(matches!(
+            s.remove_object(7),
+            Err(SceneError::UnknownObject { id: 7, .. })
+        ));
+        let c = s.add_object("c", m, Mat4::IDENTITY).unwrap();
+        assert_eq!(c, 2, "ids are never reused");
+        assert_eq!(s.live_objects().map(|(id, _)| id).collect::<Vec<_>>(), vec![0, 2]);
+        assert!(s.object(c).changed_at() > s.object(a).changed_at());
+        let bad = Mat4::from_scale(Vec3::ZERO);
+        assert!(matches!(s.set_transform(a, bad), Err(SceneError::BadTransform { .. })));
+        assert_ne!(
+            s.clone().revision().scene,
+            s.revision().scene,
+            "a clone is another scene"
+        );
     }
 }

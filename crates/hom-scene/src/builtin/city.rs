@@ -8,6 +8,7 @@ use super::rng::Rng;
 use super::shapes::MeshBuilder;
 use super::{round_corners, Builtin, Generated};
 use crate::camera_path::CameraPath;
+use crate::motion::Animation;
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::{MeshId, SceneBuilder, SceneError};
 
@@ -520,5 +521,6 @@ pub(super) fn generate(seed: u64) -> Generated {
     Ok(Builtin {
         scene: b.build()?,
         path,
+        animation: Animation::none(),
     })
 }

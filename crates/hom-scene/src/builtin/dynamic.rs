@@ -9,9 +9,10 @@ use super::shapes::MeshBuilder;
 use super::teapot::teapot;
 use super::{round_corners, Builtin, Generated};
 use crate::camera_path::CameraPath;
+use crate::motion::{Animation, Motion};
 use glam::{Mat4, Quat, Vec3};
 use hom::geom::Aabb;
-use hom::scene::{Motion, SceneBuilder};
+use hom::scene::SceneBuilder;
 
 /// Cells per side, cell pitch (cell + lane) and lane width.
 const CELLS: usize = 8;
@@ -25,6 +26,7 @@ const EYE: f32 = 6.0;
 pub(super) fn generate(seed: u64) -> Generated {
     let mut rng = Rng::new(seed, 4);
     let mut b = SceneBuilder::new("dynamic");
+    let mut animation = Animation::none();
     // Shapes, each with the radius of a sphere round its origin that holds it.
     let mut shapes = Vec::new();
     let mut tp = teapot(5, 1.0);
@@ -93,7 +95,8 @@ pub(super) fn generate(seed: u64) -> Generated {
                         spin_axis: rng.unit_vec3(),
                         spin_rate: rng.range(0.2, 1.5),
                     };
-                    b.add_dynamic_object(format!("{kind} {i},{j}.{k}"), mesh, base, motion)?;
+                    let id = b.add_dynamic_object(format!("{kind} {i},{j}.{k}"), mesh, base)?;
+                    animation.add(id, base, motion)?;
                 }
             }
         }
@@ -116,5 +119,6 @@ pub(super) fn generate(seed: u64) -> Generated {
     Ok(Builtin {
         scene: b.build()?,
         path,
+        animation,
     })
 }

@@ -9,6 +9,7 @@ use super::rng::Rng;
 use super::shapes::MeshBuilder;
 use super::{round_corners, Builtin, Generated};
 use crate::camera_path::CameraPath;
+use crate::motion::Animation;
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::{MeshId, SceneBuilder, SceneError};
 use std::collections::HashMap;
@@ -837,5 +838,6 @@ pub(super) fn generate(seed: u64) -> Generated {
     Ok(Builtin {
         scene: builder.build()?,
         path,
+        animation: Animation::none(),
     })
 }

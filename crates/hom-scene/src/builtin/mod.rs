@@ -24,6 +24,7 @@ pub(crate) mod spheres;
 mod teapot;
 mod terrain;
 
+use crate::motion::Animation;
 use crate::{CameraPath, LoadError};
 use glam::Vec3;
 use hom::scene::{Scene, SceneError};
@@ -34,6 +35,8 @@ pub struct Builtin {
     pub scene: Scene,
     /// Its walkthrough.
     pub path: CameraPath,
+    /// How its dynamic objects move ([`Animation::none`] for static scenes).
+    pub animation: Animation,
 }
 
 /// The seed [`builtin`] uses.
@@ -154,7 +157,7 @@ mod tests {
         for o in b.scene.objects() {
             o.name.hash(&mut h);
             o.mesh.hash(&mut h);
-            for v in o.base_transform.to_cols_array() {
+            for v in o.transform.to_cols_array() {
                 v.to_bits().hash(&mut h);
             }
         }
@@ -226,7 +229,7 @@ mod tests {
     fn dynamic_objects_never_reach_the_camera_lanes() {
         let mut b = builtin("dynamic").unwrap();
         for t in [0.0, 1.7, 5.3, 9.9, 31.0] {
-            b.scene.set_time(t);
+            b.animation.apply(&mut b.scene, t);
             for (i, f) in b.path.frames.iter().enumerate().step_by(3) {
                 let eye = Vec3::from(f.eye);
                 for o in b.scene.objects() {
@@ -245,12 +248,14 @@ mod tests {
         let mut b = builtin("dynamic").unwrap();
         let s = &mut b.scene;
         assert!(s.dynamic_count() * 10 > s.objects().len() * 8, "mostly dynamic");
+        assert_eq!(b.animation.tracks().len(), s.dynamic_count());
         let before: Vec<_> = s.objects().iter().map(|o| o.aabb).collect();
-        s.set_time(2.0);
+        b.animation.apply(s, 2.0);
         let moved = s.objects().iter().zip(&before).filter(|(o, b)| o.aabb != **b).count();
         assert_eq!(moved, s.dynamic_count());
         for name in ["city", "spheres", "machine-room", "office", "terrain"] {
-            assert_eq!(builtin(name).unwrap().scene.dynamic_count(), 0, "{name}");
+            let b = builtin(name).unwrap();
+            assert!(b.scene.dynamic_count() == 0 && b.animation.is_empty(), "{name}");
         }
     }
 

@@ -9,6 +9,7 @@ use super::rng::Rng;
 use super::shapes::MeshBuilder;
 use super::{round_corners, Builtin, Generated};
 use crate::camera_path::CameraPath;
+use crate::motion::Animation;
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::{MeshId, SceneBuilder, SceneError};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -690,5 +691,6 @@ pub(super) fn generate(seed: u64) -> Generated {
     Ok(Builtin {
         scene: b.build()?,
         path,
+        animation: Animation::none(),
     })
 }

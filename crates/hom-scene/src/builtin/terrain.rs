@@ -7,6 +7,7 @@ use super::rng::Rng;
 use super::shapes::MeshBuilder;
 use super::{Builtin, Generated};
 use crate::camera_path::{CameraPath, PathFrame};
+use crate::motion::Animation;
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::SceneBuilder;
 use std::f32::consts::TAU;
@@ -271,5 +272,6 @@ pub(super) fn generate(seed: u64) -> Generated {
     Ok(Builtin {
         scene: b.build()?,
         path,
+        animation: Animation::none(),
     })
 }

@@ -5,8 +5,9 @@ use hom::cull::{CullOutput, Culler};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occluders::OccluderDbConfig;
-use hom::scene::{Mesh, Motion, Scene, SceneBuilder};
+use hom::scene::{Mesh, Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer};
+use hom_scene::{Animation, Motion};
 
 /// A unit cube centred on the origin.
 pub fn cube() -> Mesh {
@@ -42,7 +43,7 @@ pub fn permissive_occluders() -> OccluderDbConfig {
 pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Culler) -> CullOutput {
     let renderer = Renderer::new(1).unwrap();
     let mut out = CullOutput::default();
-    culler.cull(scene, camera, &mut out).unwrap();
+    culler.cull(scene, &camera.to_view(), &mut out).unwrap();
     let mut fb = Framebuffer::new(camera.width, camera.height);
     let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
     for (id, &n) in counts.iter().enumerate() {
@@ -57,8 +58,13 @@ pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Cu
     out
 }
 
-/// A random scene of `n` boxes (half of them moving when `dynamic`).
+/// A random scene of `n` boxes (half of them dynamic when `dynamic`), at time 0.
 pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
+    random_moving_scene(seed, n, dynamic).0
+}
+
+/// [`random_scene`] with the motion of its dynamic boxes.
+pub fn random_moving_scene(seed: u64, n: usize, dynamic: bool) -> (Scene, Animation) {
     let mut state = seed | 1;
     let mut rnd = move || {
         state ^= state << 13;
@@ -67,6 +73,7 @@ pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
         (state >> 11) as f32 / (1u64 << 53) as f32
     };
     let mut b = SceneBuilder::new("random");
+    let mut animation = Animation::none();
     let m = b.add_mesh(cube());
     for i in 0..n {
         let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
@@ -80,12 +87,13 @@ pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
                 spin_axis: Vec3::Y,
                 spin_rate: rnd() * 2.0,
             };
-            b.add_dynamic_object(format!("o{i}"), m, t, motion).unwrap();
+            let id = b.add_dynamic_object(format!("o{i}"), m, t).unwrap();
+            animation.add(id, t, motion).unwrap();
         } else {
             b.add_object(format!("o{i}"), m, t).unwrap();
         }
     }
-    b.build().unwrap()
+    (b.build().unwrap(), animation)
 }
 
 /// Over 60 random scenes, the culler `make` builds occlusion-culls at least

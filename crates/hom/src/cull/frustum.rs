@@ -1,9 +1,9 @@
 //! The baseline cullers: draw everything, or only what is in the view frustum.
 
+use super::model_db::ModelDb;
 use super::{CullError, CullOutput, Culler};
-use crate::geom::{Aabb, Camera, Frustum};
+use crate::geom::{Containment, View};
 use crate::scene::Scene;
-use crate::spatial::{Bvh, BvhConfig};
 
 /// Draws every object: the reference for "no culling at all".
 #[derive(Clone, Debug, Default)]
@@ -14,10 +14,10 @@ impl Culler for NoCuller {
         "none"
     }
 
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
-        camera.validate()?;
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        view.validate()?;
         out.clear();
-        out.visible.extend(0..scene.objects().len() as u32);
+        out.visible.extend(scene.live_objects().map(|(id, _)| id));
         Ok(())
     }
 }
@@ -26,34 +26,16 @@ impl Culler for NoCuller {
 /// occlusion culler's speedup is measured against.
 #[derive(Clone, Debug)]
 pub struct FrustumCuller {
-    bvh: Bvh,
-    boxes: Vec<Aabb>,
+    model: ModelDb,
 }
 
 impl FrustumCuller {
     /// Builds the model database (BVH) for `scene`.
     pub fn new(scene: &Scene) -> FrustumCuller {
-        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
-        let bvh = Bvh::build(&boxes, &BvhConfig::default());
-        FrustumCuller { bvh, boxes }
-    }
-}
-
-/// Refits a BVH to the current boxes of a scene's objects when anything moves.
-pub(crate) fn refit_if_dynamic(scene: &Scene, bvh: &mut Bvh, boxes: &mut [Aabb]) -> Result<(), CullError> {
-    if boxes.len() != scene.objects().len() {
-        return Err(CullError::SceneMismatch {
-            expected: boxes.len(),
-            got: scene.objects().len(),
-        });
-    }
-    if scene.dynamic_count() > 0 {
-        for (b, o) in boxes.iter_mut().zip(scene.objects()) {
-            *b = o.aabb;
+        FrustumCuller {
+            model: ModelDb::new(scene),
         }
-        bvh.refit(boxes);
     }
-    Ok(())
 }
 
 impl Culler for FrustumCuller {
@@ -61,16 +43,24 @@ impl Culler for FrustumCuller {
         "frustum"
     }
 
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
-        camera.validate()?;
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        view.validate()?;
         out.clear();
-        let Self { bvh, boxes } = self;
-        out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
-        let frustum = Frustum::from_view_proj(&camera.view_proj())
-            .expect("a validated camera has a finite, non-degenerate frustum");
+        let model = &mut self.model;
+        out.time("refit", || model.sync(scene));
+        let frustum = view.frustum().expect("a validated view has a frustum");
         let mut visible = std::mem::take(&mut out.visible);
         let tests = out.time("frustum", || {
-            let n = bvh.frustum_cull(boxes, &frustum, &mut visible);
+            let (bvh, boxes) = (model.bvh(), model.boxes());
+            let mut n = bvh.frustum_cull(&boxes[..bvh.items().len()], &frustum, &mut visible);
+            // Removed objects have empty boxes: a wholly inside subtree still lists them.
+            visible.retain(|&id| scene.get(id).is_some());
+            for &id in model.extra() {
+                n += 1;
+                if frustum.test_aabb(&boxes[id as usize]) != Containment::Outside {
+                    visible.push(id);
+                }
+            }
             visible.sort_unstable();
             n
         });

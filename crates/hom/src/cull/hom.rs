@@ -21,7 +21,7 @@
 
 use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler};
-use crate::geom::{Camera, Eye};
+use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
 use crate::occluders::{draw_occluders, OccluderDb, OccluderDbConfig, SelectionConfig};
 use crate::occlusion::{BufferOptions, HomBuffer, MapOptions, OcclusionBuffer, Sampling};
@@ -123,20 +123,20 @@ impl Culler for HomCuller {
         .collect()
     }
 
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole_opacity = self.config.selection.hole_opacity;
         let last = &self.buffer;
-        let frame = self.common.select(scene, camera, out, || {
+        let frame = self.common.select(scene, view, out, || {
             last.as_ref()
                 .and_then(|b| find_worst_hole(b.last_pyramid(), hole_opacity))
         })?;
-        let (w, h) = (camera.width, camera.height);
+        let (w, h) = (view.width, view.height);
         let buffer = match &mut self.buffer {
             Some(b) if (b.width(), b.height()) == (w, h) => b,
             slot => slot.insert(
                 HomBuffer::with_map(w, h, culler_buffer_options(), self.config.map.clone())
-                    .expect("a validated camera has a valid viewport"),
+                    .expect("a validated view has a valid viewport"),
             ),
         };
 
@@ -144,14 +144,20 @@ impl Culler for HomCuller {
         let common = &mut self.common;
         let drawn = out.time("raster", || {
             buffer.clear();
-            let eye = Eye::Point(camera.eye);
-            let n = draw_occluders(buffer, scene, &common.db, &frame.occluders, &frame.view_proj, &eye);
+            let n = draw_occluders(
+                buffer,
+                scene,
+                &common.db,
+                &frame.occluders,
+                &frame.world_to_clip,
+                &frame.eye,
+            );
             buffer.flush();
             n
         });
 
         // 3. Traversal: frustum → depth → overlap, front to back.
-        common.traverse(scene, camera, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
         let overlap = buffer.overlap_stats();
         out.count("overlap_pixels", overlap.pixels);
         out.count("levels_visited", overlap.levels);

@@ -18,7 +18,10 @@
 //!    never image-tested. Dynamic objects are not in the octree: each one in
 //!    the frustum is handled like a leaf of its own (its oriented box tested
 //!    against the pyramid, then its triangles drawn), interleaved with the
-//!    octree nodes by the distance of its box from the eye.
+//!    octree nodes by the distance of its box from the eye. So are objects
+//!    added since the octree was built, and static objects that started to
+//!    move (their triangles in the tree are skipped); removed objects are
+//!    skipped. When such changes pile up, the octree is rebuilt.
 //! 3. **raster** of a visible node's own triangles (all of a leaf's, the
 //!    large ones an inner node keeps: `OctreeConfig::keep_large`), before
 //!    its children are visited: each triangle is set up by
@@ -85,8 +88,9 @@
 
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{ZPyramid, ZTestStats};
-use crate::geom::{project_points, Camera, Containment, Footprint, Frustum, ScreenRect};
+use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
 use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::scene::Revision;
 use crate::scene::Scene;
 use crate::spatial::octree::{Octree, OctreeConfig, TriRef};
 use glam::Mat4;
@@ -120,13 +124,20 @@ impl Default for HvConfig {
     }
 }
 
+/// Changed objects tolerated outside the octree before a rebuild, beyond an eighth of the objects.
+const REBUILD_SLACK: usize = 16;
+
 /// The hierarchical visibility culler; see the module docs.
 pub struct HvCuller {
     config: HvConfig,
     octree: Octree,
-    /// Ids of the dynamic objects (kept out of the octree).
+    /// Ids of the live objects drawn outside the octree: dynamic, or added since its build.
     dynamic: Vec<u32>,
-    objects: usize,
+    /// Per object: its triangles in the octree are drawn (it is live and still static).
+    in_tree: Vec<bool>,
+    /// Objects that changed structurally since the octree was built.
+    changed: usize,
+    seen: Revision,
     pyramid: ZPyramid,
     items: Vec<u32>,
     /// `view_proj * transform` per object, this frame.
@@ -377,14 +388,14 @@ impl Drawing<'_> {
     }
 
     /// A dynamic object: frustum test, box test against the pyramid, then its triangles.
-    fn dynamic(&mut self, id: u32, frustum: &Frustum, view_proj: &Mat4) {
+    fn dynamic(&mut self, id: u32, frustum: &Frustum, world_to_clip: &Mat4) {
         let o = self.scene.object(id);
         if frustum.test_obb(&o.obb) == Containment::Outside {
             return;
         }
         self.stats.dynamic_tested += 1;
         let (w, h) = (self.viewport.width, self.viewport.height);
-        if let Footprint::Rect(r) = project_points(&o.obb.corners(), view_proj, w, h) {
+        if let Footprint::Rect(r) = project_points(&o.obb.corners(), world_to_clip, w, h) {
             if self.pyramid.is_behind(&r, &mut self.zstats) {
                 self.stats.dynamic_occluded += 1;
                 return;
@@ -398,26 +409,74 @@ impl Drawing<'_> {
 impl HvCuller {
     /// Builds the octree over `scene`'s static triangles.
     pub fn new(scene: &Scene, config: HvConfig) -> HvCuller {
-        let octree = Octree::build(scene, &config.octree);
-        let dynamic = (0..scene.objects().len() as u32)
-            .filter(|&id| scene.object(id).is_dynamic())
-            .collect();
-        let n = scene.objects().len();
-        HvCuller {
+        let mut hv = HvCuller {
             config,
-            octree,
-            dynamic,
-            objects: n,
+            octree: Octree::default(),
+            dynamic: Vec::new(),
+            in_tree: Vec::new(),
+            changed: 0,
+            seen: scene.revision(),
             pyramid: ZPyramid::default(),
             items: Vec::new(),
-            mvp: Vec::with_capacity(n),
-            passed: vec![false; n],
-            owned: vec![false; n],
+            mvp: Vec::new(),
+            passed: Vec::new(),
+            owned: Vec::new(),
             tris: Vec::new(),
             spans: Vec::new(),
             stack: Vec::new(),
             pending: Vec::new(),
+        };
+        hv.rebuild(scene);
+        hv
+    }
+
+    /// The octree over the live static objects, and the list of the others.
+    fn rebuild(&mut self, scene: &Scene) {
+        self.octree = Octree::build(scene, &self.config.octree);
+        self.in_tree = scene
+            .objects()
+            .iter()
+            .map(|o| !o.is_dynamic() && !o.is_removed())
+            .collect();
+        self.dynamic = scene
+            .live_objects()
+            .filter(|(_, o)| o.is_dynamic())
+            .map(|(id, _)| id)
+            .collect();
+        self.changed = 0;
+        self.seen = scene.revision();
+    }
+
+    /// Follows the scene's structural changes since the last frame (see the module docs).
+    fn sync(&mut self, scene: &Scene) {
+        let now = scene.revision();
+        if now.scene != self.seen.scene {
+            return self.rebuild(scene);
         }
+        if now.structure != self.seen.structure {
+            let n = scene.objects().len();
+            self.in_tree.resize(n, false);
+            for (id, o) in scene.objects().iter().enumerate() {
+                if o.changed_at() <= self.seen.structure {
+                    continue;
+                }
+                self.changed += 1;
+                let id = id as u32;
+                self.in_tree[id as usize] &= !o.is_dynamic() && !o.is_removed();
+                let listed = self.dynamic.binary_search(&id);
+                match (o.is_removed() || self.in_tree[id as usize], listed) {
+                    (true, Ok(k)) => {
+                        self.dynamic.remove(k);
+                    }
+                    (false, Err(k)) => self.dynamic.insert(k, id),
+                    _ => {}
+                }
+            }
+            if self.changed > REBUILD_SLACK + n / 8 {
+                return self.rebuild(scene);
+            }
+        }
+        self.seen = now;
     }
 
     /// The octree over the static triangles.
@@ -465,6 +524,7 @@ impl HvCuller {
             mvp,
             stack,
             dynamic,
+            in_tree,
             ..
         } = self;
         stack.clear();
@@ -481,7 +541,7 @@ impl HvCuller {
             if c == Containment::Outside || node.count == 0 {
                 continue;
             }
-            for &t in octree.own_triangles(node) {
+            for &t in octree.own_triangles(node).iter().filter(|t| in_tree[t.object as usize]) {
                 total += count(tris, mvp, t);
             }
             if !node.is_leaf() {
@@ -528,29 +588,35 @@ impl Culler for HvCuller {
         ]
     }
 
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
-        camera.validate()?;
-        if scene.objects().len() != self.objects {
-            return Err(CullError::SceneMismatch {
-                expected: self.objects,
-                got: scene.objects().len(),
-            });
-        }
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        view.validate()?;
         out.clear();
-        let view_proj = camera.view_proj();
-        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
-        let (w, h) = (camera.width, camera.height);
+        let view_proj = view.world_to_clip();
+        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated view has a frustum");
+        let (w, h) = (view.width, view.height);
         let viewport = Viewport::new(w, h);
-        let eye = camera.eye;
+        let eye = view.eye();
+        // The octant order needs a point: a parallel view's eye is far along its direction.
+        let order_eye = match eye {
+            Eye::Point(p) => p,
+            Eye::Direction(d) => {
+                let b = scene.bounds();
+                b.center() - d * (b.extent().length() * 1e3 + 1.0)
+            }
+        };
 
-        // 1. Clear the buffers; this frame's object matrices.
+        // 1. Follow the scene; clear the buffers; this frame's object matrices.
         out.time("reset", || {
+            self.sync(scene);
+            let n = scene.objects().len();
             self.pyramid.reset(w, h, 1.0);
             self.items.clear();
             self.items.resize(w as usize * h as usize, NO_OBJECT);
             self.mvp.clear();
             self.mvp.extend(scene.objects().iter().map(|o| view_proj * o.transform));
-            self.passed.fill(false);
+            self.passed.clear();
+            self.passed.resize(n, false);
+            self.owned.resize(n, false);
         });
 
         // 2-4. Front-to-back traversal, drawing visible leaves.
@@ -567,16 +633,18 @@ impl Culler for HvCuller {
             spans,
             stack,
             pending,
+            in_tree,
             ..
         } = self;
         pending.clear();
         pending.extend(
             dynamic
                 .iter()
-                .map(|&id| (scene.object(id).aabb.distance_squared(eye), id)),
+                .map(|&id| (View::nearness(&eye, &scene.object(id).aabb), id)),
         );
         // Nearest last, so `pop` takes the nearest.
         pending.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+        let in_tree: &[bool] = in_tree;
         let mut d = Drawing {
             scene,
             viewport,
@@ -599,7 +667,7 @@ impl Culler for HvCuller {
         }
         while let Some((i, inside)) = stack.pop() {
             let node = &octree.nodes()[i as usize];
-            let dist = node.bounds.distance_squared(eye);
+            let dist = View::nearness(&eye, &node.bounds);
             while pending.last().is_some_and(|p| p.0 <= dist) {
                 let (_, id) = pending.pop().expect("checked");
                 d.dynamic(id, &frustum, &view_proj);
@@ -624,10 +692,16 @@ impl Culler for HvCuller {
             // ones) before its children.
             if node.own > 0 {
                 d.stats.nodes_drawn += 1;
-                d.draw(octree.own_triangles(node).iter().copied());
+                d.draw(
+                    octree
+                        .own_triangles(node)
+                        .iter()
+                        .copied()
+                        .filter(|t| in_tree[t.object as usize]),
+                );
             }
             if !node.is_leaf() {
-                let order = octree.child_order(node, eye);
+                let order = octree.child_order(node, order_eye);
                 let inside = c == Containment::Inside;
                 for &k in order.iter().rev() {
                     if octree.nodes()[k as usize].count > 0 {
@@ -658,7 +732,9 @@ impl Culler for HvCuller {
                 }
             }
             for (id, o) in scene.objects().iter().enumerate() {
-                if owned[id] {
+                if o.is_removed() {
+                    continue;
+                } else if owned[id] {
                     visible.push(id as u32);
                 } else {
                     let c = if o.is_dynamic() {
@@ -727,7 +803,7 @@ mod tests {
         let near = wall(&mut b, -5.0, 10.0);
         let far = wall(&mut b, -20.0, 3.0);
         let scene = b.build().unwrap();
-        let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 64, 48);
+        let camera = crate::geom::Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 64, 48);
         let mut hv = HvCuller::new(
             &scene,
             HvConfig {
@@ -740,7 +816,7 @@ mod tests {
             },
         );
         let mut out = CullOutput::default();
-        hv.cull(&scene, &camera, &mut out).unwrap();
+        hv.cull(&scene, &camera.to_view(), &mut out).unwrap();
         assert_eq!(out.visible, vec![near]);
         assert_eq!(out.occluded, vec![far]);
         let c = |name: &str| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();

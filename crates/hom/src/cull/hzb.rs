@@ -30,7 +30,7 @@ use super::hom::culler_buffer_options;
 use super::traversal::OccluderCulling;
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
-use crate::geom::{Camera, Eye};
+use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
 use crate::occluders::{draw_occluders, OccluderDb, OccluderDbConfig, SelectionConfig};
 use crate::occlusion::{HzBuffer, MapOptions, OcclusionBuffer};
@@ -111,35 +111,41 @@ impl Culler for HzbCuller {
         std::iter::once(depth).chain(self.common.describe()).collect()
     }
 
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError> {
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole_opacity = self.config.selection.hole_opacity;
         let last = &self.buffer;
-        let frame = self.common.select(scene, camera, out, || {
+        let frame = self.common.select(scene, view, out, || {
             let zb = last.as_ref()?.last_zbuffer();
             let mut bits = Vec::new();
             zb.coverage_bits(&mut bits);
             worst_hole_of_coverage(&bits, zb.width(), zb.height(), &MapOptions::default(), hole_opacity)
         })?;
-        let (w, h) = (camera.width, camera.height);
+        let (w, h) = (view.width, view.height);
         let buffer = match &mut self.buffer {
             Some(b) if (b.width(), b.height()) == (w, h) => b,
             slot => slot
-                .insert(HzBuffer::new(w, h, culler_buffer_options()).expect("a validated camera has a valid viewport")),
+                .insert(HzBuffer::new(w, h, culler_buffer_options()).expect("a validated view has a valid viewport")),
         };
 
         // 2. Occluder depth per output sample (the render also builds the pyramid above the tiles).
         let common = &mut self.common;
         let drawn = out.time("raster", || {
             buffer.clear();
-            let eye = Eye::Point(camera.eye);
-            let n = draw_occluders(buffer, scene, &common.db, &frame.occluders, &frame.view_proj, &eye);
+            let n = draw_occluders(
+                buffer,
+                scene,
+                &common.db,
+                &frame.occluders,
+                &frame.world_to_clip,
+                &frame.eye,
+            );
             buffer.flush();
             n
         });
 
         // 3. Traversal: frustum → Z-pyramid, front to back.
-        common.traverse(scene, camera, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
         Ok(())
     }
 

@@ -1,13 +1,17 @@
 //! The culler interface every algorithm implements, and the basic cullers.
 //!
 //! A [`Culler`] is built for one scene, then asked once per frame which objects
-//! to draw. It reports what it culled and why, and how long each of its stages
-//! took, so the walkthrough harness can compare cullers on equal terms.
+//! to draw, given the frame's [`View`] (a `view_proj` matrix, a viewport and a
+//! clip convention). The scene may change between frames — objects added,
+//! moved, removed — and the culler follows it. It reports what it culled and
+//! why, and how long each of its stages took, so the walkthrough harness can
+//! compare cullers on equal terms.
 
 mod frustum;
 pub mod hom;
 pub mod hv;
 pub mod hzb;
+mod model_db;
 mod traversal;
 
 pub use frustum::{FrustumCuller, NoCuller};
@@ -15,7 +19,7 @@ pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller};
 pub use hzb::{HzbConfig, HzbCuller};
 
-use crate::geom::{Camera, CameraError};
+use crate::geom::{View, ViewError};
 use crate::scene::Scene;
 use std::time::Instant;
 use thiserror::Error;
@@ -23,17 +27,9 @@ use thiserror::Error;
 /// Why a culler could not process a frame.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum CullError {
-    /// The camera is unusable (NaN, degenerate, bad viewport…).
-    #[error("invalid camera: {0}")]
-    Camera(#[from] CameraError),
-    /// The scene passed to `cull` is not the one the culler was built for.
-    #[error("culler was built for a scene of {expected} objects, got {got}")]
-    SceneMismatch {
-        /// Objects at build time.
-        expected: usize,
-        /// Objects now.
-        got: usize,
-    },
+    /// The view is unusable (NaN matrix, no frustum, bad viewport…).
+    #[error("invalid view")]
+    View(#[from] ViewError),
 }
 
 /// What a culler decided for one frame. Reused across frames to avoid allocation.
@@ -86,8 +82,9 @@ impl CullOutput {
 /// A visibility culler: built for one scene, asked per frame.
 ///
 /// Contract: every object that owns a pixel of the full rendering of the
-/// scene from `camera` must be in `out.visible` — unless the culler was
-/// configured to approximate, and says so in [`Culler::config`].
+/// scene from `view` (at its resolution, with hom's sampling rule) must be in
+/// `out.visible` — unless the culler was configured to approximate, and says
+/// so in [`Culler::config`]. Removed objects are never reported.
 pub trait Culler: Send {
     /// Short name, as accepted by `hom walk --culler`.
     fn name(&self) -> &'static str;
@@ -98,8 +95,9 @@ pub trait Culler: Send {
     }
 
     /// Decides this frame's visible set. `scene` is the scene the culler was
-    /// built for, with dynamic objects already moved to this frame's time.
-    fn cull(&mut self, scene: &Scene, camera: &Camera, out: &mut CullOutput) -> Result<(), CullError>;
+    /// built for, as it stands this frame (the culler follows additions,
+    /// removals and moves since the last call).
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError>;
 
     /// Feedback after the frame was drawn: its total time (culling plus
     /// rendering) when the caller measured it. Cullers that adapt (HOM's

@@ -7,20 +7,17 @@
 //! subtree; boxes straddling the near plane are never image-tested; this
 //! frame's occluders are always drawn.
 
-use super::frustum::refit_if_dynamic;
+use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
-use crate::geom::{project_points, Aabb, Camera, Containment, Footprint, Frustum, ScreenRect};
+use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
 use crate::map::Hole;
 use crate::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig, SelectionStats};
 use crate::scene::Scene;
-use crate::spatial::{Bvh, BvhConfig};
 use glam::{Mat4, Vec3};
 
 /// The representation-independent state of an occluder-based culler.
 pub(crate) struct OccluderCulling {
-    bvh: Bvh,
-    /// Current object boxes (the BVH's items).
-    boxes: Vec<Aabb>,
+    model: ModelDb,
     /// The occluder database.
     pub db: OccluderDb,
     selector: OccluderSelector,
@@ -33,7 +30,11 @@ pub(crate) struct OccluderCulling {
 /// One frame after occluder selection.
 pub(crate) struct Selected {
     pub frustum: Frustum,
-    pub view_proj: Mat4,
+    /// World to clip, hom's convention.
+    pub world_to_clip: Mat4,
+    pub eye: Eye,
+    pub width: u32,
+    pub height: u32,
     /// This frame's occluders (ascending ids): drawn, and rasterized by the culler.
     pub occluders: Vec<u32>,
     stats: SelectionStats,
@@ -42,34 +43,37 @@ pub(crate) struct Selected {
 impl OccluderCulling {
     /// Builds the BVH over the objects' boxes and the occluder database.
     pub fn new(scene: &Scene, selection: &SelectionConfig, db: &OccluderDbConfig) -> OccluderCulling {
-        let boxes: Vec<Aabb> = scene.objects().iter().map(|o| o.aabb).collect();
         OccluderCulling {
-            bvh: Bvh::build(&boxes, &BvhConfig::default()),
-            boxes,
+            model: ModelDb::new(scene),
             db: OccluderDb::build(scene, db),
             selector: OccluderSelector::new(selection.clone()),
-            is_occluder: vec![false; scene.objects().len()],
+            is_occluder: Vec::new(),
             culled_pct: 0.0,
         }
     }
 
-    /// Starts a frame: validates the camera, clears `out`, refits the BVH to
-    /// moved objects, finds last frame's worst hole with `worst_hole` (only
-    /// when the selection asks for one) and selects this frame's occluders;
-    /// each step timed.
+    /// Starts a frame: validates the view, clears `out`, follows the scene's
+    /// changes (refit, or a rebuilt occluder database keeping its stand-ins),
+    /// finds last frame's worst hole with `worst_hole` (only when the
+    /// selection asks for one) and selects this frame's occluders; each step timed.
     pub fn select(
         &mut self,
         scene: &Scene,
-        camera: &Camera,
+        view: &View,
         out: &mut CullOutput,
         worst_hole: impl FnOnce() -> Option<Hole>,
     ) -> Result<Selected, CullError> {
-        camera.validate()?;
+        view.validate()?;
         out.clear();
-        let Self { bvh, boxes, .. } = self;
-        out.time("refit", || refit_if_dynamic(scene, bvh, boxes))?;
-        let view_proj = camera.view_proj();
-        let frustum = Frustum::from_view_proj(&view_proj).expect("a validated camera has a frustum");
+        let Self { model, db, .. } = self;
+        out.time("refit", || {
+            if model.sync(scene) == Change::Structure {
+                db.rebuild(scene);
+            }
+        });
+        let world_to_clip = view.world_to_clip();
+        let frustum = Frustum::from_view_proj(&world_to_clip).expect("a validated view has a frustum");
+        let eye = view.eye();
         let hole = if self.selector.wants_hole() {
             out.time("hole", worst_hole)
         } else {
@@ -77,12 +81,22 @@ impl OccluderCulling {
         };
         let mut occluders = std::mem::take(&mut out.occluders);
         let stats = out.time("selection", || {
-            self.selector
-                .select(&self.db, scene, camera, &frustum, hole.as_ref(), &mut occluders)
+            self.selector.select(
+                &self.db,
+                scene,
+                &world_to_clip,
+                &eye,
+                &frustum,
+                hole.as_ref(),
+                &mut occluders,
+            )
         });
         Ok(Selected {
             frustum,
-            view_proj,
+            world_to_clip,
+            eye,
+            width: view.width,
+            height: view.height,
             occluders,
             stats,
         })
@@ -94,7 +108,6 @@ impl OccluderCulling {
     pub fn traverse(
         &mut self,
         scene: &Scene,
-        camera: &Camera,
         out: &mut CullOutput,
         frame: Selected,
         occluder_triangles: u64,
@@ -104,14 +117,8 @@ impl OccluderCulling {
         let mut occluded = std::mem::take(&mut out.occluded);
         let traversal = Traversal {
             scene,
-            bvh: &self.bvh,
-            boxes: &self.boxes,
-            frustum: &frame.frustum,
-            view_proj: frame.view_proj,
-            width: camera.width,
-            height: camera.height,
-            eye: camera.eye,
-            occluders: &frame.occluders,
+            model: &self.model,
+            frame: &frame,
         };
         let is_occluder = &mut self.is_occluder;
         let box_tests = out.time("traversal", || {
@@ -146,17 +153,9 @@ impl OccluderCulling {
 
 /// What one frame's traversal looks at.
 struct Traversal<'a> {
-    pub scene: &'a Scene,
-    pub bvh: &'a Bvh,
-    /// Current object boxes (the BVH's items).
-    pub boxes: &'a [Aabb],
-    pub frustum: &'a Frustum,
-    pub view_proj: Mat4,
-    pub width: u32,
-    pub height: u32,
-    pub eye: Vec3,
-    /// This frame's occluders (ascending ids).
-    pub occluders: &'a [u32],
+    scene: &'a Scene,
+    model: &'a ModelDb,
+    frame: &'a Selected,
 }
 
 impl Traversal<'_> {
@@ -165,80 +164,90 @@ impl Traversal<'_> {
     /// Returns the number of box tests (nodes and objects).
     pub fn run(
         &self,
-        is_occluder: &mut [bool],
+        is_occluder: &mut Vec<bool>,
         mut is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
     ) -> u64 {
-        let (bvh, frustum, boxes, scene) = (self.bvh, self.frustum, self.boxes, self.scene);
-        is_occluder.fill(false);
-        for &id in self.occluders {
+        let (bvh, boxes, scene, f) = (self.model.bvh(), self.model.boxes(), self.scene, self.frame);
+        is_occluder.clear();
+        is_occluder.resize(scene.objects().len(), false);
+        for &id in &f.occluders {
             is_occluder[id as usize] = true;
         }
-        let footprint = |corners: &[Vec3; 8]| project_points(corners, &self.view_proj, self.width, self.height);
+        let footprint = |corners: &[Vec3; 8]| project_points(corners, &f.world_to_clip, f.width, f.height);
         let mut box_tests = 0u64;
-        let mut stack: Vec<(u32, bool)> = if bvh.is_empty() { Vec::new() } else { vec![(0, false)] };
-        while let Some((index, inside)) = stack.pop() {
-            let node = &bvh.nodes()[index as usize];
+        bvh.traverse_front_to_back(&f.eye, false, |_, node, inside| {
             box_tests += 1;
             let containment = if inside {
                 Containment::Inside
             } else {
-                frustum.test_aabb(&node.bounds)
+                f.frustum.test_aabb(&node.bounds)
             };
             if containment == Containment::Outside {
-                continue;
+                return None;
             }
             let inside = containment == Containment::Inside;
             if let Footprint::Rect(r) = footprint(&node.bounds.corners()) {
                 if is_occluded(&r) {
-                    // Only objects in the frustum count as occlusion-culled.
+                    // Only live objects in the frustum count as occlusion-culled.
                     let items = bvh.subtree_items(node).iter().copied();
                     occluded.extend(items.filter(|&id| {
-                        !is_occluder[id as usize]
-                            && (inside || frustum.test_aabb(&boxes[id as usize]) != Containment::Outside)
+                        scene.get(id).is_some()
+                            && !is_occluder[id as usize]
+                            && (inside || f.frustum.test_aabb(&boxes[id as usize]) != Containment::Outside)
                     }));
-                    continue;
+                    return None;
                 }
             }
-            if node.is_leaf() {
-                for &id in bvh.leaf_items(node) {
-                    let o = scene.object(id);
-                    box_tests += 1;
-                    if is_occluder[id as usize] {
-                        continue; // added below, whatever its subtree's fate
-                    }
-                    // Dynamic objects are tested with their tighter oriented box.
-                    let (c, corners) = if o.is_dynamic() {
-                        (frustum.test_obb(&o.obb), o.obb.corners())
-                    } else if inside {
-                        (Containment::Inside, o.aabb.corners())
-                    } else {
-                        (frustum.test_aabb(&boxes[id as usize]), o.aabb.corners())
-                    };
-                    if c == Containment::Outside {
-                        continue;
-                    }
-                    match footprint(&corners) {
-                        Footprint::Rect(r) if is_occluded(&r) => occluded.push(id),
-                        _ => visible.push(id),
-                    }
-                }
-            } else {
-                // Push the farther child first so the nearer one is visited first.
-                let (a, b) = (node.first, node.first + 1);
-                let da = bvh.nodes()[a as usize].bounds.distance_squared(self.eye);
-                let db = bvh.nodes()[b as usize].bounds.distance_squared(self.eye);
-                let (near, far) = if da <= db { (a, b) } else { (b, a) };
-                stack.push((far, inside));
-                stack.push((near, inside));
+            for &id in bvh.leaf_items(node) {
+                box_tests += self.object(id, inside, is_occluder, &mut is_occluded, visible, occluded);
             }
+            Some(inside)
+        });
+        // Objects added since the BVH was built.
+        for &id in self.model.extra() {
+            box_tests += self.object(id, false, is_occluder, &mut is_occluded, visible, occluded);
         }
         // This frame's occluders are drawn (they were selected in the frustum).
-        visible.extend_from_slice(self.occluders);
+        visible.extend_from_slice(&f.occluders);
         visible.sort_unstable();
         occluded.sort_unstable();
         box_tests
+    }
+
+    /// Tests one object: frustum (its oriented box when it moves; none when
+    /// its node was wholly `inside`), then its rectangle. Returns the box tests made.
+    fn object(
+        &self,
+        id: u32,
+        inside: bool,
+        is_occluder: &[bool],
+        is_occluded: &mut impl FnMut(&ScreenRect) -> bool,
+        visible: &mut Vec<u32>,
+        occluded: &mut Vec<u32>,
+    ) -> u64 {
+        let f = self.frame;
+        let Some(o) = self.scene.get(id) else {
+            return 0; // removed
+        };
+        if is_occluder[id as usize] {
+            return 1; // added at the end, whatever its subtree's fate
+        }
+        let (c, corners) = if o.is_dynamic() {
+            (f.frustum.test_obb(&o.obb), o.obb.corners())
+        } else if inside {
+            (Containment::Inside, o.aabb.corners())
+        } else {
+            (f.frustum.test_aabb(&o.aabb), o.aabb.corners())
+        };
+        if c != Containment::Outside {
+            match project_points(&corners, &f.world_to_clip, f.width, f.height) {
+                Footprint::Rect(r) if is_occluded(&r) => occluded.push(id),
+                _ => visible.push(id),
+            }
+        }
+        1
     }
 }
 

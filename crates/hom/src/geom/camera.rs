@@ -146,6 +146,12 @@ impl Camera {
         self.projection() * self.view()
     }
 
+    /// The frame's [`super::View`], what cullers take: `view_proj`, the
+    /// viewport and [`super::ClipConvention::ZeroToOne`].
+    pub fn to_view(&self) -> super::View {
+        super::View::from(self)
+    }
+
     /// The view frustum; `None` for an invalid camera.
     pub fn frustum(&self) -> Option<Frustum> {
         self.validate().ok()?;

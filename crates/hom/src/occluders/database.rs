@@ -53,6 +53,8 @@ pub enum Verdict {
     /// The scene marks it as never an occluder ([`crate::scene::Object::occluder`]
     /// is false: glass, grates, foliage, liquids), whatever its shape.
     NotAnOccluder,
+    /// Removed from the scene.
+    Removed,
 }
 
 /// An object kept as an occluder.
@@ -120,7 +122,9 @@ impl OccluderDb {
                     o.transform.z_axis.truncate().length(),
                 );
                 let size = scene.mesh_of(o).bounds().extent() * scale;
-                if !o.occluder {
+                if o.is_removed() {
+                    Verdict::Removed
+                } else if !o.occluder {
                     Verdict::NotAnOccluder
                 } else if second_largest(size) < config.min_size {
                     Verdict::TooSmall
@@ -194,6 +198,19 @@ impl OccluderDb {
     /// The configuration it was built with.
     pub fn config(&self) -> &OccluderDbConfig {
         &self.config
+    }
+
+    /// Rebuilds the database for `scene` as it is now (after objects were
+    /// added, removed, made dynamic or re-flagged) with its configuration,
+    /// keeping the stand-ins of objects that are still occluders.
+    pub fn rebuild(&mut self, scene: &Scene) {
+        let config = self.config.clone();
+        let old = std::mem::replace(self, OccluderDb::build(scene, &config));
+        for o in old.occluders {
+            if let Some(mesh) = o.stand_in {
+                self.set_stand_in(o.object, mesh);
+            }
+        }
     }
 
     /// The stand-in mesh of `object`, when it is an occluder that has one.

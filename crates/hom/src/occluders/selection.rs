@@ -16,9 +16,10 @@
 //! - **temporal coherence**: last frame's occluders win ties.
 
 use super::database::OccluderDb;
-use crate::geom::{Camera, Containment, Frustum};
+use crate::geom::{Containment, Eye, Frustum, View};
 use crate::map::Hole;
 use crate::scene::Scene;
+use glam::Mat4;
 use std::collections::VecDeque;
 
 /// How occluders are chosen.
@@ -133,11 +134,16 @@ impl OccluderSelector {
 
     /// Selects this frame's occluders into `out` (ids, ascending). `hole` is the
     /// worst hole of the last frame's coarsest map, if the caller found one.
+    ///
+    /// `world_to_clip` is the view in hom's clip convention, `eye` its viewer
+    /// ([`crate::geom::View::world_to_clip`], [`crate::geom::View::eye`]).
+    #[allow(clippy::too_many_arguments)]
     pub fn select(
         &mut self,
         db: &OccluderDb,
         scene: &Scene,
-        camera: &Camera,
+        world_to_clip: &Mat4,
+        eye: &Eye,
         frustum: &Frustum,
         hole: Option<&Hole>,
         out: &mut Vec<u32>,
@@ -149,7 +155,6 @@ impl OccluderSelector {
             budget: self.budget,
             ..SelectionStats::default()
         };
-        let view = camera.view();
         self.candidates.clear();
         for occ in db.occluders() {
             let o = &objects[occ.object as usize];
@@ -164,13 +169,14 @@ impl OccluderSelector {
             let key = match self.config.mode {
                 SelectionMode::Nearest => {
                     let radius = o.aabb.half_extent().length().max(1e-6);
-                    (o.aabb.center() - camera.eye).length() / radius
+                    View::distance(eye, o.aabb.center()) / radius
                 }
+                // Clip z before the divide grows with view depth (perspective and parallel alike).
                 SelectionMode::ZPlane => o
                     .aabb
                     .corners()
                     .iter()
-                    .map(|c| -(view.transform_point3(*c)).z)
+                    .map(|c| (*world_to_clip * c.extend(1.0)).z)
                     .fold(f32::MIN, f32::max),
             };
             // Temporal coherence: last frame's occluders win near-ties.
@@ -205,7 +211,7 @@ impl OccluderSelector {
         // 2. Hole fillers: in the hole's sub-frustum, not selected last frame.
         self.hole_fillers.clear();
         if let Some(h) = hole.filter(|_| self.config.hole_filling) {
-            if let Some(sub) = Frustum::from_view_proj_ndc_rect(&camera.view_proj(), h.x, h.y) {
+            if let Some(sub) = Frustum::from_view_proj_ndc_rect(world_to_clip, h.x, h.y) {
                 let limit = spent + (budget as f32 * self.config.hole_share) as u64;
                 for &(_, id, tris) in &self.candidates {
                     let o = &objects[id as usize];

@@ -7,7 +7,7 @@
 //! move is a single reverse pass. Items of any subtree are contiguous in
 //! [`Bvh::items`], so a subtree found wholly visible (or wholly hidden) is a slice.
 
-use crate::geom::{Aabb, Containment, Frustum};
+use crate::geom::{Aabb, Containment, Eye, Frustum, View};
 use glam::Vec3;
 use std::ops::Range;
 
@@ -512,26 +512,37 @@ impl Bvh {
         }
     }
 
-    /// Depth-first walk, nearer child first: `visit(index, node)` is called on the
-    /// root, and on both children of every visited inner node for which it
-    /// returned `true`. Of two children, the one whose bounds are nearer to `eye`
-    /// ([`Aabb::distance_squared`], ties broken by distance to the box centre)
-    /// is visited, with its whole subtree, before the other.
+    /// Depth-first walk, nearer child first: `visit(index, node, state)` is
+    /// called on the root with `root`, and on both children of every visited
+    /// inner node for which it returned `Some(child_state)`, with that state.
+    /// Of two children, the one nearer to `eye` ([`View::nearness`], ties
+    /// broken by the box centre's) is visited, with its whole subtree, before
+    /// the other.
     ///
     /// This is the order occlusion cullers want: near nodes are tested (and
-    /// their leaves drawn as occluders) before the nodes they may hide. For a
-    /// leaf, the return value is ignored; use [`Bvh::leaf_items`] to reach its items.
-    pub fn traverse_front_to_back(&self, eye: Vec3, mut visit: impl FnMut(u32, &BvhNode) -> bool) {
+    /// their leaves drawn as occluders) before the nodes they may hide. The
+    /// state carries what a parent learnt for its children (a frustum
+    /// culler's "wholly inside"). For a leaf, the return value is ignored;
+    /// use [`Bvh::leaf_items`] to reach its items.
+    pub fn traverse_front_to_back<S: Copy>(
+        &self,
+        eye: &Eye,
+        root: S,
+        mut visit: impl FnMut(u32, &BvhNode, S) -> Option<S>,
+    ) {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = [0u32; MAX_DEPTH];
+        let mut stack = [(0u32, root); MAX_DEPTH];
         let mut len = 1;
         while len > 0 {
             len -= 1;
-            let index = stack[len];
+            let (index, state) = stack[len];
             let node = &self.nodes[index as usize];
-            if !visit(index, node) || node.is_leaf() {
+            let Some(child) = visit(index, node, state) else {
+                continue;
+            };
+            if node.is_leaf() {
                 continue;
             }
             let (a, b) = (node.first, node.first + 1);
@@ -540,8 +551,8 @@ impl Bvh {
             } else {
                 (a, b)
             };
-            stack[len] = far;
-            stack[len + 1] = near;
+            stack[len] = (far, child);
+            stack[len + 1] = (near, child);
             len += 2;
         }
     }
@@ -678,9 +689,10 @@ impl Bvh {
 }
 
 /// True when box `b` is strictly nearer to `eye` than box `a` (so `b` goes first).
-fn nearer(eye: Vec3, b: &Aabb, a: &Aabb) -> bool {
-    let (db, da) = (b.distance_squared(eye), a.distance_squared(eye));
-    db < da || (db == da && b.center().distance_squared(eye) < a.center().distance_squared(eye))
+fn nearer(eye: &Eye, b: &Aabb, a: &Aabb) -> bool {
+    let (db, da) = (View::nearness(eye, b), View::nearness(eye, a));
+    let centre = |x: &Aabb| View::nearness(eye, &Aabb::new(x.center(), x.center()));
+    db < da || (db == da && centre(b) < centre(a))
 }
 
 #[cfg(test)]
@@ -747,11 +759,11 @@ mod tests {
     fn check_front_to_back(bvh: &Bvh, eye: Vec3) {
         let mut order = Vec::new();
         let mut seen_items = Vec::new();
-        bvh.traverse_front_to_back(eye, |i, node| {
+        bvh.traverse_front_to_back(&Eye::Point(eye), (), |i, node, ()| {
             assert_eq!(bvh.nodes()[i as usize], *node);
             order.push(i);
             seen_items.extend_from_slice(bvh.leaf_items(node));
-            true
+            Some(())
         });
         assert_eq!(order.len(), bvh.nodes().len(), "every node visited once");
         seen_items.sort_unstable();
@@ -982,7 +994,7 @@ mod tests {
         let mut out = Vec::new();
         assert_eq!(bvh.frustum_cull(&[], &f, &mut out), 0);
         assert!(out.is_empty());
-        bvh.traverse_front_to_back(Vec3::ZERO, |_, _| panic!("no nodes to visit"));
+        bvh.traverse_front_to_back(&Eye::Point(Vec3::ZERO), (), |_, _, ()| panic!("no nodes to visit"));
         let mut default = Bvh::default();
         default.refit(&[]);
         default.assert_well_formed(&[]);
@@ -1081,18 +1093,18 @@ mod tests {
         let boxes = grid(4);
         let bvh = Bvh::build(&boxes, &BvhConfig::default());
         let mut visited = 0;
-        bvh.traverse_front_to_back(Vec3::splat(-10.0), |_, _| {
+        bvh.traverse_front_to_back(&Eye::Point(Vec3::splat(-10.0)), (), |_, _, ()| {
             visited += 1;
-            false
+            None
         });
         assert_eq!(visited, 1);
         // Near the grid's first corner, the first leaf reached holds the box at that corner.
         let mut first_leaf = None;
-        bvh.traverse_front_to_back(Vec3::splat(-10.0), |_, n| {
+        bvh.traverse_front_to_back(&Eye::Point(Vec3::splat(-10.0)), (), |_, n, ()| {
             if n.is_leaf() && first_leaf.is_none() {
                 first_leaf = Some(bvh.leaf_items(n).to_vec());
             }
-            true
+            Some(())
         });
         assert!(first_leaf.unwrap().contains(&0));
     }

@@ -181,7 +181,7 @@ pub fn triangle_bounds(scene: &Scene, t: TriRef) -> Aabb {
 }
 
 impl Octree {
-    /// Builds the octree over every triangle of every static object of `scene`.
+    /// Builds the octree over every triangle of every live static object of `scene`.
     pub fn build(scene: &Scene, config: &OctreeConfig) -> Octree {
         let config = OctreeConfig {
             threshold: config.threshold.max(1),
@@ -189,7 +189,7 @@ impl Octree {
         };
         let mut recs: Vec<Record> = Vec::new();
         for (id, o) in scene.objects().iter().enumerate() {
-            if o.is_dynamic() {
+            if o.is_dynamic() || o.is_removed() {
                 continue;
             }
             for k in 0..scene.mesh_of(o).triangle_count() {
@@ -348,13 +348,17 @@ impl Octree {
             .collect();
         for t in &self.triangles {
             let o = scene.object(t.object);
-            assert!(!o.is_dynamic(), "dynamic object {} is in the octree", t.object);
+            assert!(
+                !o.is_dynamic() && !o.is_removed(),
+                "dynamic or removed object {} is in the octree",
+                t.object
+            );
             let s = &mut seen[t.object as usize][t.triangle as usize];
             assert!(!*s, "triangle {t:?} referenced twice");
             *s = true;
         }
         for (id, (o, s)) in scene.objects().iter().zip(&seen).enumerate() {
-            if !o.is_dynamic() {
+            if !o.is_dynamic() && !o.is_removed() {
                 assert!(
                     s.iter().all(|&b| b),
                     "object {id}: a triangle is missing from the octree"
@@ -435,7 +439,7 @@ impl Octree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Mesh, Motion, SceneBuilder};
+    use crate::scene::{Mesh, SceneBuilder};
     use glam::{Mat4, Quat};
     use proptest::prelude::*;
 
@@ -463,13 +467,7 @@ mod tests {
             let tr =
                 Mat4::from_scale_rotation_translation(Vec3::splat(0.5 + r()), Quat::from_rotation_y(r() * 6.0), pos);
             if i % 5 == 4 {
-                let motion = Motion {
-                    velocity: Vec3::X,
-                    region: Aabb::new(pos - 1.0, pos + 1.0),
-                    spin_axis: Vec3::ZERO,
-                    spin_rate: 0.0,
-                };
-                b.add_dynamic_object(format!("o{i}"), m, tr, motion).unwrap();
+                b.add_dynamic_object(format!("o{i}"), m, tr).unwrap();
             } else {
                 b.add_object(format!("o{i}"), m, tr).unwrap();
             }

@@ -1,0 +1,128 @@
+//! The cullers on a scene an engine drives: objects moved with
+//! `set_transform`, added and removed between frames. Every culler follows:
+//! no object the oracle sees is ever culled, no removed object is ever
+//! reported, and frustum culling equals a linear scan of the live objects.
+
+mod common;
+
+use common::{assert_no_false_culls, cube, permissive_occluders, random_scene};
+use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller};
+use hom::geom::{Camera, Containment};
+use hom::glam::{Mat4, Quat, Vec3};
+use hom::scene::Scene;
+use proptest::prelude::*;
+
+/// The cullers under test, built for `scene`, with an occluder budget of `budget` triangles.
+fn cullers(scene: &Scene, budget: u32) -> Vec<Box<dyn Culler>> {
+    let mut hom = HomConfig {
+        occluder_db: permissive_occluders(),
+        ..HomConfig::default()
+    };
+    hom.selection.budget = budget;
+    vec![
+        Box::new(FrustumCuller::new(scene)),
+        Box::new(HomCuller::new(scene, hom.clone())),
+        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&hom))),
+        Box::new(HvCuller::new(scene, HvConfig::default())),
+    ]
+}
+
+/// A random change: move, add or remove objects.
+fn change(scene: &mut Scene, rnd: &mut impl FnMut() -> f32) {
+    let live: Vec<u32> = scene.live_objects().map(|(id, _)| id).collect();
+    let pick = |r: f32| live[((r * live.len() as f32) as usize).min(live.len() - 1)];
+    let place = |rnd: &mut dyn FnMut() -> f32| {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let scale = Vec3::new(0.2 + rnd() * 5.0, 0.2 + rnd() * 4.0, 0.2 + rnd() * 5.0);
+        Mat4::from_scale_rotation_translation(scale, Quat::from_rotation_y(rnd() * 3.0), pos)
+    };
+    match (rnd() * 4.0) as u32 {
+        0 | 1 if !live.is_empty() => {
+            let id = pick(rnd());
+            let t = place(rnd);
+            scene.set_transform(id, t).unwrap();
+        }
+        2 => {
+            let mesh = scene.add_mesh(cube());
+            let t = place(rnd);
+            scene.add_object("spawned", mesh, t).unwrap();
+        }
+        _ if live.len() > 1 => scene.remove_object(pick(rnd())).unwrap(),
+        _ => {}
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #[test]
+    fn cullers_follow_moves_additions_and_removals(seed in any::<u64>(), n in 1usize..30, changes in 1usize..6) {
+        let mut state = seed | 1;
+        let mut rnd = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let mut scene = random_scene(seed, n, false);
+        let mut all = cullers(&scene, 60);
+        let camera = Camera::new(Vec3::new(0.0, 0.5, 14.0), Vec3::ZERO, Vec3::Y, 1.2, 0.1, 100.0, 72, 54);
+        let frustum = camera.frustum().unwrap();
+        for _frame in 0..10 {
+            for _ in 0..changes {
+                change(&mut scene, &mut rnd);
+            }
+            for culler in all.iter_mut() {
+                let out = assert_no_false_culls(&scene, &camera, culler.as_mut());
+                for &id in out.visible.iter().chain(&out.occluded) {
+                    prop_assert!(scene.get(id).is_some(), "{}: removed object {} reported", culler.name(), id);
+                }
+                if culler.name() == "frustum" {
+                    let linear: Vec<u32> = scene
+                        .live_objects()
+                        .filter(|(_, o)| frustum.test_aabb(&o.aabb) != Containment::Outside)
+                        .map(|(id, _)| id)
+                        .collect();
+                    prop_assert_eq!(&out.visible, &linear, "the frustum culler lost a moved or added object");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn an_empty_scene_culls_to_nothing_and_fills_up() {
+    let mut scene = Scene::new("engine");
+    let camera = Camera::new(Vec3::new(0.0, 0.5, 14.0), Vec3::ZERO, Vec3::Y, 1.2, 0.1, 100.0, 64, 48);
+    // Budget 12: the wall alone is an occluder.
+    let mut all = cullers(&scene, 12);
+    for culler in all.iter_mut() {
+        let mut out = CullOutput::default();
+        culler.cull(&scene, &camera.to_view(), &mut out).unwrap();
+        assert!(out.visible.is_empty() && out.occluded.is_empty(), "{}", culler.name());
+    }
+    let mesh = scene.add_mesh(cube());
+    // A wall in front of a small box: after the additions the box is hidden.
+    let wall = scene
+        .add_object(
+            "wall",
+            mesh,
+            Mat4::from_scale_rotation_translation(Vec3::new(20.0, 20.0, 0.5), Quat::IDENTITY, Vec3::ZERO),
+        )
+        .unwrap();
+    let small = scene
+        .add_object("small", mesh, Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0)))
+        .unwrap();
+    for culler in all.iter_mut() {
+        let out = assert_no_false_culls(&scene, &camera, culler.as_mut());
+        assert!(out.visible.contains(&wall), "{}", culler.name());
+        if culler.name() != "frustum" {
+            assert_eq!(out.occluded, vec![small], "{}: the box behind the wall", culler.name());
+        }
+    }
+    // The wall is removed: the box must come back.
+    scene.remove_object(wall).unwrap();
+    for culler in all.iter_mut() {
+        let out = assert_no_false_culls(&scene, &camera, culler.as_mut());
+        assert_eq!(out.visible, vec![small], "{}", culler.name());
+    }
+}
