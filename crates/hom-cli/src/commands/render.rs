@@ -1,0 +1,80 @@
+//! `hom render`: one frame of a scene's path to a PNG, plain or in false colour.
+
+use crate::args::{HomArgs, RenderArgs};
+use crate::setup::{hom_config, make_culler, open};
+use anyhow::{bail, Result};
+use hom::cull::{CullOutput, Culler, HomCuller};
+use hom::scene::Scene;
+use hom_render::{Framebuffer, RenderOptions, Renderer};
+use hom_scene::CameraPath;
+use hom_walk::{pictures, WalkOptions};
+use std::path::Path;
+
+/// Runs `hom render`.
+pub fn run(a: RenderArgs) -> Result<()> {
+    let (mut scene, path) = open(&a.view)?;
+    if a.frame >= path.frames.len() {
+        bail!(
+            "--frame {} is past the end of the path ({} frames)",
+            a.frame,
+            path.frames.len()
+        );
+    }
+    let renderer = Renderer::new(a.view.threads)?;
+    let frame_rate = WalkOptions::default().frame_rate;
+    if a.false_colour {
+        write_false_colour(
+            &mut scene,
+            &path,
+            &a.view.culler,
+            &a.view.hom,
+            a.frame,
+            &renderer,
+            &a.out,
+            frame_rate,
+        )?;
+    } else {
+        scene.set_time(a.frame as f32 / frame_rate);
+        let camera = path.camera(a.frame);
+        let mut culler = make_culler(&a.view.culler, &scene, &a.view.hom)?;
+        let mut cull = CullOutput::default();
+        culler.cull(&scene, &camera, &mut cull)?;
+        let mut fb = Framebuffer::new(camera.width, camera.height);
+        renderer.render(&scene, &cull.visible, &camera, &RenderOptions::default(), &mut fb);
+        fb.save_png(&a.out)?;
+    }
+    println!("wrote {}", a.out.display());
+    Ok(())
+}
+
+/// Culls frame `frame` with the named culler and writes it in false colour to
+/// `out`. With HOM, also returns that frame's occlusion pyramid (for pictures).
+#[allow(clippy::too_many_arguments)]
+pub fn write_false_colour(
+    scene: &mut Scene,
+    path: &CameraPath,
+    culler_name: &str,
+    hom: &HomArgs,
+    frame: usize,
+    renderer: &Renderer,
+    out: &Path,
+    frame_rate: f32,
+) -> Result<Option<hom::map::Pyramid>> {
+    scene.set_time(frame as f32 / frame_rate);
+    let camera = path.camera(frame);
+    let mut cull = CullOutput::default();
+    let pyramid = if culler_name == "hom" {
+        // The concrete type, not a `dyn Culler`: the pyramid is HOM's own.
+        let mut culler = HomCuller::new(scene, hom_config(hom, scene)?);
+        renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
+        culler.pyramid().cloned()
+    } else {
+        let mut culler = make_culler(culler_name, scene, hom)?;
+        renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
+        None
+    };
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    let image = pictures::render_false_colour(renderer, scene, &camera, &cull, &mut fb);
+    hom_render::write_png(out, camera.width, camera.height, &image)?;
+    Ok(pyramid)
+}

@@ -1,0 +1,124 @@
+//! What every command sets up: the scene and its camera path with the
+//! viewport overridden, the culler, and the progress bar.
+
+use crate::args::{HomArgs, View};
+use anyhow::{bail, Result};
+use hom::cull::{Culler, DepthMode, HomConfig, HvConfig, HvCuller, Opacity};
+use hom::occluders::SelectionMode;
+use hom::scene::Scene;
+use hom_scene::bsp::BspMap;
+use hom_scene::CameraPath;
+use hom_walk::cullers;
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// The scene and the path to walk, with the viewport overridden where asked.
+pub fn open(view: &View) -> Result<(Scene, CameraPath)> {
+    let (scene, mut path) = hom_walk::open_scene(&view.scene)?;
+    if let Some(file) = &view.camera_path {
+        path = CameraPath::load(file)?;
+    }
+    override_viewport(view, &mut path);
+    path.validate(&view.scene)?;
+    Ok((scene, path))
+}
+
+/// [`open`] for a Quake 3 map already loaded (for `--pvs`): its scene and its
+/// spawn-to-spawn walk, or the `--camera-path` file, with the viewport overridden.
+pub fn open_map_view(view: &View, map: &BspMap) -> Result<(Scene, CameraPath)> {
+    let mut path = match &view.camera_path {
+        Some(file) => CameraPath::load(file)?,
+        None => match map.camera_path() {
+            Some(p) => p,
+            None => bail!("{} has no spawn points to walk; give --camera-path", view.scene),
+        },
+    };
+    override_viewport(view, &mut path);
+    path.validate(&view.scene)?;
+    Ok((map.scene.clone(), path))
+}
+
+fn override_viewport(view: &View, path: &mut CameraPath) {
+    if let Some(w) = view.width {
+        path.width = w;
+    }
+    if let Some(h) = view.height {
+        path.height = h;
+    }
+}
+
+/// The HOM culler's settings for `scene` with the flags applied.
+pub fn hom_config(args: &HomArgs, scene: &Scene) -> Result<HomConfig> {
+    let mut c = HomConfig::for_scene(scene);
+    if let Some(b) = args.budget {
+        c.selection.budget = b;
+    }
+    c.selection.adaptive = args.adaptive_budget;
+    c.selection.hole_filling = !args.no_hole_filling;
+    if let Some(o) = args.opacity {
+        if !(o > 0.0 && o <= 1.0) {
+            bail!("--opacity must be in (0, 1], got {o}");
+        }
+        c.opacity = if o == 1.0 {
+            Opacity::Conservative
+        } else {
+            Opacity::Threshold(o)
+        };
+    }
+    if let Some(d) = &args.depth {
+        c.depth = match d.as_str() {
+            "rasterized" => DepthMode::Rasterized(64, 64),
+            "box" => DepthMode::EstimationBuffer(64, 64),
+            "plane" => DepthMode::SingleZPlane,
+            other => bail!("--depth must be rasterized, box or plane, got '{other}'"),
+        };
+    }
+    if let Some(m) = args.map_size {
+        if !(1..=4096).contains(&m) {
+            bail!("--map-size must be 1..=4096, got {m}");
+        }
+        c.map_size = m;
+    }
+    if let Some(s) = &args.selection {
+        c.selection.mode = match s.as_str() {
+            "nearest" => SelectionMode::Nearest,
+            "zplane" => SelectionMode::ZPlane,
+            other => bail!("--selection must be nearest or zplane, got '{other}'"),
+        };
+    }
+    Ok(c)
+}
+
+/// The culler called `name` for `scene`, with the flags applied.
+pub fn make_culler(name: &str, scene: &Scene, args: &HomArgs) -> Result<Box<dyn Culler>> {
+    if name == "hv" {
+        let mut c = HvConfig::default();
+        if let Some(t) = args.hv_threshold {
+            if t == 0 {
+                bail!("--hv-threshold must be at least 1");
+            }
+            c.octree.threshold = t;
+        }
+        if let Some(d) = args.hv_max_depth {
+            c.octree.max_depth = d;
+        }
+        c.octree.keep_large = args.hv_keep_large;
+        return Ok(Box::new(HvCuller::new(scene, c)));
+    }
+    match cullers::make_with(name, scene, &hom_config(args, scene)?) {
+        Some(c) => Ok(c),
+        None => bail!("unknown culler '{name}'; available: {}", cullers::names()),
+    }
+}
+
+/// A progress bar over `len` frames, labelled `what`.
+pub fn progress(len: usize, what: &str) -> ProgressBar {
+    // Draws only on a terminal; quiet when piped.
+    let bar = ProgressBar::new(len as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(what.to_string());
+    bar
+}
