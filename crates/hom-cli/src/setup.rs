@@ -3,12 +3,12 @@
 
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
-use hom::cull::{Culler, DepthMode, HomConfig, HvConfig, HvCuller, Opacity};
+use hom::cull::{Culler, DepthMode, Opacity};
 use hom::occluders::SelectionMode;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::CameraPath;
-use hom_walk::cullers;
+use hom_walk::cullers::{self, CullerSettings};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// The scene and the path to walk, with the viewport overridden where asked.
@@ -46,9 +46,11 @@ fn override_viewport(view: &View, path: &mut CameraPath) {
     }
 }
 
-/// The HOM culler's settings for `scene` with the flags applied.
-pub fn hom_config(args: &HomArgs, scene: &Scene) -> Result<HomConfig> {
-    let mut c = HomConfig::for_scene(scene);
+/// The settings of every culler for `scene`, with the flags applied (all of
+/// them are checked, whichever culler runs).
+pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> {
+    let mut settings = CullerSettings::for_scene(scene);
+    let c = &mut settings.hom;
     if let Some(b) = args.budget {
         c.selection.budget = b;
     }
@@ -85,29 +87,23 @@ pub fn hom_config(args: &HomArgs, scene: &Scene) -> Result<HomConfig> {
             other => bail!("--selection must be nearest or zplane, got '{other}'"),
         };
     }
-    Ok(c)
+    let octree = &mut settings.hv.octree;
+    if let Some(t) = args.hv_threshold {
+        if t == 0 {
+            bail!("--hv-threshold must be at least 1");
+        }
+        octree.threshold = t;
+    }
+    if let Some(d) = args.hv_max_depth {
+        octree.max_depth = d;
+    }
+    octree.keep_large = args.hv_keep_large;
+    Ok(settings)
 }
 
 /// The culler called `name` for `scene`, with the flags applied.
 pub fn make_culler(name: &str, scene: &Scene, args: &HomArgs) -> Result<Box<dyn Culler>> {
-    if name == "hv" {
-        let mut c = HvConfig::default();
-        if let Some(t) = args.hv_threshold {
-            if t == 0 {
-                bail!("--hv-threshold must be at least 1");
-            }
-            c.octree.threshold = t;
-        }
-        if let Some(d) = args.hv_max_depth {
-            c.octree.max_depth = d;
-        }
-        c.octree.keep_large = args.hv_keep_large;
-        return Ok(Box::new(HvCuller::new(scene, c)));
-    }
-    match cullers::make_with(name, scene, &hom_config(args, scene)?) {
-        Some(c) => Ok(c),
-        None => bail!("unknown culler '{name}'; available: {}", cullers::names()),
-    }
+    Ok(cullers::make(name, scene, &culler_settings(args, scene)?)?)
 }
 
 /// A progress bar over `len` frames, labelled `what`.

@@ -219,7 +219,8 @@ pub fn run_bench(
                 i + 1,
                 culler_names.len()
             ));
-            let mut culler = cullers::make(name, &scene).ok_or_else(|| unknown(name))?;
+            let settings = cullers::CullerSettings::for_scene(&scene);
+            let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(&mut scene, &path, culler.as_mut(), &renderer, &walk_options, |_| {}).map_err(
                 |source| BenchError::Walk {
                     scene: scene.name().to_string(),

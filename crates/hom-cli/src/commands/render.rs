@@ -1,7 +1,7 @@
 //! `hom render`: one frame of a scene's path to a PNG, plain or in false colour.
 
 use crate::args::{HomArgs, RenderArgs};
-use crate::setup::{hom_config, make_culler, open};
+use crate::setup::{culler_settings, make_culler, open};
 use anyhow::{bail, Result};
 use hom::cull::{CullOutput, Culler, HomCuller};
 use hom::scene::Scene;
@@ -65,7 +65,7 @@ pub fn write_false_colour(
     let mut cull = CullOutput::default();
     let pyramid = if culler_name == "hom" {
         // The concrete type, not a `dyn Culler`: the pyramid is HOM's own.
-        let mut culler = HomCuller::new(scene, hom_config(hom, scene)?);
+        let mut culler = HomCuller::new(scene, culler_settings(hom, scene)?.hom);
         renderer.install(|| culler.cull(scene, &camera, &mut cull))?;
         culler.pyramid().cloned()
     } else {

@@ -4,7 +4,7 @@
 use super::render::write_false_colour;
 use super::{busiest_frame, write_stage_chart};
 use crate::args::{HomArgs, WalkArgs};
-use crate::setup::{hom_config, make_culler, open, open_map_view, progress};
+use crate::setup::{culler_settings, make_culler, open, open_map_view, progress};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
 use hom::scene::Scene;
@@ -90,7 +90,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
             frame_rate,
         )?;
         if let Some(p) = pyramid {
-            let hole = hom_config(&a.view.hom, &scene)?.selection.hole_opacity;
+            let hole = culler_settings(&a.view.hom, &scene)?.hom.selection.hole_opacity;
             pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
         }
         eprintln!("pictures: {}", dir.display());
