@@ -1,6 +1,8 @@
 //! The command line: every clap type, and nothing that runs.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use hom::cull::DepthMode;
+use hom::occluders::SelectionMode;
 use hom_walk::cullers;
 use std::path::PathBuf;
 
@@ -73,9 +75,10 @@ pub struct View {
     /// Image height (default: the path's).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Culler: none, frustum, hom (hierarchical occlusion maps, the default), hzb (hierarchical Z-buffer),
-    /// hv (hierarchical visibility: octree + live Z-pyramid).
-    #[arg(long, default_value = cullers::BEST)]
+    /// The culler's name (help from `cullers::CULLERS`).
+    // A plain string checked by `cullers::make`, not a clap value parser: its
+    // error stays the app's one line naming the choices.
+    #[arg(long, default_value = cullers::BEST, help = culler_help(), long_help = culler_long_help())]
     pub culler: String,
     /// Renderer threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
@@ -83,6 +86,20 @@ pub struct View {
     /// Culler settings.
     #[command(flatten)]
     pub hom: HomArgs,
+}
+
+/// `--culler`'s help, from [`cullers::CULLERS`].
+fn culler_help() -> String {
+    format!("Culler: {}", cullers::names())
+}
+
+/// `--culler`'s long help: each culler with its description, from [`cullers::CULLERS`].
+fn culler_long_help() -> String {
+    let mut s = String::from("Culler:");
+    for (name, description) in cullers::CULLERS {
+        s.push_str(&format!("\n- {name}: {description}"));
+    }
+    s
 }
 
 /// Settings of the `hom` culler (and the HZB and HV cullers).
@@ -97,15 +114,15 @@ pub struct HomArgs {
     /// HOM: base opacity threshold in (0, 1]; below 1 culls approximately (objects seen through small holes).
     #[arg(long)]
     pub opacity: Option<f32>,
-    /// HOM: depth test: rasterized (per-cell depth of occluder samples), box (the paper's estimation buffer), plane (single Z plane).
-    #[arg(long)]
-    pub depth: Option<String>,
+    /// HOM: depth test.
+    #[arg(long, value_enum)]
+    pub depth: Option<DepthArg>,
     /// HOM: base occlusion map resolution for the larger image side.
     #[arg(long)]
     pub map_size: Option<u32>,
-    /// HOM: occluder selection: nearest (default) or zplane.
-    #[arg(long)]
-    pub selection: Option<String>,
+    /// HOM: occluder selection (default: nearest).
+    #[arg(long, value_enum)]
+    pub selection: Option<SelectionArg>,
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     pub no_hole_filling: bool,
@@ -118,6 +135,47 @@ pub struct HomArgs {
     /// HV: keep large triangles at the octree node being split instead of passing them down.
     #[arg(long)]
     pub hv_keep_large: bool,
+}
+
+/// `--depth`: how HOM bounds the occluders' depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DepthArg {
+    /// Per-cell depth of occluder samples.
+    Rasterized,
+    /// The paper's estimation buffer.
+    Box,
+    /// Single Z plane.
+    Plane,
+}
+
+impl DepthArg {
+    /// The culler's depth mode.
+    pub fn mode(self) -> DepthMode {
+        match self {
+            DepthArg::Rasterized => DepthMode::Rasterized(64, 64),
+            DepthArg::Box => DepthMode::EstimationBuffer(64, 64),
+            DepthArg::Plane => DepthMode::SingleZPlane,
+        }
+    }
+}
+
+/// `--selection`: how HOM picks its occluders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SelectionArg {
+    /// Nearest first, by distance over box radius.
+    Nearest,
+    /// The single-Z-plane order.
+    Zplane,
+}
+
+impl SelectionArg {
+    /// The occluder database's selection mode.
+    pub fn mode(self) -> SelectionMode {
+        match self {
+            SelectionArg::Nearest => SelectionMode::Nearest,
+            SelectionArg::Zplane => SelectionMode::ZPlane,
+        }
+    }
 }
 
 /// `hom walk`.
@@ -234,5 +292,22 @@ mod tests {
     #[test]
     fn the_command_line_is_well_formed() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn depth_and_selection_take_their_documented_names() {
+        let cli =
+            Cli::try_parse_from(["hom", "walk", "--scene", "s", "--depth", "box", "--selection", "zplane"]).unwrap();
+        let Command::Walk(a) = cli.command else {
+            unreachable!("parsed a walk command")
+        };
+        assert_eq!(a.view.hom.depth, Some(DepthArg::Box));
+        assert_eq!(a.view.hom.selection, Some(SelectionArg::Zplane));
+        assert_eq!(a.view.culler, cullers::BEST);
+        let err = Cli::try_parse_from(["hom", "walk", "--scene", "s", "--depth", "fuzzy"])
+            .err()
+            .expect("unknown depth");
+        let text = err.to_string();
+        assert!(text.contains("rasterized") && text.contains("plane"), "{text}");
     }
 }

@@ -3,8 +3,7 @@
 
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
-use hom::cull::{Culler, DepthMode, Opacity};
-use hom::occluders::SelectionMode;
+use hom::cull::{Culler, Opacity};
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::CameraPath;
@@ -66,13 +65,8 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
             Opacity::Threshold(o)
         };
     }
-    if let Some(d) = &args.depth {
-        c.depth = match d.as_str() {
-            "rasterized" => DepthMode::Rasterized(64, 64),
-            "box" => DepthMode::EstimationBuffer(64, 64),
-            "plane" => DepthMode::SingleZPlane,
-            other => bail!("--depth must be rasterized, box or plane, got '{other}'"),
-        };
+    if let Some(d) = args.depth {
+        c.depth = d.mode();
     }
     if let Some(m) = args.map_size {
         if !(1..=4096).contains(&m) {
@@ -80,12 +74,8 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         }
         c.map_size = m;
     }
-    if let Some(s) = &args.selection {
-        c.selection.mode = match s.as_str() {
-            "nearest" => SelectionMode::Nearest,
-            "zplane" => SelectionMode::ZPlane,
-            other => bail!("--selection must be nearest or zplane, got '{other}'"),
-        };
+    if let Some(s) = args.selection {
+        c.selection.mode = s.mode();
     }
     let octree = &mut settings.hv.octree;
     if let Some(t) = args.hv_threshold {
