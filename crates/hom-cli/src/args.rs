@@ -262,9 +262,21 @@ pub struct BenchArgs {
     /// Renderer threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Write the JSON record here.
-    #[arg(long, default_value = "hom-out/bench/bench.json")]
-    pub json: PathBuf,
+    /// Write the JSON record to exactly this file (default: hom-out/bench/bench.json for walk,
+    /// hom-out/bench/raster.json for raster); walk writes its stage chart beside it as stages.png.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+impl BenchArgs {
+    /// The JSON file to write: `--json` as given, else the kind's default.
+    pub fn json_path(&self) -> PathBuf {
+        match (&self.json, self.kind) {
+            (Some(p), _) => p.clone(),
+            (None, BenchKind::Walk) => PathBuf::from("hom-out/bench/bench.json"),
+            (None, BenchKind::Raster) => PathBuf::from("hom-out/bench/raster.json"),
+        }
+    }
 }
 
 /// `hom demo`.
@@ -288,10 +300,33 @@ pub struct DemoArgs {
 mod tests {
     use super::*;
     use clap::CommandFactory;
+    use std::path::Path;
+
+    fn bench(args: &[&str]) -> BenchArgs {
+        let cli = Cli::try_parse_from(["hom", "bench"].iter().chain(args)).unwrap();
+        match cli.command {
+            Command::Bench(a) => a,
+            _ => unreachable!("parsed a bench command"),
+        }
+    }
 
     #[test]
     fn the_command_line_is_well_formed() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn bench_json_is_the_given_file_or_the_kind_default() {
+        assert_eq!(bench(&[]).json_path(), Path::new("hom-out/bench/bench.json"));
+        assert_eq!(bench(&["raster"]).json_path(), Path::new("hom-out/bench/raster.json"));
+        assert_eq!(
+            bench(&["raster", "--json", "x/y.json"]).json_path(),
+            Path::new("x/y.json")
+        );
+        assert_eq!(
+            bench(&["walk", "--json", "x/y.json"]).json_path(),
+            Path::new("x/y.json")
+        );
     }
 
     #[test]

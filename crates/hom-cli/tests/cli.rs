@@ -191,3 +191,50 @@ fn raster_bench_without_inputs_is_a_one_line_error() {
     assert_clean_failure(&o, "/no/such/folder");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A one-triangle `.mocscene` with one rectangle behind it (the format of
+/// `hom_scene::moc`; hom-walk's raster bench test has a richer one).
+fn tiny_mocscene() -> Vec<u8> {
+    let v: [[f32; 4]; 3] = [[-2.0, -2.0, 0.0, 2.0], [6.0, -2.0, 0.0, 2.0], [-2.0, 6.0, 0.0, 2.0]];
+    let t: [[u32; 3]; 1] = [[0, 1, 2]];
+    let r: [[f32; 5]; 1] = [[-0.5, -0.5, 0.5, 0.5, 10.0]];
+    let mut b = b"MOCSCN01".to_vec();
+    for n in [v.len(), t.len(), r.len()] {
+        b.extend((n as u32).to_le_bytes());
+    }
+    b.extend(1.0f32.to_le_bytes());
+    b.extend(v.iter().flatten().flat_map(|f| f.to_le_bytes()));
+    b.extend(t.iter().flatten().flat_map(|i| i.to_le_bytes()));
+    b.extend(r.iter().flatten().flat_map(|f| f.to_le_bytes()));
+    b
+}
+
+#[test]
+fn raster_bench_json_writes_exactly_the_file_named() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-raster-json-{}", std::process::id()));
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(data.join("tiny.mocscene"), tiny_mocscene()).unwrap();
+    let json = dir.join("X").join("y.json");
+    let o = hom(&[
+        "bench",
+        "raster",
+        "--data",
+        data.to_str().unwrap(),
+        "--runs",
+        "1",
+        "--raster-threads",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(report.is_object(), "{report}");
+    let written: Vec<_> = std::fs::read_dir(dir.join("X"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(written, ["y.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

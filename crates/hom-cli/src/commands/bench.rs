@@ -26,16 +26,18 @@ pub fn run(a: BenchArgs) -> Result<()> {
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());
-    create_parent(&a.json)?;
+    let json_path = a.json_path();
+    create_parent(&json_path)?;
     let json = serde_json::to_string_pretty(&report).context("serializing the bench report")?;
-    std::fs::write(&a.json, json).with_context(|| format!("writing {}", a.json.display()))?;
-    let chart = a.json.with_file_name("stages.png");
+    std::fs::write(&json_path, json).with_context(|| format!("writing {}", json_path.display()))?;
+    let chart = json_path.with_file_name("stages.png");
     pictures::plot_stage_breakdown(&chart, &report.stage_bars())?;
-    println!("json: {}\nstage chart: {}", a.json.display(), chart.display());
+    println!("json: {}\nstage chart: {}", json_path.display(), chart.display());
     Ok(())
 }
 
 fn raster(a: BenchArgs) -> Result<()> {
+    let json = a.json_path();
     let options = hom_walk::raster_bench::RasterBenchOptions {
         data: a.data,
         runs: a.runs,
@@ -43,7 +45,6 @@ fn raster(a: BenchArgs) -> Result<()> {
     };
     let report = hom_walk::raster_bench::run_raster_bench(&options, progress)?;
     print!("{}", report.table());
-    let json = a.json.with_file_name("raster.json");
     create_parent(&json)?;
     let text = serde_json::to_string_pretty(&report).context("serializing the raster bench report")?;
     std::fs::write(&json, text).with_context(|| format!("writing {}", json.display()))?;
