@@ -191,3 +191,127 @@ fn raster_bench_without_inputs_is_a_one_line_error() {
     assert_clean_failure(&o, "/no/such/folder");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A one-triangle `.mocscene` with one rectangle behind it (the format of
+/// `hom_scene::moc`; hom-walk's raster bench test has a richer one).
+fn tiny_mocscene() -> Vec<u8> {
+    let v: [[f32; 4]; 3] = [[-2.0, -2.0, 0.0, 2.0], [6.0, -2.0, 0.0, 2.0], [-2.0, 6.0, 0.0, 2.0]];
+    let t: [[u32; 3]; 1] = [[0, 1, 2]];
+    let r: [[f32; 5]; 1] = [[-0.5, -0.5, 0.5, 0.5, 10.0]];
+    let mut b = b"MOCSCN01".to_vec();
+    for n in [v.len(), t.len(), r.len()] {
+        b.extend((n as u32).to_le_bytes());
+    }
+    b.extend(1.0f32.to_le_bytes());
+    b.extend(v.iter().flatten().flat_map(|f| f.to_le_bytes()));
+    b.extend(t.iter().flatten().flat_map(|i| i.to_le_bytes()));
+    b.extend(r.iter().flatten().flat_map(|f| f.to_le_bytes()));
+    b
+}
+
+#[test]
+fn raster_bench_json_writes_exactly_the_file_named() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-raster-json-{}", std::process::id()));
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(data.join("tiny.mocscene"), tiny_mocscene()).unwrap();
+    let json = dir.join("X").join("y.json");
+    let o = hom(&[
+        "bench",
+        "raster",
+        "--data",
+        data.to_str().unwrap(),
+        "--runs",
+        "1",
+        "--raster-threads",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(report.is_object(), "{report}");
+    let written: Vec<_> = std::fs::read_dir(dir.join("X"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(written, ["y.json"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// [`assert_clean_failure`] whose message says `cause` exactly once: errors
+/// print their source in the chain, not also in their own message.
+fn assert_cause_once(o: &Output, cause: &str) {
+    assert_clean_failure(o, cause);
+    let err = stderr(o);
+    assert_eq!(err.matches(cause).count(), 1, "cause said more than once: {err}");
+}
+
+#[test]
+fn writing_into_a_missing_folder_names_the_cause_once() {
+    let small = ["--scene", "spheres", "--width", "32", "--height", "24"];
+    let png = "/nonexistent-hom-dir/x.png";
+    let o = hom(&[&["render", "--out", png][..], &small].concat());
+    assert_cause_once(&o, "os error 2");
+    assert!(stderr(&o).contains("could not write PNG '/nonexistent-hom-dir/x.png'"));
+    let o = hom(&[&["render", "--out", png, "--false-colour"][..], &small].concat());
+    assert_cause_once(&o, "os error 2");
+    let o = hom(&[
+        "scene",
+        "export",
+        "--scene",
+        "spheres",
+        "--out",
+        "/nonexistent-hom-dir/x.obj",
+    ]);
+    assert_cause_once(&o, "os error 2");
+}
+
+#[test]
+fn a_bad_viewport_names_the_cause_once() {
+    let o = hom(&["walk", "--scene", "spheres", "--width", "0"]);
+    assert_cause_once(&o, "viewport must be");
+    let o = hom(&["render", "--scene", "spheres", "--height", "0", "--out", "x.png"]);
+    assert_cause_once(&o, "viewport must be");
+    let o = hom(&["bench", "--scenes", "spheres", "--width", "0"]);
+    assert_cause_once(&o, "viewport must be");
+}
+
+#[test]
+fn bad_camera_path_files_name_the_cause_once() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-path-once-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let walk = |path: &std::path::Path| hom(&["walk", "--scene", "spheres", "--camera-path", path.to_str().unwrap()]);
+    let bad_json = dir.join("path.json");
+    std::fs::write(&bad_json, "{\"frames\": [ {\"eye\": [0,0,0]} ]").unwrap();
+    assert_cause_once(&walk(&bad_json), "missing field `target`");
+    let no_view = dir.join("no-view.json");
+    std::fs::write(&no_view, r#"{"frames":[{"eye":[0,0,0],"target":[0,0,0]}]}"#).unwrap();
+    assert_cause_once(&walk(&no_view), "no view direction");
+    assert_cause_once(&walk(&dir.join("missing.json")), "os error 2");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn unreadable_and_missing_scene_files_name_the_cause_once() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-scene-once-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A folder with a scene's name exists but cannot be read as a file.
+    for name in ["folder.obj", "folder.bsp", "folder.pk3"] {
+        let folder = dir.join(name);
+        std::fs::create_dir_all(&folder).unwrap();
+        let o = hom(&["scene", "info", "--scene", folder.to_str().unwrap()]);
+        assert_cause_once(&o, "os error 21");
+    }
+    let empty = dir.join("empty.obj");
+    std::fs::write(&empty, "# nothing\n").unwrap();
+    let o = hom(&["scene", "info", "--scene", empty.to_str().unwrap()]);
+    assert_cause_once(&o, "has no objects");
+    // --pvs opens the map file itself: a missing one is an I/O error.
+    let missing = dir.join("missing.pk3");
+    let o = hom(&["walk", "--scene", &format!("{}:x", missing.display()), "--pvs"]);
+    assert_cause_once(&o, "os error 2");
+    let o = hom(&["bench", "--scenes", missing.to_str().unwrap()]);
+    assert_cause_once(&o, "no built-in scene or file named");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -69,20 +69,21 @@ const CHUNK_TRIANGLES: u64 = 2048;
 /// Rows per raster band.
 const BAND_ROWS: u32 = 16;
 
-/// Why rendering infrastructure failed.
+/// Why rendering infrastructure failed. A variant with a `source` does not
+/// repeat it in its message (print the chain to see it).
 #[derive(thiserror::Error, Debug)]
 pub enum RenderError {
     /// The rayon thread pool could not be built.
-    #[error("could not start a renderer thread pool with {threads} threads: {source}")]
+    #[error("could not start a renderer thread pool with {threads} threads: {cause}")]
     ThreadPool {
         /// Threads asked for (0 = all cores).
         threads: usize,
-        /// The cause.
-        #[source]
-        source: rayon::ThreadPoolBuildError,
+        /// The cause: in the message, not a `source`, since rayon's error both
+        /// prints and returns its I/O error and the chain would say it twice.
+        cause: rayon::ThreadPoolBuildError,
     },
     /// A PNG file could not be written.
-    #[error("could not write PNG '{}': {source}", path.display())]
+    #[error("could not write PNG '{}'", path.display())]
     Png {
         /// The file.
         path: PathBuf,
@@ -370,7 +371,7 @@ impl Renderer {
             .num_threads(threads)
             .thread_name(|i| format!("hom-render-{i}"))
             .build()
-            .map_err(|source| RenderError::ThreadPool { threads, source })?;
+            .map_err(|cause| RenderError::ThreadPool { threads, cause })?;
         Ok(Renderer {
             pool,
             scratch: Mutex::new(Scratch::default()),

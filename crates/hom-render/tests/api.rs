@@ -183,6 +183,9 @@ fn png_round_trip_and_errors_name_the_path() {
     let err = fb.save_png(missing).unwrap_err();
     assert!(matches!(err, RenderError::Png { .. }));
     assert!(err.to_string().contains("/nonexistent-hom-dir/x.png"), "{err}");
+    // The I/O error is the source, not repeated in the message.
+    let cause = std::error::Error::source(&err).expect("an I/O cause").to_string();
+    assert!(!err.to_string().contains(&cause), "{err}");
     let err = write_png(&path, 4, 4, &[[0; 4]; 3]).unwrap_err();
     assert!(matches!(err, RenderError::BufferSize { len: 3, .. }), "{err}");
 }

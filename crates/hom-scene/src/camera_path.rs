@@ -15,11 +15,12 @@ use thiserror::Error;
 /// Most frames a path may hold (a path file is read whole).
 pub const MAX_FRAMES: usize = 1_000_000;
 
-/// Why a camera path could not be read or used.
+/// Why a camera path could not be read or used. A variant with a `source`
+/// does not repeat it in its message (print the chain to see it).
 #[derive(Debug, Error)]
 pub enum CameraPathError {
     /// The file could not be read.
-    #[error("cannot read camera path {path}: {source}")]
+    #[error("cannot read camera path {path}")]
     Io {
         /// File.
         path: String,
@@ -27,7 +28,7 @@ pub enum CameraPathError {
         source: std::io::Error,
     },
     /// The JSON is malformed or has the wrong shape.
-    #[error("camera path {path}: {source}")]
+    #[error("camera path {path}")]
     Json {
         /// File.
         path: String,
@@ -35,7 +36,7 @@ pub enum CameraPathError {
         source: serde_json::Error,
     },
     /// A frame or setting makes no valid camera.
-    #[error("camera path {path}: frame {frame}: {source}")]
+    #[error("camera path {path}: frame {frame}")]
     BadFrame {
         /// File.
         path: String,
@@ -260,6 +261,11 @@ mod tests {
             same.validate("x"),
             Err(CameraPathError::BadFrame { frame: 0, .. })
         ));
+        // The cause is the source, not repeated in the message.
+        let e = same.validate("x").unwrap_err();
+        let cause = std::error::Error::source(&e).expect("a camera error").to_string();
+        assert_eq!(e.to_string(), "camera path x: frame 0");
+        assert!(cause.contains("no view direction"), "{cause}");
         let none: CameraPath = serde_json::from_str(r#"{"frames":[]}"#).unwrap();
         assert!(matches!(none.validate("x"), Err(CameraPathError::FrameCount { .. })));
         assert!(serde_json::from_str::<CameraPath>(r#"{"frames":[], "fov":3}"#).is_err());

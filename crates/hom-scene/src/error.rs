@@ -2,10 +2,13 @@ use hom::scene::SceneError;
 use thiserror::Error;
 
 /// Why a scene could not be loaded, generated or exported. Each variant names the file.
+///
+/// A variant with a `source` does not repeat it in its message: print the
+/// chain (`{:#}` with anyhow) to see the cause.
 #[derive(Debug, Error)]
 pub enum LoadError {
     /// The file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         /// File.
         path: String,
@@ -29,7 +32,7 @@ pub enum LoadError {
         message: String,
     },
     /// The geometry was parsed but is invalid (NaN vertex, index out of range, empty…).
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Scene {
         /// File.
         path: String,
@@ -37,7 +40,7 @@ pub enum LoadError {
         source: SceneError,
     },
     /// A Quake 3 map (`.bsp`, or a map in a `.pk3`) is malformed or cannot be read.
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Bsp {
         /// File (`FILE.pk3:maps/NAME.bsp` for a map inside a pk3).
         path: String,

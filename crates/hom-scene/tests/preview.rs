@@ -200,13 +200,13 @@ fn preview_builtin_scenes() {
         };
         let mut sheet = image::RgbImage::new(2 * SIDE, 2 * SIDE);
         for (k, f) in frames.into_iter().enumerate() {
-            scene.set_time(f as f32 / 30.0);
+            b.animation.apply(&mut scene, f as f32 / 30.0);
             let t = render(&scene, &path.camera(f));
             save(&t, &format!("/tmp/preview/{name}_{f}.png"));
             paste(&mut sheet, &t, k);
         }
         // Overview from above, path eyes in red.
-        scene.set_time(0.0);
+        b.animation.apply(&mut scene, 0.0);
         let bb = scene.bounds();
         let c = bb.center();
         let e = bb.extent();

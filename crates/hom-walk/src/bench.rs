@@ -36,7 +36,7 @@ pub struct BenchOptions {
 #[derive(Debug, Error)]
 pub enum BenchError {
     /// A scene could not be opened.
-    #[error("scene {scene}: {source}")]
+    #[error("scene {scene}")]
     Scene {
         /// The scene as given.
         scene: String,
@@ -55,7 +55,7 @@ pub enum BenchError {
     #[error("nothing to bench: {0}")]
     Empty(&'static str),
     /// The camera path is not usable at the requested viewport.
-    #[error("scene {scene}: {source}")]
+    #[error("scene {scene}")]
     Path {
         /// The scene as given.
         scene: String,
@@ -66,7 +66,7 @@ pub enum BenchError {
     #[error(transparent)]
     Render(#[from] RenderError),
     /// A walk stopped.
-    #[error("scene {scene}, culler {culler}: {source}")]
+    #[error("scene {scene}, culler {culler}")]
     Walk {
         /// Scene name.
         scene: String,
@@ -219,7 +219,8 @@ pub fn run_bench(
                 i + 1,
                 culler_names.len()
             ));
-            let mut culler = cullers::make(name, &scene).ok_or_else(|| unknown(name))?;
+            let settings = cullers::CullerSettings::for_scene(&scene);
+            let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
                 &mut scene,
                 &animation,

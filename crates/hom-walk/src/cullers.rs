@@ -1,4 +1,5 @@
-//! The cullers `hom walk --culler NAME` can run, by name.
+//! The cullers `hom walk --culler NAME` can run, by name: the one factory
+//! every caller builds cullers with.
 
 use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller};
 use hom::scene::Scene;
@@ -21,25 +22,66 @@ pub const CULLERS: &[(&str, &str)] = &[
 /// The best culler hom has; `hom demo` uses it.
 pub const BEST: &str = "hom";
 
-/// Builds the culler called `name` for `scene` with default settings; `None` for an unknown name.
-pub fn make(name: &str, scene: &Scene) -> Option<Box<dyn Culler>> {
-    make_with(name, scene, &HomConfig::for_scene(scene))
+/// Settings of every culler [`make`] can build; each culler reads its own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CullerSettings {
+    /// The HOM culler's; the HZB culler takes their occluder selection and database settings.
+    pub hom: HomConfig,
+    /// The HV culler's.
+    pub hv: HvConfig,
 }
 
-/// Like [`make`], with the HOM culler's settings given (the HZB culler takes
-/// their occluder selection and database settings).
-pub fn make_with(name: &str, scene: &Scene, hom: &HomConfig) -> Option<Box<dyn Culler>> {
-    match name {
-        "none" => Some(Box::new(NoCuller)),
-        "frustum" => Some(Box::new(FrustumCuller::new(scene))),
-        "hom" => Some(Box::new(HomCuller::new(scene, hom.clone()))),
-        "hzb" => Some(Box::new(HzbCuller::new(scene, HzbConfig::from_hom(hom)))),
-        "hv" => Some(Box::new(HvCuller::new(scene, HvConfig::default()))),
-        _ => None,
+impl CullerSettings {
+    /// The defaults for `scene` (HOM's budget depends on its triangle count).
+    pub fn for_scene(scene: &Scene) -> CullerSettings {
+        CullerSettings {
+            hom: HomConfig::for_scene(scene),
+            hv: HvConfig::default(),
+        }
     }
+}
+
+/// A culler name that is not in [`CULLERS`]; the message lists the known ones.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown culler '{name}'; available: {}", names())]
+pub struct UnknownCuller {
+    /// The name asked for.
+    pub name: String,
+}
+
+/// Builds the culler called `name` (one of [`CULLERS`]) for `scene` with `settings`.
+pub fn make(name: &str, scene: &Scene, settings: &CullerSettings) -> Result<Box<dyn Culler>, UnknownCuller> {
+    Ok(match name {
+        "none" => Box::new(NoCuller),
+        "frustum" => Box::new(FrustumCuller::new(scene)),
+        "hom" => Box::new(HomCuller::new(scene, settings.hom.clone())),
+        "hzb" => Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&settings.hom))),
+        "hv" => Box::new(HvCuller::new(scene, settings.hv.clone())),
+        _ => return Err(UnknownCuller { name: name.to_string() }),
+    })
 }
 
 /// Comma-separated culler names, for error messages.
 pub fn names() -> String {
     CULLERS.iter().map(|c| c.0).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn make_builds_every_listed_culler_and_names_the_choices_otherwise() {
+        let scene = hom_scene::builtin("spheres").unwrap().scene;
+        let settings = CullerSettings::for_scene(&scene);
+        for (name, _) in CULLERS {
+            assert!(make(name, &scene, &settings).is_ok(), "{name}");
+        }
+        let err = make("magic", &scene, &settings).err().expect("unknown name");
+        assert_eq!(err.name, "magic");
+        assert_eq!(
+            err.to_string(),
+            "unknown culler 'magic'; available: none, frustum, hom, hzb, hv"
+        );
+    }
 }

@@ -25,14 +25,23 @@ pub const CULLED_RED: [u8; 3] = [225, 45, 35];
 pub struct PictureError {
     /// Output file.
     pub path: String,
-    /// Cause.
+    /// Cause, with its own causes.
     pub message: String,
 }
 
-fn picture_error(path: &Path, e: impl std::fmt::Display) -> PictureError {
+fn picture_error(path: &Path, e: impl Into<Box<dyn std::error::Error>>) -> PictureError {
+    // The message carries the whole chain (once): the drawing code's errors
+    // are boxed without `Send`, so a picture error has no `source` to hold them.
+    let e = e.into();
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        message.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
     PictureError {
         path: path.display().to_string(),
-        message: e.to_string(),
+        message,
     }
 }
 

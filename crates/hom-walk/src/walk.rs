@@ -14,7 +14,7 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum WalkError {
     /// The culler refused a frame.
-    #[error("frame {frame}: {source}")]
+    #[error("frame {frame}")]
     Cull {
         /// Frame index.
         frame: usize,

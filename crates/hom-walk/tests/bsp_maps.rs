@@ -8,6 +8,7 @@ mod common;
 use hom::cull::CullOutput;
 use hom_render::{Framebuffer, Renderer};
 use hom_scene::bsp::{self, BspOptions};
+use hom_walk::cullers::CullerSettings;
 
 #[test]
 fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
@@ -23,7 +24,7 @@ fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
         let map = bsp::load(&pk3, &options).unwrap();
         let scene = &map.scene;
         let path = map.camera_path().unwrap().with_viewport(192, 192);
-        let mut culler = hom_walk::cullers::make("hom", scene).unwrap();
+        let mut culler = hom_walk::cullers::make("hom", scene, &CullerSettings::for_scene(scene)).unwrap();
         let (mut checked, mut outside, mut seen) = (0, 0, 0);
         let mut fb = Framebuffer::new(path.width, path.height);
         for i in (0..path.frames.len()).step_by(4).take(60) {
@@ -77,7 +78,7 @@ fn pvs_yardstick_on_an_openarena_map() {
     let mut scene = map.scene.clone();
     let path = map.camera_path().unwrap().with_viewport(160, 160);
     let renderer = Renderer::new(0).unwrap();
-    let mut culler = hom_walk::cullers::make("hom", &scene).unwrap();
+    let mut culler = hom_walk::cullers::make("hom", &scene, &CullerSettings::for_scene(&scene)).unwrap();
     let options = hom_walk::WalkOptions {
         frames: Some(48),
         oracle: true,

@@ -14,7 +14,7 @@ fn sampled_builtin_walks_have_no_false_culls() {
         let mut path = built.path.with_viewport(320, 240);
         path.frames = path.frames.iter().copied().step_by(12).collect();
         for culler_name in ["frustum", "hom", "hzb"] {
-            let mut culler = cullers::make(culler_name, &scene).unwrap();
+            let mut culler = cullers::make(culler_name, &scene, &cullers::CullerSettings::for_scene(&scene)).unwrap();
             let options = WalkOptions {
                 oracle: true,
                 baseline: false,

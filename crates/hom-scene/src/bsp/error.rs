@@ -189,7 +189,7 @@ pub enum BspError {
     )]
     NoGeometry,
     /// The generated geometry is invalid (coordinates so large that patch tessellation overflows).
-    #[error("geometry: {source}")]
+    #[error("invalid geometry")]
     BadGeometry {
         /// Cause.
         source: hom::scene::SceneError,

@@ -1,0 +1,348 @@
+//! The command line: every clap type, and nothing that runs.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use hom::cull::DepthMode;
+use hom::occluders::SelectionMode;
+use hom_walk::cullers;
+use std::path::PathBuf;
+
+/// The `hom` command.
+#[derive(Parser)]
+#[command(
+    name = "hom",
+    version,
+    about = "Visibility culling for large 3D scenes: hierarchical occlusion maps and friends"
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand)]
+pub enum Command {
+    /// Walk the built-in city with hom's best culler; print a table and write pictures.
+    Demo(DemoArgs),
+    /// Walk a camera path through a scene with a culler, optionally checking against the oracle.
+    Walk(WalkArgs),
+    /// Render one frame of a scene's path to a PNG.
+    Render(RenderArgs),
+    /// Walk scenes with several cullers side by side (oracle on); print one table, write JSON and a stage chart.
+    Bench(BenchArgs),
+    /// List the built-in scenes with object and triangle counts.
+    Scenes,
+    /// Scene tools: info, export.
+    Scene {
+        /// Which tool.
+        #[command(subcommand)]
+        command: SceneCommand,
+    },
+}
+
+/// `hom scene` tools.
+#[derive(Subcommand)]
+pub enum SceneCommand {
+    /// Object, triangle and bounds information.
+    Info {
+        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+        #[arg(long)]
+        scene: String,
+    },
+    /// Write the scene's world-space triangles as OBJ, one `o` per object in id order.
+    Export {
+        /// Built-in scene name or scene file.
+        #[arg(long)]
+        scene: String,
+        /// Output .obj file.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// What to look at and how: the scene, the path, the viewport and the culler.
+#[derive(Args)]
+pub struct View {
+    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP; a Quake 3 map walks its spawn points).
+    #[arg(long)]
+    pub scene: String,
+    /// Camera path JSON file (default: the scene's own walkthrough).
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
+    /// Image width (default: the path's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the path's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// The culler's name (help from `cullers::CULLERS`).
+    // A plain string checked by `cullers::make`, not a clap value parser: its
+    // error stays the app's one line naming the choices.
+    #[arg(long, default_value = cullers::BEST, help = culler_help(), long_help = culler_long_help())]
+    pub culler: String,
+    /// Renderer threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Culler settings.
+    #[command(flatten)]
+    pub hom: HomArgs,
+}
+
+/// `--culler`'s help, from [`cullers::CULLERS`].
+fn culler_help() -> String {
+    format!("Culler: {}", cullers::names())
+}
+
+/// `--culler`'s long help: each culler with its description, from [`cullers::CULLERS`].
+fn culler_long_help() -> String {
+    let mut s = String::from("Culler:");
+    for (name, description) in cullers::CULLERS {
+        s.push_str(&format!("\n- {name}: {description}"));
+    }
+    s
+}
+
+/// Settings of the `hom` culler (and the HZB and HV cullers).
+#[derive(Args, Clone, Default)]
+pub struct HomArgs {
+    /// HOM: occluder polygon budget L (triangles per frame).
+    #[arg(long)]
+    pub budget: Option<u32>,
+    /// HOM: adapt the budget per frame from frame time and culled percentage.
+    #[arg(long)]
+    pub adaptive_budget: bool,
+    /// HOM: base opacity threshold in (0, 1]; below 1 culls approximately (objects seen through small holes).
+    #[arg(long)]
+    pub opacity: Option<f32>,
+    /// HOM: depth test.
+    #[arg(long, value_enum)]
+    pub depth: Option<DepthArg>,
+    /// HOM: base occlusion map resolution for the larger image side.
+    #[arg(long)]
+    pub map_size: Option<u32>,
+    /// HOM: occluder selection (default: nearest).
+    #[arg(long, value_enum)]
+    pub selection: Option<SelectionArg>,
+    /// HOM: disable the hole-filling feedback.
+    #[arg(long)]
+    pub no_hole_filling: bool,
+    /// HV: most triangles per octree leaf (default 16).
+    #[arg(long)]
+    pub hv_threshold: Option<usize>,
+    /// HV: maximum octree depth (default 12).
+    #[arg(long)]
+    pub hv_max_depth: Option<u32>,
+    /// HV: keep large triangles at the octree node being split instead of passing them down.
+    #[arg(long)]
+    pub hv_keep_large: bool,
+}
+
+/// `--depth`: how HOM bounds the occluders' depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum DepthArg {
+    /// Per-cell depth of occluder samples.
+    Rasterized,
+    /// The paper's estimation buffer.
+    Box,
+    /// Single Z plane.
+    Plane,
+}
+
+impl DepthArg {
+    /// The culler's depth mode.
+    pub fn mode(self) -> DepthMode {
+        match self {
+            DepthArg::Rasterized => DepthMode::Rasterized(64, 64),
+            DepthArg::Box => DepthMode::EstimationBuffer(64, 64),
+            DepthArg::Plane => DepthMode::SingleZPlane,
+        }
+    }
+}
+
+/// `--selection`: how HOM picks its occluders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SelectionArg {
+    /// Nearest first, by distance over box radius.
+    Nearest,
+    /// The single-Z-plane order.
+    Zplane,
+}
+
+impl SelectionArg {
+    /// The occluder database's selection mode.
+    pub fn mode(self) -> SelectionMode {
+        match self {
+            SelectionArg::Nearest => SelectionMode::Nearest,
+            SelectionArg::Zplane => SelectionMode::ZPlane,
+        }
+    }
+}
+
+/// `hom walk`.
+#[derive(Args)]
+pub struct WalkArgs {
+    /// Scene, path, viewport, culler.
+    #[command(flatten)]
+    pub view: View,
+    /// Walk only the first N frames.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Run the oracle every frame: false culls and culling efficiency.
+    #[arg(long)]
+    pub oracle: bool,
+    /// Write the JSON-lines report here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write plots (frame times, % culled) into this folder.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Quake 3 maps (.bsp, .pk3): measure against the map's own PVS (implies --oracle):
+    /// oracle-visible objects the PVS hides, triangles drawn by frustum, PVS, the culler,
+    /// PVS then the culler, and the oracle. Adds `pvs_` fields to the report.
+    #[arg(long)]
+    pub pvs: bool,
+}
+
+/// `hom render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Scene, path, viewport, culler.
+    #[command(flatten)]
+    pub view: View,
+    /// Frame index along the path.
+    #[arg(long, default_value_t = 0)]
+    pub frame: usize,
+    /// Output PNG.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Colour by fate: occluders blue, drawn grey, occlusion-culled red.
+    #[arg(long)]
+    pub false_colour: bool,
+}
+
+/// What `hom bench` measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchKind {
+    /// Walkthroughs of scenes with several cullers side by side.
+    Walk,
+    /// The occluder rasterizer and rectangle tests on the Masked Occlusion Culling inputs.
+    Raster,
+}
+
+/// `hom bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// `walk` (scenes × cullers) or `raster` (the rasterizer on the MOC inputs in --data).
+    #[arg(value_enum, default_value = "walk")]
+    pub kind: BenchKind,
+    /// raster: the folder with the .mocscene/.mocrec/.res inputs.
+    #[arg(long, default_value = "../shared/bench-data/moc")]
+    pub data: PathBuf,
+    /// raster: runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// raster: comma-separated thread counts to render with.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    pub raster_threads: Vec<usize>,
+    /// Comma-separated built-in scene names or files (default: every built-in scene).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Comma-separated cullers to compare (default: frustum,hom).
+    #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
+    pub cullers: Vec<String>,
+    /// Walk only the first N frames of each path.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Image width (default: each path's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: each path's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Renderer threads (0 = all cores).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Write the JSON record to exactly this file (default: hom-out/bench/bench.json for walk,
+    /// hom-out/bench/raster.json for raster); walk writes its stage chart beside it as stages.png.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+impl BenchArgs {
+    /// The JSON file to write: `--json` as given, else the kind's default.
+    pub fn json_path(&self) -> PathBuf {
+        match (&self.json, self.kind) {
+            (Some(p), _) => p.clone(),
+            (None, BenchKind::Walk) => PathBuf::from("hom-out/bench/bench.json"),
+            (None, BenchKind::Raster) => PathBuf::from("hom-out/bench/raster.json"),
+        }
+    }
+}
+
+/// `hom demo`.
+#[derive(Args)]
+pub struct DemoArgs {
+    /// Folder for the pictures.
+    #[arg(long, default_value = "hom-out/demo")]
+    pub out: PathBuf,
+    /// Walk only the first N frames of the city path.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Image width.
+    #[arg(long, default_value_t = 1024)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 1024)]
+    pub height: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+    use std::path::Path;
+
+    fn bench(args: &[&str]) -> BenchArgs {
+        let cli = Cli::try_parse_from(["hom", "bench"].iter().chain(args)).unwrap();
+        match cli.command {
+            Command::Bench(a) => a,
+            _ => unreachable!("parsed a bench command"),
+        }
+    }
+
+    #[test]
+    fn the_command_line_is_well_formed() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn bench_json_is_the_given_file_or_the_kind_default() {
+        assert_eq!(bench(&[]).json_path(), Path::new("hom-out/bench/bench.json"));
+        assert_eq!(bench(&["raster"]).json_path(), Path::new("hom-out/bench/raster.json"));
+        assert_eq!(
+            bench(&["raster", "--json", "x/y.json"]).json_path(),
+            Path::new("x/y.json")
+        );
+        assert_eq!(
+            bench(&["walk", "--json", "x/y.json"]).json_path(),
+            Path::new("x/y.json")
+        );
+    }
+
+    #[test]
+    fn depth_and_selection_take_their_documented_names() {
+        let cli =
+            Cli::try_parse_from(["hom", "walk", "--scene", "s", "--depth", "box", "--selection", "zplane"]).unwrap();
+        let Command::Walk(a) = cli.command else {
+            unreachable!("parsed a walk command")
+        };
+        assert_eq!(a.view.hom.depth, Some(DepthArg::Box));
+        assert_eq!(a.view.hom.selection, Some(SelectionArg::Zplane));
+        assert_eq!(a.view.culler, cullers::BEST);
+        let err = Cli::try_parse_from(["hom", "walk", "--scene", "s", "--depth", "fuzzy"])
+            .err()
+            .expect("unknown depth");
+        let text = err.to_string();
+        assert!(text.contains("rasterized") && text.contains("plane"), "{text}");
+    }
+}

@@ -1,0 +1,61 @@
+//! `hom scenes`, `hom scene info` and `hom scene export`.
+
+use anyhow::Result;
+use std::path::Path;
+
+/// `hom scenes`: the built-in scenes with their counts.
+pub fn list() -> Result<()> {
+    println!(
+        "{:<14} {:>8} {:>10} {:>8}  description",
+        "name", "objects", "triangles", "frames"
+    );
+    for (name, description) in hom_scene::BUILTIN_SCENES {
+        let b = hom_scene::builtin(name)?;
+        println!(
+            "{:<14} {:>8} {:>10} {:>8}  {}",
+            name,
+            b.scene.objects().len(),
+            b.scene.triangle_count(),
+            b.path.frames.len(),
+            description
+        );
+    }
+    Ok(())
+}
+
+/// `hom scene info`: counts, bounds and the walk of the scene `spec`.
+pub fn info(spec: &str) -> Result<()> {
+    let (scene, path, _) = hom_walk::open_scene(spec)?;
+    let b = scene.bounds();
+    let dynamic = scene.dynamic_count();
+    let max_tris = scene.objects().iter().map(|o| o.triangles).max().unwrap_or(0);
+    println!("scene:      {}", scene.name());
+    println!("objects:    {} ({dynamic} dynamic)", scene.objects().len());
+    println!("meshes:     {}", scene.meshes().len());
+    println!("triangles:  {}", scene.triangle_count());
+    println!(
+        "per object: {:.0} triangles on average, {max_tris} at most",
+        scene.triangle_count() as f64 / scene.objects().len() as f64
+    );
+    println!("bounds:     {:?} .. {:?}", b.min.to_array(), b.max.to_array());
+    println!(
+        "path:       {} frames at {}x{}",
+        path.frames.len(),
+        path.width,
+        path.height
+    );
+    Ok(())
+}
+
+/// `hom scene export`: the scene `spec` as OBJ in `out`.
+pub fn export(spec: &str, out: &Path) -> Result<()> {
+    let (scene, _, _) = hom_walk::open_scene(spec)?;
+    hom_scene::export::write_obj(&scene, out)?;
+    println!(
+        "wrote {} ({} objects, {} triangles)",
+        out.display(),
+        scene.objects().len(),
+        scene.triangle_count()
+    );
+    Ok(())
+}

@@ -1,0 +1,183 @@
+//! `hom walk`: a camera path through a scene with one culler; the walk itself
+//! (with the streamed report) is shared with `hom demo`.
+
+use super::render::write_false_colour;
+use super::{busiest_frame, write_stage_chart};
+use crate::args::{HomArgs, WalkArgs};
+use crate::setup::{culler_settings, make_culler, open, open_map_view, progress, Walkthrough};
+use crate::table::print_table;
+use anyhow::{bail, Context, Result};
+use hom_render::Renderer;
+use hom_scene::bsp::BspMap;
+use hom_walk::pvs::{self, PvsSummary};
+use hom_walk::report;
+use hom_walk::{pictures, WalkOptions, WalkResult};
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+/// Runs `hom walk`.
+pub fn run(a: WalkArgs) -> Result<()> {
+    let map = if a.pvs {
+        let (file, _) = hom_scene::split_map_spec(Path::new(&a.view.scene));
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("bsp") | Some("pk3")) {
+            bail!(
+                "--pvs needs a Quake 3 map (.bsp, .pk3 or FILE.pk3:MAP), which carries a PVS; '{}' is not one",
+                a.view.scene
+            );
+        }
+        Some(hom_walk::pvs::open_map(&a.view.scene)?)
+    } else {
+        None
+    };
+    let mut w = match &map {
+        Some(m) => open_map_view(&a.view, m)?,
+        None => open(&a.view)?,
+    };
+    if a.frames == Some(0) {
+        bail!("--frames must be at least 1");
+    }
+    let renderer = Renderer::new(a.view.threads)?;
+    let options = WalkOptions {
+        frames: a.frames,
+        oracle: a.oracle || a.pvs,
+        ..WalkOptions::default()
+    };
+    let mut file = match &a.report {
+        Some(p) => Some(create_report(p)?),
+        None => None,
+    };
+    let (result, pvs_summary) = run_walk_pvs(
+        &mut w,
+        &a.view.culler,
+        &a.view.hom,
+        &renderer,
+        &options,
+        file.as_mut().map(|f| f as &mut dyn Write),
+        map.as_ref(),
+    )
+    .with_context(|| match &a.report {
+        Some(p) => format!("walking {} (report {})", a.view.scene, p.display()),
+        None => format!("walking {}", a.view.scene),
+    })?;
+    if let Some(p) = &a.report {
+        eprintln!("report: {}", p.display());
+    }
+    print_table(&w.scene, &[(&a.view.culler, &result)]);
+    if let Some(p) = &pvs_summary {
+        print!("{}", p.table());
+    }
+    if let Some(dir) = &a.plots {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let plot = dir.join("frame_times.png");
+        pictures::plot_frame_times(&plot, &result.frames, &a.view.culler)?;
+        let stages = dir.join("stages.png");
+        write_stage_chart(&stages, &[(&a.view.culler, &result)])?;
+        let frame = busiest_frame(&result.frames);
+        let picture = dir.join(format!("false_colour_frame{frame}.png"));
+        let frame_rate = WalkOptions::default().frame_rate;
+        let pyramid = write_false_colour(
+            &mut w,
+            &a.view.culler,
+            &a.view.hom,
+            frame,
+            &renderer,
+            &picture,
+            frame_rate,
+        )?;
+        if let Some(p) = pyramid {
+            let hole = culler_settings(&a.view.hom, &w.scene)?.hom.selection.hole_opacity;
+            pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
+        }
+        eprintln!("pictures: {}", dir.display());
+    }
+    Ok(())
+}
+
+fn create_report(path: &Path) -> Result<BufWriter<std::fs::File>> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let f = std::fs::File::create(path).with_context(|| format!("creating report {}", path.display()))?;
+    Ok(BufWriter::new(f))
+}
+
+/// Walks with progress on a terminal; with `report`, streams the JSON-lines
+/// report (header, frames, summary) as it goes.
+pub fn run_walk(
+    w: &mut Walkthrough,
+    culler_name: &str,
+    hom: &HomArgs,
+    renderer: &Renderer,
+    options: &WalkOptions,
+    mut report: Option<&mut dyn Write>,
+) -> Result<WalkResult> {
+    run_walk_pvs(w, culler_name, hom, renderer, options, report.take(), None).map(|(r, _)| r)
+}
+
+/// [`run_walk`], measuring each frame against `pvs` (a Quake 3 map whose scene is
+/// `scene`) where given: the report's frame and summary lines gain `pvs_` fields.
+#[allow(clippy::too_many_arguments)]
+fn run_walk_pvs(
+    w: &mut Walkthrough,
+    culler_name: &str,
+    hom: &HomArgs,
+    renderer: &Renderer,
+    options: &WalkOptions,
+    mut report: Option<&mut dyn Write>,
+    pvs: Option<&BspMap>,
+) -> Result<(WalkResult, Option<PvsSummary>)> {
+    let Walkthrough { scene, path, animation } = w;
+    let (scene, path, animation) = (scene, &*path, &*animation);
+    let mut culler = make_culler(culler_name, scene, hom)?;
+    if let Some(out) = report.as_deref_mut() {
+        let header = report::Header::new(
+            scene,
+            path,
+            culler.as_ref(),
+            renderer.threads(),
+            options.frame_count(path),
+            options.oracle,
+        );
+        report::write_line(out, &header).context("writing the report")?;
+    }
+    let bar = progress(options.frame_count(path), culler_name);
+    let mut io_error = None;
+    let mut pvs_frames = Vec::new();
+    let result = hom_walk::walk(scene, animation, path, culler.as_mut(), renderer, options, |record| {
+        bar.inc(1);
+        // The map's scene is the walked one (Quake 3 maps are static).
+        let frame = pvs.map(|map| pvs::pvs_for_record(map, &map.scene, &path.camera(record.frame), record));
+        if let Some(out) = report.as_deref_mut() {
+            let written = match &frame {
+                Some(f) => report::write_line(out, &pvs::FrameWithPvs { record, pvs: f }),
+                None => report::write_line(out, record),
+            };
+            if let Err(e) = written {
+                io_error.get_or_insert(e);
+            }
+        }
+        pvs_frames.extend(frame);
+    });
+    bar.finish_and_clear();
+    let result = result?;
+    let pvs_summary = pvs.map(|_| pvs::summarize_pvs(&pvs_frames));
+    if let Some(out) = report {
+        if let Some(e) = io_error {
+            return Err(e).context("writing the report");
+        }
+        match &pvs_summary {
+            Some(p) => report::write_line(
+                out,
+                &pvs::SummaryWithPvs {
+                    summary: &result.summary,
+                    pvs: p,
+                },
+            ),
+            None => report::write_line(out, &result.summary),
+        }
+        .context("writing the report")?;
+        out.flush().context("writing the report")?;
+    }
+    Ok((result, pvs_summary))
+}

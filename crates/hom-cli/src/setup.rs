@@ -1,0 +1,131 @@
+//! What every command sets up: the scene and its camera path with the
+//! viewport overridden, the culler, and the progress bar.
+
+use crate::args::{HomArgs, View};
+use anyhow::{bail, Result};
+use hom::cull::{Culler, Opacity};
+use hom::scene::Scene;
+use hom_scene::bsp::BspMap;
+use hom_scene::{Animation, CameraPath};
+use hom_walk::cullers::{self, CullerSettings};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// A scene, the camera path through it and how its objects move.
+pub struct Walkthrough {
+    /// The scene.
+    pub scene: Scene,
+    /// The path to walk.
+    pub path: CameraPath,
+    /// The motion of its dynamic objects.
+    pub animation: Animation,
+}
+
+impl Walkthrough {
+    /// Moves the scene to frame `frame` at `frame_rate` frames per second.
+    pub fn go_to(&mut self, frame: usize, frame_rate: f32) {
+        self.animation.apply(&mut self.scene, frame as f32 / frame_rate);
+    }
+}
+
+/// The scene and the path to walk, with the viewport overridden where asked.
+pub fn open(view: &View) -> Result<Walkthrough> {
+    let (scene, mut path, animation) = hom_walk::open_scene(&view.scene)?;
+    if let Some(file) = &view.camera_path {
+        path = CameraPath::load(file)?;
+    }
+    override_viewport(view, &mut path);
+    path.validate(&view.scene)?;
+    Ok(Walkthrough { scene, path, animation })
+}
+
+/// [`open`] for a Quake 3 map already loaded (for `--pvs`): its scene and its
+/// spawn-to-spawn walk, or the `--camera-path` file, with the viewport overridden.
+pub fn open_map_view(view: &View, map: &BspMap) -> Result<Walkthrough> {
+    let mut path = match &view.camera_path {
+        Some(file) => CameraPath::load(file)?,
+        None => match map.camera_path() {
+            Some(p) => p,
+            None => bail!("{} has no spawn points to walk; give --camera-path", view.scene),
+        },
+    };
+    override_viewport(view, &mut path);
+    path.validate(&view.scene)?;
+    Ok(Walkthrough {
+        scene: map.scene.clone(),
+        path,
+        animation: Animation::none(),
+    })
+}
+
+fn override_viewport(view: &View, path: &mut CameraPath) {
+    if let Some(w) = view.width {
+        path.width = w;
+    }
+    if let Some(h) = view.height {
+        path.height = h;
+    }
+}
+
+/// The settings of every culler for `scene`, with the flags applied (all of
+/// them are checked, whichever culler runs).
+pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> {
+    let mut settings = CullerSettings::for_scene(scene);
+    let c = &mut settings.hom;
+    if let Some(b) = args.budget {
+        c.selection.budget = b;
+    }
+    c.selection.adaptive = args.adaptive_budget;
+    c.selection.hole_filling = !args.no_hole_filling;
+    if let Some(o) = args.opacity {
+        if !(o > 0.0 && o <= 1.0) {
+            bail!("--opacity must be in (0, 1], got {o}");
+        }
+        c.map.opacity = if o == 1.0 {
+            Opacity::Conservative
+        } else {
+            Opacity::Threshold(o)
+        };
+    }
+    if let Some(d) = args.depth {
+        c.map.depth = d.mode();
+    }
+    if let Some(m) = args.map_size {
+        if !(1..=4096).contains(&m) {
+            bail!("--map-size must be 1..=4096, got {m}");
+        }
+        c.map.map_size = m;
+    }
+    if let Some(s) = args.selection {
+        c.selection.mode = s.mode();
+    }
+    let octree = &mut settings.hv.octree;
+    if let Some(t) = args.hv_threshold {
+        if t == 0 {
+            bail!("--hv-threshold must be at least 1");
+        }
+        octree.threshold = t;
+    }
+    if let Some(d) = args.hv_max_depth {
+        octree.max_depth = d;
+    }
+    octree.keep_large = args.hv_keep_large;
+    Ok(settings)
+}
+
+/// The culler called `name` for `scene`, with the flags applied.
+pub fn make_culler(name: &str, scene: &Scene, args: &HomArgs) -> Result<Box<dyn Culler>> {
+    Ok(cullers::make(name, scene, &culler_settings(args, scene)?)?)
+}
+
+/// A progress bar over `len` frames, labelled `what`.
+pub fn progress(len: usize, what: &str) -> ProgressBar {
+    // Draws only on a terminal; quiet when piped.
+    let bar = ProgressBar::new(len as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(what.to_string());
+    bar
+}
