@@ -191,15 +191,11 @@ fn nearest_first(batches: &Batches) -> Vec<(Vec<Vec4>, Vec<[u32; 3]>, FaceCull)>
     runs
 }
 
-/// Clears `buf`, draws `batches` and flushes; returns (setup ms, raster ms,
-/// total ms) and the buffer's statistics.
-fn draw(
-    buf: &mut impl OcclusionBuffer,
-    batches: &[(&[Vec4], &[[u32; 3]], FaceCull)],
-) -> Result<(f64, f64, f64), RasterBenchError> {
+/// Clears `buf`, draws `batches` and flushes; returns (setup ms, raster ms, total ms).
+fn draw(buf: &mut impl OcclusionBuffer, batches: &Batches) -> Result<(f64, f64, f64), RasterBenchError> {
     let t0 = Instant::now();
     buf.clear();
-    for &(v, t, cull) in batches {
+    for &(v, t, cull) in batches.iter() {
         buf.render_clip_triangles(v, t, cull)
             .map_err(|e| RasterBenchError::Options(e.to_string()))?;
     }
@@ -227,7 +223,7 @@ fn time_render(
     let mut map = HomBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
     let (mut setup, mut render, mut total, mut map_times) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let sorted = nearest_first(batches);
-    let sorted: Vec<(&[Vec4], &[[u32; 3]], FaceCull)> = sorted.iter().map(|(v, t, c)| (&v[..], &t[..], *c)).collect();
+    let sorted: Batches = sorted.iter().map(|(v, t, c)| (&v[..], &t[..], *c)).collect();
     pool.install(|| {
         for _ in 0..runs {
             let (s, r, t) = draw(&mut zb, batches)?;

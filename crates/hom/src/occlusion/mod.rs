@@ -138,8 +138,8 @@ pub enum OcclusionError {
         vertex_count: usize,
     },
     /// The matrix has a NaN or infinite entry.
-    #[error("model-to-clip matrix has a non-finite entry: {0:?}")]
-    NonFiniteMatrix([f32; 16]),
+    #[error("model-to-clip matrix has a NaN or infinite entry")]
+    NonFiniteMatrix,
     /// More triangles in one frame than a buffer queues.
     #[error("{queued} triangles are queued and {adding} more would exceed {max}; clear the buffer each frame", max = MAX_QUEUED_TRIANGLES)]
     TooManyTriangles {
@@ -362,7 +362,7 @@ impl Front {
         cull: FaceCull,
     ) -> Result<(), OcclusionError> {
         if !model_to_clip.is_finite() {
-            return Err(OcclusionError::NonFiniteMatrix(model_to_clip.to_cols_array()));
+            return Err(OcclusionError::NonFiniteMatrix);
         }
         let m = self.options.clip.to_zero_to_one() * *model_to_clip;
         self.queue.push_model(positions, indices, &m, cull)?;
