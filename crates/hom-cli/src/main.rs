@@ -2,6 +2,8 @@
 //!
 //! The subcommand names and flags are a contract that scripts depend on.
 
+#![forbid(unsafe_code)]
+
 mod args;
 mod commands;
 mod setup;

@@ -51,6 +51,8 @@
 //!    functions), so no locks are needed and the result does not depend on
 //!    scheduling. Scratch memory is kept inside the [`Renderer`] across frames.
 
+#![forbid(unsafe_code)]
+
 mod raster;
 
 use hom::geom::{Camera, MAX_VIEWPORT_SIDE};

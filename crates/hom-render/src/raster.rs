@@ -43,7 +43,7 @@ pub(crate) fn raster_tri<const COLOUR: bool>(
                 if (f[0] | f[1] | f[2]) >= 0 {
                     seen = true;
                     let idx = row + k as usize;
-                    let z = (zr + t.dzdx * k as f32).max(0.0);
+                    let z = t.depth_in_row(zr, k as i32);
                     if z < depth[idx] {
                         depth[idx] = z;
                         item[idx] = t.item;
@@ -84,7 +84,7 @@ const LANES: usize = 8;
 /// Depth-tests and writes one covered span: `depth`, `item` and `colour` hold
 /// its pixels, the first at column offset `k0` from the triangle's `x0`, and
 /// `zr` is the depth at offset 0 of the row. The depth of each pixel is
-/// computed exactly as `max(zr + dzdx * k, 0)`; groups of [`LANES`] pixels
+/// [`Tri::depth_in_row`] (hom's one depth formula); groups of [`LANES`] pixels
 /// are tested and blended branch-free (bit masks), so this vectorizes.
 /// Returns the number of fragments written.
 #[inline(always)]
@@ -96,7 +96,7 @@ fn fill_span<const COLOUR: bool>(
     item: &mut [u32],
     colour: &mut [[u8; 4]],
 ) -> u32 {
-    let (dzdx, id, c) = (t.dzdx, t.item, u32::from_ne_bytes(t.colour));
+    let (id, c) = (t.item, u32::from_ne_bytes(t.colour));
     let len = depth.len();
     let (item, colour) = (&mut item[..len], &mut colour[..len]);
     let mut k = k0 as i32;
@@ -107,7 +107,7 @@ fn fill_span<const COLOUR: bool>(
     for ((d, i), o) in (&mut dc).zip(&mut ic).zip(&mut cc) {
         let mut m = [0u32; LANES];
         for l in 0..LANES {
-            let z = (zr + dzdx * (k + l as i32) as f32).max(0.0);
+            let z = t.depth_in_row(zr, k + l as i32);
             m[l] = 0u32.wrapping_sub(u32::from(z < d[l]));
             d[l] = f32::from_bits((z.to_bits() & m[l]) | (d[l].to_bits() & !m[l]));
         }
@@ -124,7 +124,7 @@ fn fill_span<const COLOUR: bool>(
     }
     let (d, i, o) = (dc.into_remainder(), ic.into_remainder(), cc.into_remainder());
     for l in 0..d.len() {
-        let z = (zr + dzdx * (k + l as i32) as f32).max(0.0);
+        let z = t.depth_in_row(zr, k + l as i32);
         if z < d[l] {
             d[l] = z;
             i[l] = id;
@@ -199,7 +199,7 @@ mod tests {
                                 && x < u32::from(t.x1)
                                 && y >= u32::from(t.y0)
                                 && y < u32::from(t.y1);
-                            let z = |t: &Tri| (t.depth_row(y) + t.dzdx * (x - u32::from(t.x0)) as f32).max(0.0);
+                            let z = |t: &Tri| t.depth_at(x, y);
                             if inside && t.covers(x, y) && z(&t) < 1.0 {
                                 let z = z(&t);
                                 expect += 1;

@@ -6,6 +6,8 @@
 //! and returns a typed error naming the file and the problem. Files that hold
 //! one big mesh are split into spatially coherent objects ([`split`]).
 
+#![forbid(unsafe_code)]
+
 pub mod bsp;
 pub mod builtin;
 pub mod camera_path;

@@ -17,6 +17,8 @@
 //! false-colour frames and plots; [`pvs`] measures a walk through a Quake 3 map
 //! against the map's own potentially visible sets.
 
+#![forbid(unsafe_code)]
+
 pub mod bench;
 pub mod cullers;
 pub mod pictures;

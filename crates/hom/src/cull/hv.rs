@@ -34,7 +34,7 @@
 //!    hierarchical tiling; both tests are `HvConfig::triangle_tests`; smaller
 //!    cases cost more texel reads than sample tests they could save),
 //!    and every covered sample of the tiles not rejected is depth-tested with
-//!    the renderer's depth `max(zr + dzdx * (x - x0), 0)`.
+//!    the renderer's depth ([`Tri::depth_at`]).
 //! 4. **pyramid**: after each node's triangles (or dynamic object) the texels above the
 //!    samples it changed are recomputed ([`ZPyramid::update_rect`]), so later
 //!    nodes are tested against everything drawn so far.
@@ -88,16 +88,16 @@
 
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{ZPyramid, ZTestStats};
-use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
+use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, View};
 use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::raster::zbuffer::{Dirty, ZDrawStats, ZTarget};
 use crate::scene::Revision;
 use crate::scene::Scene;
 use crate::spatial::octree::{Octree, OctreeConfig, TriRef};
 use glam::Mat4;
 use std::time::Instant;
 
-/// Item-buffer value of a sample no object owns (the renderer's `NO_OBJECT`).
-pub const NO_OBJECT: u32 = u32::MAX;
+pub use crate::raster::zbuffer::NO_OBJECT;
 
 /// Settings of the HV culler.
 #[derive(Clone, Debug, PartialEq)]
@@ -158,60 +158,9 @@ struct Stats {
     nodes_occluded: u64,
     nodes_drawn: u64,
     triangles_submitted: u64,
-    triangles_occluded: u64,
-    triangles_rasterized: u64,
-    sample_tests: u64,
-    samples_written: u64,
-    tile_tests: u64,
-    tiles_skipped: u64,
     texels_updated: u64,
     dynamic_tested: u64,
     dynamic_occluded: u64,
-}
-
-/// A half-open pixel rectangle of changed samples.
-#[derive(Clone, Copy, Debug)]
-struct Dirty {
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
-}
-
-impl Dirty {
-    const NONE: Dirty = Dirty {
-        x0: u32::MAX,
-        y0: u32::MAX,
-        x1: 0,
-        y1: 0,
-    };
-
-    fn add(&mut self, x0: u32, y0: u32, x1: u32, y1: u32) {
-        self.x0 = self.x0.min(x0);
-        self.y0 = self.y0.min(y0);
-        self.x1 = self.x1.max(x1);
-        self.y1 = self.y1.max(y1);
-    }
-}
-
-/// Pyramid level whose texels are the tiles of HV's triangle tiling (8×8 samples).
-const TILE_LEVEL: usize = 3;
-
-/// The smallest depth the renderer's formula `max(depth_row(y) + dzdx * (x - x0), 0)`
-/// gives on the samples `x0..x1` × `y0..y1` (non-empty, within `t`'s bounding
-/// rectangle): the formula is monotone along rows and along columns (f32
-/// rounding is monotone), so the minimum is at a corner. A lower bound of the
-/// depth of every sample `t` covers there.
-fn tri_min_depth(t: &Tri, x0: u32, y0: u32, x1: u32, y1: u32) -> f32 {
-    let tx0 = u32::from(t.x0);
-    let mut m = f32::INFINITY;
-    for py in [y0, y1 - 1] {
-        let zr = t.depth_row(py);
-        for x in [x0, x1 - 1] {
-            m = m.min((zr + t.dzdx * (x - tx0) as f32).max(0.0));
-        }
-    }
-    m
 }
 
 /// Covered samples of a set-up triangle.
@@ -227,15 +176,11 @@ struct Drawing<'a> {
     scene: &'a Scene,
     viewport: Viewport,
     mvp: &'a [Mat4],
-    pyramid: &'a mut ZPyramid,
-    items: &'a mut [u32],
+    /// The depth, item buffer and pyramid triangles go into.
+    z: ZTarget<'a>,
     passed: &'a mut [bool],
     tris: &'a mut Vec<Tri>,
-    spans: &'a mut Vec<Option<(u32, u32)>>,
-    triangle_tests: bool,
     stats: Stats,
-    zstats: ZTestStats,
-    dirty: Dirty,
     raster_s: f64,
     pyramid_s: f64,
 }
@@ -249,8 +194,8 @@ impl Drawing<'_> {
         }
         let mid = Instant::now();
         self.raster_s += (mid - start).as_secs_f64();
-        let d = std::mem::replace(&mut self.dirty, Dirty::NONE);
-        self.stats.texels_updated += self.pyramid.update_rect(d.x0, d.y0, d.x1, d.y1);
+        let d = std::mem::replace(&mut self.z.dirty, Dirty::NONE);
+        self.stats.texels_updated += self.z.pyramid.update_rect(d.x0, d.y0, d.x1, d.y1);
         self.pyramid_s += mid.elapsed().as_secs_f64();
     }
 
@@ -270,121 +215,11 @@ impl Drawing<'_> {
             [0, 0, 0, 255],
             self.tris,
         );
-        for k in 0..self.tris.len() {
-            let tri = self.tris[k];
-            self.draw_tri(&tri);
-        }
-    }
-
-    fn draw_tri(&mut self, t: &Tri) {
-        let (bx0, by0, bx1, by1) = (u32::from(t.x0), u32::from(t.y0), u32::from(t.x1), u32::from(t.y1));
-        // A rectangle within one tile is left to the tile test below: testing it
-        // twice costs more texel reads than it can save.
-        if self.triangle_tests && (bx1 - bx0) * (by1 - by0) > 1 << (2 * TILE_LEVEL) {
-            let z = tri_min_depth(t, bx0, by0, bx1, by1);
-            let r = ScreenRect {
-                x0: bx0,
-                y0: by0,
-                x1: bx1,
-                y1: by1,
-                z_near: z,
-                z_far: z,
-            };
-            if z.is_finite() && self.pyramid.is_behind(&r, &mut self.zstats) {
-                self.stats.triangles_occluded += 1;
-                return;
+        for tri in self.tris.iter() {
+            if self.z.draw(tri) {
+                self.passed[t.object as usize] = true;
             }
         }
-        self.stats.triangles_rasterized += 1;
-        let w = self.viewport.width as usize;
-        // Tiles of 8×8 samples, each tested against its pyramid texel (one
-        // level of Greene's hierarchical tiling); one tile for all without tests.
-        let k = if self.triangle_tests { TILE_LEVEL } else { 0 };
-        let (base, tiles) = self.pyramid.base_and_level(k);
-        let shift = if tiles.is_some() { TILE_LEVEL as u32 } else { 16 };
-        let items = &mut *self.items;
-        let spans = &mut *self.spans;
-        let (x0, id) = (bx0, t.item);
-        let (mut passed, mut tests, mut written, mut tile_tests, mut tiles_skipped) = (false, 0u64, 0u64, 0u64, 0u64);
-        let mut dirty = Dirty::NONE;
-        for band in (by0 >> shift)..=((by1 - 1) >> shift) {
-            let (ry0, ry1) = (by0.max(band << shift), by1.min((band + 1) << shift));
-            spans.clear();
-            spans.extend((ry0..ry1).map(|py| t.row_span(py)));
-            let (slo, shi) = spans
-                .iter()
-                .flatten()
-                .fold((u32::MAX, 0), |(a, b), &(lo, hi)| (a.min(lo), b.max(hi)));
-            if slo >= shi {
-                continue;
-            }
-            for col in (slo >> shift)..=((shi - 1) >> shift) {
-                let (rx0, rx1) = (slo.max(col << shift), shi.min((col + 1) << shift));
-                let covered: u32 = spans
-                    .iter()
-                    .flatten()
-                    .map(|&(lo, hi)| hi.min(rx1).saturating_sub(lo.max(rx0)))
-                    .sum();
-                if covered == 0 {
-                    continue; // the triangle covers no sample of this tile
-                }
-                // A tile test costs one comparison: worth it from two samples on.
-                if let Some(level) = tiles.filter(|_| covered > 1) {
-                    // Every sample of the tile is nearer than its texel's farthest
-                    // depth, and every depth of the triangle in the tile at least
-                    // `z`: beyond it, no sample can be won or tied.
-                    let z = tri_min_depth(t, rx0, ry0, rx1, ry1);
-                    tile_tests += 1;
-                    if z > level.depth(col, band) {
-                        tiles_skipped += 1;
-                        continue;
-                    }
-                }
-                for (j, span) in spans.iter().enumerate() {
-                    let Some((lo, hi)) = *span else { continue };
-                    let (lo, hi) = (lo.max(rx0), hi.min(rx1));
-                    if lo >= hi {
-                        continue;
-                    }
-                    let py = ry0 + j as u32;
-                    let zr = t.depth_row(py);
-                    let row = py as usize * w;
-                    tests += u64::from(hi - lo);
-                    let mut nearer = false;
-                    for x in lo..hi {
-                        let z = (zr + t.dzdx * (x - x0) as f32).max(0.0);
-                        let i = row + x as usize;
-                        let (d, owner) = (base[i], items[i]);
-                        // The renderer's strict test, and ties to the smaller id (drawn first there).
-                        if z < d {
-                            base[i] = z;
-                            items[i] = id;
-                            nearer = true;
-                            passed = true;
-                            written += 1;
-                        } else if z == d && owner != NO_OBJECT {
-                            passed = true;
-                            if id < owner {
-                                items[i] = id;
-                                written += 1;
-                            }
-                        }
-                    }
-                    if nearer {
-                        dirty.add(lo, py, hi, py + 1);
-                    }
-                }
-            }
-        }
-        if passed {
-            self.passed[id as usize] = true;
-        }
-        self.dirty.add(dirty.x0, dirty.y0, dirty.x1, dirty.y1);
-        self.stats.sample_tests += tests;
-        self.stats.samples_written += written;
-        self.stats.tile_tests += tile_tests;
-        self.stats.tiles_skipped += tiles_skipped;
-        self.zstats.texels += tile_tests;
     }
 
     /// A dynamic object: frustum test, box test against the pyramid, then its triangles.
@@ -396,7 +231,7 @@ impl Drawing<'_> {
         self.stats.dynamic_tested += 1;
         let (w, h) = (self.viewport.width, self.viewport.height);
         if let Footprint::Rect(r) = project_points(&o.obb.corners(), world_to_clip, w, h) {
-            if self.pyramid.is_behind(&r, &mut self.zstats) {
+            if self.z.pyramid.is_behind(&r, &mut self.z.zstats) {
                 self.stats.dynamic_occluded += 1;
                 return;
             }
@@ -649,15 +484,19 @@ impl Culler for HvCuller {
             scene,
             viewport,
             mvp,
-            pyramid,
-            items,
+            z: ZTarget {
+                pyramid,
+                items,
+                spans,
+                width: w,
+                triangle_tests: config.triangle_tests,
+                stats: ZDrawStats::default(),
+                zstats: ZTestStats::default(),
+                dirty: Dirty::NONE,
+            },
             passed,
             tris,
-            spans,
-            triangle_tests: config.triangle_tests,
             stats: Stats::default(),
-            zstats: ZTestStats::default(),
-            dirty: Dirty::NONE,
             raster_s: 0.0,
             pyramid_s: 0.0,
         };
@@ -683,7 +522,7 @@ impl Culler for HvCuller {
             }
             if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
                 d.stats.node_box_tests += 1;
-                if d.pyramid.is_behind(&r, &mut d.zstats) {
+                if d.z.pyramid.is_behind(&r, &mut d.z.zstats) {
                     d.stats.nodes_occluded += 1;
                     continue;
                 }
@@ -713,7 +552,7 @@ impl Culler for HvCuller {
         while let Some((_, id)) = pending.pop() {
             d.dynamic(id, &frustum, &view_proj);
         }
-        let (stats, zstats, raster_s, pyramid_s) = (d.stats, d.zstats, d.raster_s, d.pyramid_s);
+        let (stats, raster, zstats, raster_s, pyramid_s) = (d.stats, d.z.stats, d.z.zstats, d.raster_s, d.pyramid_s);
         let total_s = start.elapsed().as_secs_f64();
         out.stages
             .push(("traversal", (total_s - raster_s - pyramid_s).max(0.0) * 1e3));
@@ -762,15 +601,15 @@ impl Culler for HvCuller {
         out.count("dynamic_tested", stats.dynamic_tested);
         out.count("dynamic_occluded", stats.dynamic_occluded);
         out.count("triangles_submitted", stats.triangles_submitted);
-        out.count("triangles_occluded", stats.triangles_occluded);
-        out.count("triangles_rasterized", stats.triangles_rasterized);
-        out.count("sample_tests", stats.sample_tests);
-        out.count("samples_written", stats.samples_written);
-        out.count("tile_tests", stats.tile_tests);
-        out.count("tiles_skipped", stats.tiles_skipped);
+        out.count("triangles_occluded", raster.triangles_occluded);
+        out.count("triangles_rasterized", raster.triangles_rasterized);
+        out.count("sample_tests", raster.sample_tests);
+        out.count("samples_written", raster.samples_written);
+        out.count("tile_tests", raster.tile_tests);
+        out.count("tiles_skipped", raster.tiles_skipped);
         out.count("pyramid_texel_tests", zstats.texels);
         out.count("pyramid_texels_updated", stats.texels_updated);
-        out.count("depth_comparisons", stats.sample_tests + zstats.texels);
+        out.count("depth_comparisons", raster.sample_tests + zstats.texels);
         if let Some(z) = zbuffer {
             out.count("zbuffer_depth_comparisons", z);
         }

@@ -2,9 +2,9 @@
 //! and the hierarchical Z-buffer's Z-pyramid.
 
 pub mod estimation_buffer;
-pub mod hzb;
 pub mod tiled;
+pub mod z_pyramid;
 
 pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane, DEPTH_MARGIN};
-pub use hzb::{ZLevel, ZPyramid, ZTestStats};
 pub use tiled::TiledZBuffer;
+pub use z_pyramid::{ZLevel, ZPyramid, ZTestStats};

@@ -272,7 +272,7 @@ impl CoverageRasterizer {
                     // set depth: occluders come nearest first, so that is mostly the
                     // visible occluder, and in any order the first cover's depth bounds
                     // the nearest from above.
-                    let z = |zr: f32, x: u32| (zr + t.dzdx * (x - x0) as f32).max(0.0);
+                    let z = |zr: f32, x: u32| t.depth_in_row(zr, (x - x0) as i32);
                     if backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX {
                         for py in ta..tb {
                             let Some((lo, hi)) = t.row_span(py) else { continue };

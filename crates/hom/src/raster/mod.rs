@@ -16,13 +16,25 @@
 //! ([`FORCE_SCALAR_ENV`], which wins); in code,
 //! [`CoverageRasterizer::with_backend`].
 
+#[forbid(unsafe_code)]
 mod coverage;
+#[forbid(unsafe_code)]
 pub(crate) mod queue;
+#[forbid(unsafe_code)]
 pub mod setup;
+// The vector kernels: the only `unsafe` in hom (each block says why it is sound).
+#[allow(unsafe_code)]
 mod simd;
+#[allow(unsafe_code)]
 mod simd_tiles;
+#[forbid(unsafe_code)]
+mod tile_band;
+#[forbid(unsafe_code)]
 mod tiled;
+#[forbid(unsafe_code)]
+pub(crate) mod zbuffer;
 
 pub use coverage::{CoverageBuffer, CoverageRasterizer};
 pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV, MASK_MAX};
-pub use tiled::{TiledRasterizer, TiledStats};
+pub use tile_band::TiledStats;
+pub use tiled::TiledRasterizer;

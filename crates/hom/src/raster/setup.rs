@@ -85,10 +85,28 @@ impl Tri {
         (0..3).all(|i| self.a[i] * sx + self.b[i] * sy + self.c[i] >= 0)
     }
 
-    /// Depth at the centre of pixel `(px, py)` from the plane equation, clamped at 0.
+    /// The plane's depth at the centre of pixel `(x0, py)` (row `py` within
+    /// `y0..y1`), before the clamp: the row part of [`Tri::depth_at`].
     #[inline]
     pub fn depth_row(&self, py: u32) -> f32 {
         self.zref + self.dzdy * (py - u32::from(self.y0)) as f32
+    }
+
+    /// The depth hom writes at the centre of pixel `(px, py)` (within the
+    /// triangle's box): `max(zref + dzdy·(py − y0) + dzdx·(px − x0), 0)` in
+    /// exactly these `f32` roundings. The one depth formula of hom: the
+    /// reference renderer, every occluder rasterizer and HV write it, and the
+    /// vector kernels reproduce it bit for bit.
+    #[inline]
+    pub fn depth_at(&self, px: u32, py: u32) -> f32 {
+        self.depth_in_row(self.depth_row(py), px as i32 - i32::from(self.x0))
+    }
+
+    /// [`Tri::depth_at`] given the row's `zr = depth_row(py)` and the column
+    /// offset `dx = px − x0`, for loops that compute the row once.
+    #[inline(always)]
+    pub fn depth_in_row(&self, zr: f32, dx: i32) -> f32 {
+        (zr + self.dzdx * dx as f32).max(0.0)
     }
 }
 

@@ -1,13 +1,13 @@
 //! Vector kernels of the tiled depth rasterizer ([`super::tiled`]): the depth
 //! test and write of one 8×8 tile. Like [`super::simd`], this is a place for
-//! `unsafe` and `std::arch`; the scalar kernel in `tiled.rs` defines the
+//! `unsafe` and `std::arch`; the scalar kernel in `tile_band.rs` defines the
 //! result and every kernel here equals it bit for bit (property tests): the
 //! edge values are the same `i32` sums, the depth the same two `f32`
 //! roundings (`zr + dz`), the clamp at 0 the same for every non-NaN depth.
 
 use super::setup::Tri;
 use super::simd::RasterBackend;
-use super::tiled::{Band, BandParts, TiledStats};
+use super::tile_band::{Band, BandParts, TileKernel, TiledStats};
 
 /// Fills one band with the kernel of `backend` (the scalar one where the CPU
 /// lacks it). The vector entry points compile the whole band loop with their
@@ -31,65 +31,6 @@ pub(crate) fn render_band(backend: RasterBackend, band: &Band, bin: &[Tri], part
         _ => band.render(bin, parts, x86::run_sse2),
         #[cfg(not(target_arch = "x86_64"))]
         _ => band.render(bin, parts, TileKernel::run_scalar),
-    }
-}
-
-/// One tile's inputs: the triangle's planes relative to the tile's first sample.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct TileKernel {
-    /// Edge values at the tile's first sample (exact `i32`, see `tiled.rs`).
-    pub e: [i32; 3],
-    /// Edge steps per column.
-    pub step_x: [i32; 3],
-    /// Edge steps per row.
-    pub step_y: [i32; 3],
-    /// Columns inside the viewport (1..=8).
-    pub cols: i32,
-    /// Rows inside the viewport (1..=8).
-    pub rows: usize,
-    /// The rows the triangle's box covers in this tile: `row0..row1` (within `0..rows`);
-    /// no sample outside them can be covered.
-    pub row0: usize,
-    /// See `row0`.
-    pub row1: usize,
-    /// Column of the tile's first sample minus the triangle's first column.
-    pub dx0: i32,
-    /// Row of the tile's first sample minus the triangle's first row.
-    pub dy0: i32,
-    /// The triangle's depth plane: `zref + dzdy·dy + dzdx·dx`, rounded as the renderer rounds.
-    pub zref: f32,
-    /// Depth step per column.
-    pub dzdx: f32,
-    /// Depth step per row.
-    pub dzdy: f32,
-}
-
-impl TileKernel {
-    /// Depth at row `j` of the tile, column 0 of the triangle (the renderer's `depth_row`).
-    #[inline(always)]
-    fn zr(&self, j: usize) -> f32 {
-        self.zref + self.dzdy * (self.dy0 + j as i32) as f32
-    }
-
-    /// The scalar kernel: the semantics. When a sample changed, the tile's new
-    /// farthest depth (over its rows inside the viewport; the rest hold
-    /// `NEG_INFINITY`).
-    #[inline(always)]
-    pub(crate) fn run_scalar(&self, tile: &mut [f32; 64]) -> Option<f32> {
-        let mut changed = false;
-        for j in self.row0..self.row1 {
-            let zr = self.zr(j);
-            for i in 0..self.cols as usize {
-                let at = |q: usize| self.e[q] + self.step_x[q] * i as i32 + self.step_y[q] * j as i32;
-                let z = (zr + self.dzdx * (self.dx0 + i as i32) as f32).max(0.0);
-                let d = &mut tile[j * 8 + i];
-                if (at(0) | at(1) | at(2)) >= 0 && z < *d {
-                    *d = z;
-                    changed = true;
-                }
-            }
-        }
-        changed.then(|| tile[..self.rows * 8].iter().fold(f32::NEG_INFINITY, |m, &d| m.max(d)))
     }
 }
 
@@ -121,8 +62,9 @@ mod x86 {
     /// SSE2 (x86-64 baseline): a row is two vectors of four samples.
     #[inline(always)]
     pub(super) fn run_sse2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+        k.assert_in_tile();
         // SAFETY: SSE2 is part of x86-64; loads and stores are unaligned and
-        // stay within the tile (8 lanes per row, rows <= 8).
+        // stay within the tile (8 lanes per row, rows <= 8: asserted above).
         unsafe {
             let lanes = [_mm_setr_epi32(0, 1, 2, 3), _mm_setr_epi32(4, 5, 6, 7)];
             let mut e = [[_mm_setzero_si128(); 2]; 3];
@@ -184,7 +126,9 @@ mod x86 {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn run_avx2(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
-        // SAFETY: loads and stores are unaligned and stay within the tile.
+        k.assert_in_tile();
+        // SAFETY: loads and stores are unaligned, at rows < rows <= 8
+        // (asserted above), so within the tile; the caller has AVX2.
         unsafe {
             let lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
             // (Plain per-edge code, not array `map` closures: those do not inline
@@ -234,8 +178,10 @@ mod x86 {
     #[inline]
     #[target_feature(enable = "avx512f")]
     unsafe fn run_avx512(k: &TileKernel, tile: &mut [f32; 64]) -> Option<f32> {
+        k.assert_in_tile();
         // SAFETY: loads and stores are unaligned 16-float accesses at rows
-        // 2p, 2p + 1 with 2p < rows <= 8, so within the tile.
+        // 2p, 2p + 1 with 2p < rows <= 8 (asserted above), so within the
+        // tile; the caller has AVX-512F.
         unsafe {
             let col = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7);
             let row = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1);
