@@ -72,10 +72,10 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
     let mut settings = CullerSettings::for_scene(scene);
     let c = &mut settings.hom;
     if let Some(b) = args.budget {
-        c.selection.budget = b;
+        c.occluders.selection.budget = b;
     }
-    c.selection.adaptive = args.adaptive_budget;
-    c.selection.hole_filling = !args.no_hole_filling;
+    c.occluders.selection.adaptive = args.adaptive_budget;
+    c.occluders.selection.hole_filling = !args.no_hole_filling;
     if let Some(o) = args.opacity {
         if !(o > 0.0 && o <= 1.0) {
             bail!("--opacity must be in (0, 1], got {o}");
@@ -96,7 +96,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         c.map.map_size = m;
     }
     if let Some(s) = args.selection {
-        c.selection.mode = s.mode();
+        c.occluders.selection.mode = s.mode();
     }
     let octree = &mut settings.hv.octree;
     if let Some(t) = args.hv_threshold {

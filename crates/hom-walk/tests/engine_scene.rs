@@ -6,7 +6,9 @@
 mod common;
 
 use common::{assert_no_false_culls, cube, permissive_occluders, random_scene};
-use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller};
+use hom::cull::{
+    CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, OccluderConfig,
+};
 use hom::geom::{Camera, Containment};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::scene::Scene;
@@ -15,10 +17,13 @@ use proptest::prelude::*;
 /// The cullers under test, built for `scene`, with an occluder budget of `budget` triangles.
 fn cullers(scene: &Scene, budget: u32) -> Vec<Box<dyn Culler>> {
     let mut hom = HomConfig {
-        occluder_db: permissive_occluders(),
+        occluders: OccluderConfig {
+            occluder_db: permissive_occluders(),
+            ..OccluderConfig::default()
+        },
         ..HomConfig::default()
     };
-    hom.selection.budget = budget;
+    hom.occluders.selection.budget = budget;
     vec![
         Box::new(FrustumCuller::new(scene)),
         Box::new(HomCuller::new(scene, hom.clone())),

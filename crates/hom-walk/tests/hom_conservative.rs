@@ -7,7 +7,7 @@ use common::{
     assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
     permissive_occluders, random_moving_scene, random_scene,
 };
-use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
+use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, OccluderConfig, Opacity};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occlusion::{HomBuffer, MapOptions};
@@ -18,10 +18,13 @@ use proptest::prelude::*;
 /// Every object may be an occluder: the strongest test of the depth and overlap logic.
 fn permissive() -> HomConfig {
     let mut c = HomConfig {
-        occluder_db: permissive_occluders(),
+        occluders: OccluderConfig {
+            occluder_db: permissive_occluders(),
+            ..OccluderConfig::default()
+        },
         ..HomConfig::default()
     };
-    c.selection.budget = 60;
+    c.occluders.selection.budget = 60;
     c
 }
 
@@ -74,7 +77,7 @@ fn occluder_coverage_equals_the_renderers_item_buffer() {
 /// Only the two wall halves fit the budget (12 triangles each): the box behind is never an occluder.
 fn walls_only() -> HomConfig {
     let mut c = permissive();
-    c.selection.budget = 24;
+    c.occluders.selection.budget = 24;
     c
 }
 
@@ -182,8 +185,8 @@ fn odd_viewport_zero_occluders_and_zero_budget() {
     let mut culler = HomCuller::new(&scene, permissive());
     assert_no_false_culls(&scene, &camera, &mut culler);
     let mut zero = permissive();
-    zero.selection.budget = 0;
-    zero.selection.hole_filling = false;
+    zero.occluders.selection.budget = 0;
+    zero.occluders.selection.hole_filling = false;
     let mut culler = HomCuller::new(&scene, zero);
     let out = assert_no_false_culls(&scene, &camera, &mut culler);
     assert!(

@@ -8,7 +8,7 @@ use common::{
     assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
     random_moving_scene,
 };
-use hom::cull::{Culler, HzbConfig, HzbCuller};
+use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occlusion::HzBuffer;
@@ -18,10 +18,13 @@ use proptest::prelude::*;
 /// Every object may be an occluder: the strongest test of the depth logic.
 fn permissive() -> HzbConfig {
     let mut c = HzbConfig {
-        occluder_db: permissive_occluders(),
+        occluders: OccluderConfig {
+            occluder_db: permissive_occluders(),
+            ..OccluderConfig::default()
+        },
         ..HzbConfig::default()
     };
-    c.selection.budget = 60;
+    c.occluders.selection.budget = 60;
     c
 }
 

@@ -71,7 +71,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     println!("  {} (time per stage, % of frustum-only frame time)", stages.display());
     if let Some(p) = pyramid {
         let levels = a.out.join(format!("pyramid_frame{frame}.png"));
-        pictures::write_pyramid_levels(&levels, &p, HomConfig::default().selection.hole_opacity)?;
+        pictures::write_pyramid_levels(&levels, &p, HomConfig::default().occluders.selection.hole_opacity)?;
         println!("  {} (the occlusion map pyramid, holes in blue)", levels.display());
     }
     Ok(())

@@ -86,7 +86,11 @@ pub fn run(a: WalkArgs) -> Result<()> {
             frame_rate,
         )?;
         if let Some(p) = pyramid {
-            let hole = culler_settings(&a.view.hom, &w.scene)?.hom.selection.hole_opacity;
+            let hole = culler_settings(&a.view.hom, &w.scene)?
+                .hom
+                .occluders
+                .selection
+                .hole_opacity;
             pictures::write_pyramid_levels(&dir.join(format!("pyramid_frame{frame}.png")), &p, hole)?;
         }
         eprintln!("pictures: {}", dir.display());

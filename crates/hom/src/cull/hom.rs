@@ -19,12 +19,12 @@
 //! the camera the culler was given; occluder stand-in meshes that are not
 //! contained in the object they stand for; and transparent occluders.
 
-use super::traversal::OccluderCulling;
+use super::traversal::{culler_buffer_options, OccluderCulling};
 use super::{CullError, CullOutput, Culler};
 use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
-use crate::occluders::{draw_occluders, OccluderDb, OccluderDbConfig, SelectionConfig};
-use crate::occlusion::{BufferOptions, HomBuffer, MapOptions, OcclusionBuffer, Sampling};
+use crate::occluders::{draw_occluders, OccluderConfig, OccluderDb};
+use crate::occlusion::{HomBuffer, MapOptions, OcclusionBuffer};
 use crate::scene::Scene;
 
 pub use crate::occlusion::{DepthMode, Opacity};
@@ -34,30 +34,17 @@ pub use crate::occlusion::{DepthMode, Opacity};
 pub struct HomConfig {
     /// The occlusion map: resolution, opacity thresholds, depth test.
     pub map: MapOptions,
-    /// Occluder selection.
-    pub selection: SelectionConfig,
-    /// Occluder database preprocessing.
-    pub occluder_db: OccluderDbConfig,
+    /// Which objects occlude, and how each frame's are chosen (shared with HZB).
+    pub occluders: OccluderConfig,
 }
 
 impl HomConfig {
-    /// The default settings with the polygon budget L scaled to the scene: 1 %
-    /// of its triangles, at least 3,000 and at most 20,000. (Sweeps on the
-    /// built-in scenes: the best fixed L ranged from 3k on the city to 25k on
-    /// the machine room, roughly following scene size.)
+    /// The default map with [`OccluderConfig::for_scene`]'s occluders.
     pub fn for_scene(scene: &Scene) -> HomConfig {
-        let mut c = HomConfig::default();
-        c.selection.budget = (scene.triangle_count() / 100).clamp(3_000, 20_000) as u32;
-        c
-    }
-}
-
-/// The buffer options of the occluder cullers: hom's own clip convention and
-/// the reference renderer's exact sampling (the oracle draws with it).
-pub(crate) fn culler_buffer_options() -> BufferOptions {
-    BufferOptions {
-        sampling: Sampling::Exact,
-        ..BufferOptions::default()
+        HomConfig {
+            map: MapOptions::default(),
+            occluders: OccluderConfig::for_scene(scene),
+        }
     }
 }
 
@@ -72,7 +59,7 @@ impl HomCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
         HomCuller {
-            common: OccluderCulling::new(scene, &config.selection, &config.occluder_db),
+            common: OccluderCulling::new(scene, &config.occluders),
             config,
             buffer: None,
         }
@@ -125,7 +112,7 @@ impl Culler for HomCuller {
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
-        let hole_opacity = self.config.selection.hole_opacity;
+        let hole_opacity = self.config.occluders.selection.hole_opacity;
         let last = &self.buffer;
         let frame = self.common.select(scene, view, out, || {
             last.as_ref()

@@ -26,37 +26,35 @@
 //! (covered = finite depth), with HOM's default geometry, and searched
 //! ([`crate::map::worst_hole_of_coverage`]).
 
-use super::hom::culler_buffer_options;
-use super::traversal::OccluderCulling;
+use super::traversal::{culler_buffer_options, OccluderCulling};
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
-use crate::occluders::{draw_occluders, OccluderDb, OccluderDbConfig, SelectionConfig};
+use crate::occluders::{draw_occluders, OccluderConfig, OccluderDb};
 use crate::occlusion::{HzBuffer, MapOptions, OcclusionBuffer};
 use crate::scene::Scene;
 
 /// Settings of the HZB culler: HOM's occluder selection and database.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct HzbConfig {
-    /// Occluder selection.
-    pub selection: SelectionConfig,
-    /// Occluder database preprocessing.
-    pub occluder_db: OccluderDbConfig,
+    /// Which objects occlude, and how each frame's are chosen (shared with HOM).
+    pub occluders: OccluderConfig,
 }
 
 impl HzbConfig {
-    /// The selection and occluder database settings of a HOM configuration.
+    /// The occluder settings of a HOM configuration.
     pub fn from_hom(hom: &HomConfig) -> HzbConfig {
         HzbConfig {
-            selection: hom.selection.clone(),
-            occluder_db: hom.occluder_db.clone(),
+            occluders: hom.occluders.clone(),
         }
     }
 
-    /// [`HomConfig::for_scene`]'s selection settings.
+    /// [`OccluderConfig::for_scene`]'s occluders.
     pub fn for_scene(scene: &Scene) -> HzbConfig {
-        HzbConfig::from_hom(&HomConfig::for_scene(scene))
+        HzbConfig {
+            occluders: OccluderConfig::for_scene(scene),
+        }
     }
 }
 
@@ -71,7 +69,7 @@ impl HzbCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
         HzbCuller {
-            common: OccluderCulling::new(scene, &config.selection, &config.occluder_db),
+            common: OccluderCulling::new(scene, &config.occluders),
             config,
             buffer: None,
         }
@@ -113,7 +111,7 @@ impl Culler for HzbCuller {
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
-        let hole_opacity = self.config.selection.hole_opacity;
+        let hole_opacity = self.config.occluders.selection.hole_opacity;
         let last = &self.buffer;
         let frame = self.common.select(scene, view, out, || {
             let zb = last.as_ref()?.last_zbuffer();

@@ -14,6 +14,7 @@ pub mod hzb;
 mod model_db;
 mod traversal;
 
+pub use crate::occluders::OccluderConfig;
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller};

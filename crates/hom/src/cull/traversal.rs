@@ -11,9 +11,19 @@ use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
 use crate::map::Hole;
-use crate::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig, SelectionStats};
+use crate::occluders::{OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
+use crate::occlusion::{BufferOptions, Sampling};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
+
+/// The buffer options of the occluder cullers: hom's own clip convention and
+/// the reference renderer's exact sampling (the oracle draws with it).
+pub(crate) fn culler_buffer_options() -> BufferOptions {
+    BufferOptions {
+        sampling: Sampling::Exact,
+        ..BufferOptions::default()
+    }
+}
 
 /// The representation-independent state of an occluder-based culler.
 pub(crate) struct OccluderCulling {
@@ -42,11 +52,11 @@ pub(crate) struct Selected {
 
 impl OccluderCulling {
     /// Builds the BVH over the objects' boxes and the occluder database.
-    pub fn new(scene: &Scene, selection: &SelectionConfig, db: &OccluderDbConfig) -> OccluderCulling {
+    pub fn new(scene: &Scene, config: &OccluderConfig) -> OccluderCulling {
         OccluderCulling {
             model: ModelDb::new(scene),
-            db: OccluderDb::build(scene, db),
-            selector: OccluderSelector::new(selection.clone()),
+            db: OccluderDb::build(scene, &config.occluder_db),
+            selector: OccluderSelector::new(config.selection.clone()),
             is_occluder: Vec::new(),
             culled_pct: 0.0,
         }
