@@ -22,7 +22,6 @@ fn permissive() -> HzbConfig {
             occluder_db: permissive_occluders(),
             ..OccluderConfig::default()
         },
-        ..HzbConfig::default()
     };
     c.occluders.selection.budget = 60;
     c
