@@ -12,7 +12,7 @@
 use crate::LoadError;
 use glam::{Mat4, Vec4};
 use hom::geom::ScreenRect;
-use hom::raster::setup::FaceCull;
+use hom::occlusion::FaceCull;
 use std::path::Path;
 
 /// A `.mocscene`: clip-space occluder triangles and rectangle queries.

@@ -13,7 +13,7 @@
 //! at 256×256. Times are medians over the runs.
 //!
 //! The reference answers come from a rasterizer that does not snap vertices,
-//! so the buffers use [`Sampling::Conservative`] (their default), and MOC's
+//! so the buffers use [`hom::occlusion::Sampling::Conservative`] (their default), and MOC's
 //! rectangles cover every pixel they touch, as `test_rect` does.
 
 use glam::{Vec2, Vec4};

@@ -20,10 +20,10 @@
 //! (append `raster` for the raster group alone)
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
 use hom::depth::DepthEstimationBuffer;
 use hom::geom::{project_box_clipped, project_points, Camera, Footprint, ScreenRect};
 use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
-use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderSelector, SelectionConfig};
 use hom::occlusion::{BufferOptions, DepthMode, FaceCull, HomBuffer, HzBuffer, MapOptions, OcclusionBuffer, Sampling};
 use hom::raster::{CoverageBuffer, RasterBackend};
 use hom::scene::Scene;
@@ -48,20 +48,13 @@ fn city_frame() -> Frame {
     let path = b.path.with_viewport(SIDE, SIDE);
     let camera = path.camera(100);
     let scene = b.scene;
-    let db = OccluderDb::build(&scene, &OccluderDbConfig::default());
-    let frustum = camera.frustum().expect("a valid camera");
-    let mut selector = OccluderSelector::new(SelectionConfig::default());
-    let mut occluders = Vec::new();
-    let view = camera.to_view();
-    selector.select(
-        &db,
-        &scene,
-        &view.world_to_clip(),
-        &view.eye(),
-        &frustum,
-        None,
-        &mut occluders,
-    );
+    // The HOM culler's own occluder selection for this frame (default budget).
+    let mut culler = HomCuller::new(&scene, HomConfig::default());
+    let mut out = CullOutput::default();
+    culler
+        .cull(&scene, &camera.to_view(), &mut out)
+        .expect("a valid camera");
+    let occluders = out.occluders;
     let mut map = HomBuffer::new(SIDE, SIDE, exact(None)).expect("a valid size");
     draw_occluders(&mut map, &scene, &occluders, &camera);
     let coverage = map.coverage().clone();

@@ -93,7 +93,7 @@ use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::raster::zbuffer::{Dirty, ZDrawStats, ZTarget};
 use crate::scene::Revision;
 use crate::scene::Scene;
-use crate::spatial::octree::{Octree, OctreeConfig, TriRef};
+use crate::spatial::{Octree, OctreeConfig, TriRef};
 use glam::Mat4;
 use std::time::Instant;
 

@@ -8,16 +8,16 @@
 //! compare cullers on equal terms.
 
 mod frustum;
-pub mod hom;
-pub mod hv;
-pub mod hzb;
+mod hom;
+mod hv;
+mod hzb;
 mod model_db;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
-pub use hv::{HvConfig, HvCuller};
+pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller};
 
 use crate::geom::{View, ViewError};

@@ -1,9 +1,9 @@
 //! Depth for occlusion tests: the depth estimation buffer, the single Z plane,
 //! and the hierarchical Z-buffer's Z-pyramid.
 
-pub mod estimation_buffer;
-pub mod tiled;
-pub mod z_pyramid;
+mod estimation_buffer;
+pub(crate) mod tiled;
+mod z_pyramid;
 
 pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane, DEPTH_MARGIN};
 pub use tiled::TiledZBuffer;

@@ -5,7 +5,7 @@ mod camera;
 mod frustum;
 mod obb;
 mod plane;
-pub mod screen;
+mod screen;
 mod view;
 
 pub use aabb::Aabb;

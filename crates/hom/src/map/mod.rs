@@ -1,9 +1,12 @@
 //! Hierarchical occlusion maps: the opacity pyramid, the overlap test and the hole search.
 
 mod hole;
-pub mod overlap;
-pub mod pyramid;
+mod overlap;
+mod pyramid;
 
-pub use hole::{find_worst_hole, worst_hole_of_coverage, Hole};
-pub use overlap::{rect_covered, OverlapStats, Thresholds};
+pub(crate) use hole::{find_worst_hole, worst_hole_of_coverage, Hole};
+// The overlap test alone, for the kernel benches; the front door is `HomBuffer`.
+pub use overlap::OverlapStats;
+#[doc(hidden)]
+pub use overlap::{rect_covered, Thresholds};
 pub use pyramid::{Level, Pyramid};

@@ -1,13 +1,14 @@
 //! Occluders: the preprocessed occluder database, per-frame selection, and
 //! handing the selected ones to an occlusion buffer.
 
-pub mod database;
+mod database;
 mod draw;
-pub mod selection;
+mod selection;
 
 pub use database::{Occluder, OccluderDb, OccluderDbConfig, Verdict};
 pub(crate) use draw::draw_occluders;
-pub use selection::{OccluderSelector, SelectionConfig, SelectionMode, SelectionStats};
+pub(crate) use selection::{OccluderSelector, SelectionStats};
+pub use selection::{SelectionConfig, SelectionMode};
 
 use crate::scene::Scene;
 

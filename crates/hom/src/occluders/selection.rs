@@ -127,11 +127,6 @@ impl OccluderSelector {
         &self.config
     }
 
-    /// The current budget L.
-    pub fn budget(&self) -> u32 {
-        self.budget
-    }
-
     /// Selects this frame's occluders into `out` (ids, ascending). `hole` is the
     /// worst hole of the last frame's coarsest map, if the caller found one.
     ///
@@ -280,10 +275,5 @@ impl OccluderSelector {
         if frame_ms.is_some() {
             self.last_frame_ms = frame_ms;
         }
-    }
-
-    /// The queue of proven hole fillers (id, triangles), oldest first.
-    pub fn queue(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
-        self.queue.iter().copied()
     }
 }

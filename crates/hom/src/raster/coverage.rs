@@ -177,13 +177,6 @@ impl Default for CoverageRasterizer {
 }
 
 impl CoverageRasterizer {
-    /// A rasterizer using [`RasterBackend::active`] (the fastest backend the CPU
-    /// supports, the one `HOM_RASTER_BACKEND` names, or `Scalar` under
-    /// `HOM_FORCE_SCALAR=1`).
-    pub fn new() -> CoverageRasterizer {
-        CoverageRasterizer::default()
-    }
-
     /// A rasterizer using `backend`; every backend covers the same samples.
     ///
     /// # Panics
@@ -197,11 +190,6 @@ impl CoverageRasterizer {
             bins: Vec::new(),
             backend,
         }
-    }
-
-    /// The backend in use.
-    pub fn backend(&self) -> RasterBackend {
-        self.backend
     }
 
     /// Covers, in `coverage` (which keeps what it holds), every sample the

@@ -14,12 +14,14 @@
 //! bit-identical samples. In the environment, `HOM_RASTER_BACKEND=scalar|sse41|avx2|avx512`
 //! picks one ([`BACKEND_ENV`]) and `HOM_FORCE_SCALAR=1` forces the scalar path
 //! ([`FORCE_SCALAR_ENV`], which wins); in code,
-//! [`CoverageRasterizer::with_backend`].
+//! [`crate::occlusion::BufferOptions::backend`].
 
 #[forbid(unsafe_code)]
 mod coverage;
 #[forbid(unsafe_code)]
 pub(crate) mod queue;
+// The renderer (`hom-render`) shares this setup and sampling rule: public for it, not the front door.
+#[doc(hidden)]
 #[forbid(unsafe_code)]
 pub mod setup;
 // The vector kernels: the only `unsafe` in hom (each block says why it is sound).
@@ -34,7 +36,7 @@ mod tiled;
 #[forbid(unsafe_code)]
 pub(crate) mod zbuffer;
 
-pub use coverage::{CoverageBuffer, CoverageRasterizer};
-pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV, MASK_MAX};
-pub use tile_band::TiledStats;
-pub use tiled::TiledRasterizer;
+pub use coverage::CoverageBuffer;
+pub(crate) use coverage::CoverageRasterizer;
+pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV};
+pub(crate) use tiled::TiledRasterizer;

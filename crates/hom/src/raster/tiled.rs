@@ -40,6 +40,7 @@ pub struct TiledRasterizer {
 
 impl TiledRasterizer {
     /// An empty rasterizer using [`RasterBackend::active`].
+    #[cfg(test)]
     pub fn new() -> TiledRasterizer {
         TiledRasterizer::default()
     }

@@ -77,7 +77,9 @@ pub struct Bvh {
     nodes: Vec<BvhNode>,
     items: Vec<u32>,
     /// Kept so [`Bvh::assert_well_formed`] can check leaf sizes.
+    #[cfg_attr(not(test), allow(dead_code))] // read by `assert_well_formed` and the tests
     max_leaf_size: u32,
+    #[cfg_attr(not(test), allow(dead_code))] // read by `assert_well_formed` and the tests
     depth: u32,
 }
 
@@ -270,6 +272,7 @@ fn median_split(recs: &mut [Record], cbounds: &Aabb) -> usize {
 
 impl Bvh {
     /// Deepest tree [`Bvh::build`] produces; traversals rely on it for their fixed-size stacks.
+    #[cfg(test)]
     pub const MAX_DEPTH: usize = MAX_DEPTH;
 
     /// Builds a hierarchy over `boxes`; item `i` is `boxes[i]`.
@@ -393,6 +396,7 @@ impl Bvh {
     }
 
     /// All nodes; node 0 is the root. Children come after their parents.
+    #[cfg(test)]
     pub fn nodes(&self) -> &[BvhNode] {
         &self.nodes
     }
@@ -431,12 +435,14 @@ impl Bvh {
     }
 
     /// True when the hierarchy holds no items (and no nodes).
+    #[cfg(test)]
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
     }
 
     /// Nodes on the longest root-to-leaf path: 0 when empty, 1 for a lone leaf.
     /// Never more than [`Bvh::MAX_DEPTH`].
+    #[cfg(test)]
     pub fn depth(&self) -> usize {
         self.depth as usize
     }
@@ -565,6 +571,7 @@ impl Bvh {
     /// `max_leaf_size`, subtrees whose items are not contiguous, a wrong depth.
     ///
     /// Meant for tests and debugging: it allocates and is linear in the tree size.
+    #[cfg(test)]
     pub fn assert_well_formed(&self, boxes: &[Aabb]) {
         let n_items = self.items.len();
         assert_eq!(

@@ -1,8 +1,8 @@
 //! Spatial hierarchies: the BVH over object bounds (the model database) and
 //! the octree over triangles (hierarchical visibility).
 
-pub mod bvh;
-pub mod octree;
+pub(crate) mod bvh;
+mod octree;
 
-pub use bvh::{Bvh, BvhConfig, BvhNode};
+pub(crate) use bvh::{Bvh, BvhConfig};
 pub use octree::{Octree, OctreeConfig, OctreeNode, TriRef};

@@ -51,7 +51,7 @@ pub struct OctreeConfig {
     /// Deepest level (the root is depth 0); nodes this deep are leaves whatever they hold.
     pub max_depth: u32,
     /// Keep a triangle at a node being split when it is large for the node
-    /// ([`is_large`]: larger than half the cell's longest side) instead of
+    /// (`is_large`: larger than half the cell's longest side) instead of
     /// passing it to a child; HV draws a node's own triangles before its
     /// children, so big occluders come first and children's loose boxes stay tight.
     pub keep_large: bool,
@@ -94,7 +94,7 @@ pub struct OctreeNode {
     /// Triangles stored at the node itself, the first `own` of its subtree
     /// (all of them for a leaf; the large ones kept by `keep_large` for an inner node).
     pub own: u32,
-    /// Index of the first of the eight children (octant order), or [`NO_CHILDREN`] for a leaf.
+    /// Index of the first of the eight children (octant order), or `NO_CHILDREN` (`u32::MAX`) for a leaf.
     pub children: u32,
     /// Depth (the root is 0).
     pub depth: u32,
@@ -324,7 +324,7 @@ impl Octree {
     }
 
     /// The children of inner node `node` in front-to-back order from `eye`
-    /// ([`front_to_back`] at the node's split point), as node indices.
+    /// (`front_to_back` at the node's split point), as node indices.
     ///
     /// # Panics
     /// If `node` is a leaf.
