@@ -83,10 +83,10 @@ fn main() -> Result<(), hom::occlusion::OcclusionError> {
     let frames = 240;
     let (mut drawn_total, mut tested_total, mut cull_ms) = (0usize, 0usize, 0.0f64);
     for frame in 0..frames {
-        // Walk down the street between the first two columns of blocks, looking ahead.
+        // Walk down the street between the first two columns of blocks (x = −212 … −200), looking ahead.
         let t = frame as f32 / frames as f32;
-        let eye = Vec3::new(-246.0, 1.7, 10.0 - t * 440.0);
-        let view = look_at_mat4(eye, eye + Vec3::new((t * 9.0).sin() * 0.6, 0.0, -1.0), Vec3::Y);
+        let eye = Vec3::new(-206.0, 1.7, 10.0 - t * 440.0);
+        let view = look_at_mat4(eye, eye + Vec3::new((t * 9.0).sin() * 0.3, 0.0, -1.0), Vec3::Y);
         let view_proj = proj * view;
 
         let start = Instant::now();
