@@ -19,12 +19,12 @@
 //! the camera the culler was given; occluder stand-in meshes that are not
 //! contained in the object they stand for; and transparent occluders.
 
-use super::traversal::{culler_buffer_options, OccluderCulling};
+use super::traversal::{culler_buffer_options, sized, OccluderCulling};
 use super::{CullError, CullOutput, Culler};
 use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
-use crate::occluders::{draw_occluders, OccluderConfig, OccluderDb};
-use crate::occlusion::{HomBuffer, MapOptions, OcclusionBuffer};
+use crate::occluders::{OccluderConfig, OccluderDb};
+use crate::occlusion::{HomBuffer, MapOptions};
 use crate::scene::Scene;
 
 pub use crate::occlusion::{DepthMode, Opacity};
@@ -118,30 +118,13 @@ impl Culler for HomCuller {
             last.as_ref()
                 .and_then(|b| find_worst_hole(b.last_pyramid(), hole_opacity))
         })?;
-        let (w, h) = (view.width, view.height);
-        let buffer = match &mut self.buffer {
-            Some(b) if (b.width(), b.height()) == (w, h) => b,
-            slot => slot.insert(
-                HomBuffer::with_map(w, h, culler_buffer_options(), self.config.map.clone())
-                    .expect("a validated view has a valid viewport"),
-            ),
-        };
-
         // 2. The occluders into the buffer: coverage, pyramid, depth.
-        let common = &mut self.common;
-        let drawn = out.time("raster", || {
-            buffer.clear();
-            let n = draw_occluders(
-                buffer,
-                scene,
-                &common.db,
-                &frame.occluders,
-                &frame.world_to_clip,
-                &frame.eye,
-            );
-            buffer.flush();
-            n
+        let map = &self.config.map;
+        let buffer = sized(&mut self.buffer, view, |w, h| {
+            HomBuffer::with_map(w, h, culler_buffer_options(), map.clone())
         });
+        let common = &mut self.common;
+        let drawn = common.draw(scene, &frame, buffer, out);
 
         // 3. Traversal: frustum → depth → overlap, front to back.
         common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));

@@ -26,13 +26,13 @@
 //! (covered = finite depth), with HOM's default geometry, and searched
 //! ([`crate::map::worst_hole_of_coverage`]).
 
-use super::traversal::{culler_buffer_options, OccluderCulling};
+use super::traversal::{culler_buffer_options, sized, OccluderCulling};
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
-use crate::occluders::{draw_occluders, OccluderConfig, OccluderDb};
-use crate::occlusion::{HzBuffer, MapOptions, OcclusionBuffer};
+use crate::occluders::{OccluderConfig, OccluderDb};
+use crate::occlusion::{HzBuffer, MapOptions};
 use crate::scene::Scene;
 
 /// Settings of the HZB culler: HOM's occluder selection and database.
@@ -119,28 +119,12 @@ impl Culler for HzbCuller {
             zb.coverage_bits(&mut bits);
             worst_hole_of_coverage(&bits, zb.width(), zb.height(), &MapOptions::default(), hole_opacity)
         })?;
-        let (w, h) = (view.width, view.height);
-        let buffer = match &mut self.buffer {
-            Some(b) if (b.width(), b.height()) == (w, h) => b,
-            slot => slot
-                .insert(HzBuffer::new(w, h, culler_buffer_options()).expect("a validated view has a valid viewport")),
-        };
-
         // 2. Occluder depth per output sample (the render also builds the pyramid above the tiles).
-        let common = &mut self.common;
-        let drawn = out.time("raster", || {
-            buffer.clear();
-            let n = draw_occluders(
-                buffer,
-                scene,
-                &common.db,
-                &frame.occluders,
-                &frame.world_to_clip,
-                &frame.eye,
-            );
-            buffer.flush();
-            n
+        let buffer = sized(&mut self.buffer, view, |w, h| {
+            HzBuffer::new(w, h, culler_buffer_options())
         });
+        let common = &mut self.common;
+        let drawn = common.draw(scene, &frame, buffer, out);
 
         // 3. Traversal: frustum → Z-pyramid, front to back.
         common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));

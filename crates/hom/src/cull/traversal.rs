@@ -11,8 +11,9 @@ use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
 use crate::map::Hole;
+use crate::occluders::draw_occluders;
 use crate::occluders::{OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
-use crate::occlusion::{BufferOptions, Sampling};
+use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
 
@@ -23,6 +24,20 @@ pub(crate) fn culler_buffer_options() -> BufferOptions {
         sampling: Sampling::Exact,
         ..BufferOptions::default()
     }
+}
+
+/// The culler's buffer in `slot`, made anew by `make(width, height)` when
+/// there is none yet or the view's viewport changed.
+pub(crate) fn sized<'a, B: OcclusionBuffer>(
+    slot: &'a mut Option<B>,
+    view: &View,
+    make: impl FnOnce(u32, u32) -> Result<B, OcclusionError>,
+) -> &'a mut B {
+    let (w, h) = (view.width, view.height);
+    if slot.as_ref().is_none_or(|b| (b.width(), b.height()) != (w, h)) {
+        *slot = Some(make(w, h).expect("a validated view has a valid viewport"));
+    }
+    slot.as_mut().expect("made above")
 }
 
 /// The representation-independent state of an occluder-based culler.
@@ -109,6 +124,31 @@ impl OccluderCulling {
             height: view.height,
             occluders,
             stats,
+        })
+    }
+
+    /// The timed stage `raster`: clears `buffer`, queues this frame's
+    /// occluders nearest first and draws them. Returns the occluder
+    /// triangles submitted.
+    pub fn draw(
+        &self,
+        scene: &Scene,
+        frame: &Selected,
+        buffer: &mut impl OcclusionBuffer,
+        out: &mut CullOutput,
+    ) -> u64 {
+        out.time("raster", || {
+            buffer.clear();
+            let n = draw_occluders(
+                buffer,
+                scene,
+                &self.db,
+                &frame.occluders,
+                &frame.world_to_clip,
+                &frame.eye,
+            );
+            buffer.flush();
+            n
         })
     }
 
