@@ -142,6 +142,7 @@ mod tests {
     use super::*;
     use glam::Vec4;
     use hom::raster::setup::{setup_triangle, Vertex, Viewport};
+    use hom_testkit::Rng;
 
     fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {
         let vp = Viewport::new(w, h);
@@ -162,13 +163,8 @@ mod tests {
         // writes exactly the covered samples, with the plane depth, whatever
         // band split is used.
         let (w, h) = (70u32, 50u32);
-        let mut seed = 777u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(777);
+        let mut rnd = move || rng.unit();
         for _ in 0..2000 {
             let scale = [3.0, 10.0, 30.0, 120.0][(rnd() * 4.0) as usize % 4];
             let (cx, cy) = (rnd() * 80.0 - 5.0, rnd() * 60.0 - 5.0);

@@ -2,16 +2,16 @@
 
 mod common;
 
-use common::Rng;
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::scene::{Mesh, Scene, SceneBuilder};
 use hom_render::{Colouring, Framebuffer, RenderOptions, Renderer, Shading};
+use hom_testkit::Rng;
 
 /// Many objects sharing a few random meshes (some large), scattered around
 /// and through the camera, so chunks, bands, clipping and depth ties all occur.
 fn scene() -> Scene {
-    let mut rng = Rng(2024);
+    let mut rng = Rng::new(2024);
     let mut b = SceneBuilder::new("threads");
     let mut meshes = Vec::new();
     for k in 0..4 {

@@ -3,10 +3,11 @@
 
 mod common;
 
-use common::{scene_of, unproject, Rng};
+use common::{scene_of, unproject};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Vec3};
 use hom_render::{Framebuffer, RenderOptions, Renderer, Shading, NO_OBJECT};
+use hom_testkit::Rng;
 
 const W: u32 = 40;
 const H: u32 = 30;
@@ -131,7 +132,7 @@ fn jittered_tilted_grid_covers_every_pixel_once() {
     // sub-sample positions; depth varies per vertex (a bumpy surface).
     let cam = camera();
     for seed in 1..6u64 {
-        let mut rng = Rng(seed * 0x9e37_79b9);
+        let mut rng = Rng::new(seed * 0x9e37_79b9);
         let g = grid(10, 7, |_, _| {
             let q = |r: &mut Rng| f64::from((r.next_u64() % 9) as u32) * 0.25 - 1.0;
             if rng.next_u64().is_multiple_of(3) {
@@ -181,7 +182,7 @@ fn surface_crossing_the_near_plane_stays_watertight() {
         W,
         H,
     );
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let n = 12;
     let pts: Vec<Vec<Vec3>> = (0..=n)
         .map(|j| {

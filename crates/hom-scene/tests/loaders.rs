@@ -6,6 +6,7 @@
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::{Mesh, Scene, SceneBuilder, SceneError};
 use hom_scene::{export, gltf, obj, LoadError};
+use hom_testkit::Rng;
 use proptest::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -379,14 +380,8 @@ fn obj_empty_inputs_are_errors() {
 
 #[test]
 fn obj_garbage_bytes_are_errors() {
-    let mut state = 0x1234_5678_9abc_def0u64;
-    let mut garbage = Vec::new();
-    for _ in 0..4096 {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        garbage.push((state >> 24) as u8);
-    }
+    let mut rng = Rng::new(0x1234_5678_9abc_def0);
+    let garbage: Vec<u8> = (0..4096).map(|_| (rng.next_u64() >> 24) as u8).collect();
     assert!(obj::parse(&garbage, Path::new("g.obj")).is_err());
     let no_nul: Vec<u8> = garbage.iter().map(|&b| b.max(1)).collect();
     assert!(obj::parse(&no_nul, Path::new("g.obj")).is_err());

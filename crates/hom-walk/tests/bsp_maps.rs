@@ -3,8 +3,6 @@
 //! everything the oracle sees lies in a cluster the map's own PVS marks visible.
 //! Skips, saying why, when the cache is missing.
 
-mod common;
-
 use hom::cull::CullOutput;
 use hom_render::{Framebuffer, Renderer};
 use hom_scene::bsp::{self, BspOptions};
@@ -12,7 +10,7 @@ use hom_walk::cullers::CullerSettings;
 
 #[test]
 fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
-    let Some(pk3) = common::openarena_maps() else {
+    let Some(pk3) = hom_testkit::openarena_maps() else {
         return;
     };
     let renderer = Renderer::new(0).unwrap();
@@ -69,7 +67,7 @@ fn hom_and_the_pvs_agree_with_the_oracle_on_openarena_maps() {
 /// inside both HOM alone and the PVS alone, which lie inside the frustum.
 #[test]
 fn pvs_yardstick_on_an_openarena_map() {
-    let Some(pk3) = common::openarena_maps() else {
+    let Some(pk3) = hom_testkit::openarena_maps() else {
         return;
     };
     let spec = format!("{}:oa_dm1", pk3.display());

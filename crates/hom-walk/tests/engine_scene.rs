@@ -3,15 +3,13 @@
 //! no object the oracle sees is ever culled, no removed object is ever
 //! reported, and frustum culling equals a linear scan of the live objects.
 
-mod common;
-
-use common::{assert_no_false_culls, cube, permissive_occluders, random_scene};
 use hom::cull::{
     CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, OccluderConfig,
 };
 use hom::geom::{Camera, Containment};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::scene::Scene;
+use hom_testkit::{assert_no_false_culls, cube, permissive_occluders, random_scene, Rng};
 use proptest::prelude::*;
 
 /// The cullers under test, built for `scene`, with an occluder budget of `budget` triangles.
@@ -61,13 +59,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
     #[test]
     fn cullers_follow_moves_additions_and_removals(seed in any::<u64>(), n in 1usize..30, changes in 1usize..6) {
-        let mut state = seed | 1;
-        let mut rnd = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(seed);
+        let mut rnd = move || rng.unit();
         let mut scene = random_scene(seed, n, false);
         let mut all = cullers(&scene, 60);
         let camera = Camera::new(Vec3::new(0.0, 0.5, 14.0), Vec3::ZERO, Vec3::Y, 1.2, 0.1, 100.0, 72, 54);

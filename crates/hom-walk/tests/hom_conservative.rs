@@ -1,18 +1,16 @@
 //! HOM in conservative mode never culls an object the oracle sees: random
 //! scenes and cameras, plus the adversarial cases named in the HOM issue.
 
-mod common;
-
-use common::{
-    assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
-    permissive_occluders, random_moving_scene, random_scene,
-};
 use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, OccluderConfig, Opacity};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occlusion::{HomBuffer, MapOptions};
 use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
+use hom_testkit::{
+    assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
+    permissive_occluders, random_moving_scene, random_scene,
+};
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the depth and overlap logic.

@@ -7,15 +7,13 @@
 //! that owns a sample is drawn, with the renderer's setup, depth and
 //! tie-breaking (see `hom::cull::hv`).
 
-mod common;
-
-use common::{random_moving_scene, random_scene};
 use hom::cull::{CullOutput, Culler, HvConfig, HvCuller};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::scene::Scene;
 use hom::spatial::OctreeConfig;
 use hom_render::{Framebuffer, Renderer};
+use hom_testkit::{random_moving_scene, random_scene};
 use hom_walk::{walk, WalkOptions};
 use proptest::prelude::*;
 

@@ -2,17 +2,15 @@
 //! section 7.2 variation) never culls an object the oracle sees, and the
 //! occluder rasterizer's per-sample depth is the reference renderer's depth.
 
-mod common;
-
-use common::{
-    assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
-    random_moving_scene,
-};
 use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occlusion::HzBuffer;
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
+use hom_testkit::{
+    assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
+    random_moving_scene,
+};
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the depth logic.

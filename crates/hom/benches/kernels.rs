@@ -27,6 +27,7 @@ use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
 use hom::occlusion::{BufferOptions, DepthMode, FaceCull, HomBuffer, HzBuffer, MapOptions, OcclusionBuffer, Sampling};
 use hom::raster::{CoverageBuffer, RasterBackend};
 use hom::scene::Scene;
+use hom_testkit::Rng;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -88,35 +89,19 @@ fn draw_occluders(buf: &mut impl OcclusionBuffer, scene: &Scene, occluders: &[u3
     buf.flush();
 }
 
-/// xorshift64*: deterministic, dependency-free.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-
-    fn unit(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// A rectangle of log-uniform side in 1..=512 pixels at a uniform position.
-    fn rect(&mut self, z_near: f32, z_far: f32) -> ScreenRect {
-        let mut side = || 512f32.powf(self.unit()).round().max(1.0) as u32;
-        let (w, h) = (side(), side());
-        let x0 = (self.unit() * SIDE as f32) as u32 % SIDE;
-        let y0 = (self.unit() * SIDE as f32) as u32 % SIDE;
-        ScreenRect {
-            x0,
-            y0,
-            x1: (x0 + w).min(SIDE),
-            y1: (y0 + h).min(SIDE),
-            z_near,
-            z_far,
-        }
+/// A rectangle of log-uniform side in 1..=512 pixels at a uniform position.
+fn random_rect(rng: &mut Rng, z_near: f32, z_far: f32) -> ScreenRect {
+    let mut side = || 512f32.powf(rng.unit()).round().max(1.0) as u32;
+    let (w, h) = (side(), side());
+    let x0 = (rng.unit() * SIDE as f32) as u32 % SIDE;
+    let y0 = (rng.unit() * SIDE as f32) as u32 % SIDE;
+    ScreenRect {
+        x0,
+        y0,
+        x1: (x0 + w).min(SIDE),
+        y1: (y0 + h).min(SIDE),
+        z_near,
+        z_far,
     }
 }
 
@@ -133,10 +118,10 @@ fn test_rects(frame: &Frame) -> Vec<ScreenRect> {
         })
         .take(TESTS)
         .collect();
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Rng::new(0x9E37_79B9_7F4A_7C15);
     while rects.len() < TESTS {
         let z = 0.9 + 0.1 * rng.unit();
-        rects.push(rng.rect(z, z));
+        rects.push(random_rect(&mut rng, z, z));
     }
     rects
 }
@@ -210,10 +195,10 @@ fn depth(c: &mut Criterion, frame: &Frame) {
         .filter_map(|&id| project_box_clipped(&frame.scene.object(id).aabb.corners(), &vp, SIDE, SIDE))
         .take(OCCLUDERS)
         .collect();
-    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let mut rng = Rng::new(0xD1B5_4A32_D192_ED03);
     while occluders.len() < OCCLUDERS {
         let z = 0.9 + 0.09 * rng.unit();
-        occluders.push(rng.rect(z - 0.01, z));
+        occluders.push(random_rect(&mut rng, z - 0.01, z));
     }
     let occludees = test_rects(frame);
     let mut deb = DepthEstimationBuffer::new(SIDE, SIDE, 64, 64);

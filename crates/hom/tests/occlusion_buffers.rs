@@ -13,23 +13,8 @@ use hom::glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use hom::occlusion::{
     BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, OcclusionBuffer, OcclusionError, Visibility,
 };
+use hom_testkit::Rng;
 use proptest::prelude::*;
-
-/// xorshift64: deterministic, dependency-free.
-struct Rng(u64);
-
-impl Rng {
-    fn unit(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn range(&mut self, a: f32, b: f32) -> f32 {
-        a + (b - a) * self.unit()
-    }
-}
 
 /// A pinhole or parallel camera looking from `eye` at `target`.
 #[derive(Clone, Copy, Debug)]
@@ -108,7 +93,7 @@ struct World {
 }
 
 fn world(seed: u64, quads: usize, boxes: usize, cam: &Cam) -> World {
-    let mut rng = Rng(seed | 1);
+    let mut rng = Rng::new(seed);
     let f = (cam.target - cam.eye).normalize();
     let (mut positions, mut triangles) = (Vec::new(), Vec::new());
     for q in 0..quads {
@@ -229,7 +214,7 @@ fn answers(buf: &mut impl OcclusionBuffer, w: &World, view_proj: &Mat4) -> Vec<V
 /// Hidden boxes found and wrongly occluded ones, over random worlds, for one
 /// camera kind and convention.
 fn check_against_rays(seed: u64, ortho: bool, clip: ClipConvention) -> (usize, usize, usize) {
-    let mut rng = Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let mut rng = Rng::new(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15));
     let eye = Vec3::new(rng.range(-3.0, 3.0), rng.range(-1.0, 2.0), rng.range(-3.0, 3.0));
     let target = eye + Vec3::new(rng.range(-0.5, 0.5), rng.range(-0.2, 0.2), -1.0);
     let cam = Cam {
@@ -298,7 +283,7 @@ type Rect = (Vec2, Vec2, f32);
 
 /// Clip-space vertices (hom's convention) and NDC rectangles with depths, all dyadic.
 fn clip_world(seed: u64) -> (Vec<Vec4>, Vec<[u32; 3]>, Vec<Rect>) {
-    let mut rng = Rng(seed | 1);
+    let mut rng = Rng::new(seed);
     let mut v = Vec::new();
     let mut t = Vec::new();
     for i in 0..20u32 {
@@ -379,7 +364,7 @@ fn from_zero_to_one_matrix(clip: ClipConvention) -> Mat4 {
 }
 
 fn box_answers(buf: &mut impl OcclusionBuffer, clip: ClipConvention, seed: u64) -> Vec<Visibility> {
-    let mut rng = Rng(seed | 1);
+    let mut rng = Rng::new(seed);
     let m = from_zero_to_one_matrix(clip) * dyadic_matrix();
     let mut positions = Vec::new();
     let mut tris = Vec::new();

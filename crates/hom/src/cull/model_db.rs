@@ -131,6 +131,7 @@ mod tests {
     use crate::geom::{Containment, Frustum};
     use crate::scene::Mesh;
     use glam::{Mat4, Vec3};
+    use hom_testkit::Rng;
 
     fn unit() -> Mesh {
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
@@ -161,13 +162,8 @@ mod tests {
             scene.add_object(format!("o{i}"), m, at(i as f32 * 2.0, -10.0)).unwrap();
         }
         let mut db = ModelDb::new(&scene);
-        let mut rng = 12345u64;
-        let mut next = move |n: u64| {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng % n
-        };
+        let mut rng = Rng::new(12345);
+        let mut next = move |n: u64| rng.below(n);
         for frame in 0..300 {
             // A few changes a frame: moves, additions and removals.
             for _ in 0..3 {

@@ -296,6 +296,7 @@ impl TiledZBuffer {
 mod tests {
     use super::*;
     use crate::depth::{ZPyramid, ZTestStats};
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
     /// A tiled buffer holding the row-major `depth`, with each tile's max.
@@ -329,10 +330,9 @@ mod tests {
             w in 1u32..90, h in 1u32..90, seed in any::<u64>(),
             a in (0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0, 0.0f32..1.0), z in 0.0f32..1.2,
         ) {
-            let mut s = seed | 1;
+            let mut rng = Rng::new(seed);
             let d: Vec<f32> = (0..w * h).map(|_| {
-                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
-                if s % 9 == 0 { f32::INFINITY } else { (s >> 40) as f32 / (1u64 << 24) as f32 * 0.5 }
+                if rng.below(9) == 0 { f32::INFINITY } else { rng.range(0.0, 0.5) }
             }).collect();
             let t = tiled(w, h, &d);
             let mut back = Vec::new();
@@ -350,11 +350,8 @@ mod tests {
     proptest! {
         #[test]
         fn coverage_bits_are_the_finite_samples(w in 1u32..150, h in 1u32..40, seed in any::<u64>()) {
-            let mut s = seed | 1;
-            let d: Vec<f32> = (0..w * h).map(|_| {
-                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
-                if s % 3 == 0 { f32::INFINITY } else { 0.5 }
-            }).collect();
+            let mut rng = Rng::new(seed);
+            let d: Vec<f32> = (0..w * h).map(|_| if rng.below(3) == 0 { f32::INFINITY } else { 0.5 }).collect();
             let t = tiled(w, h, &d);
             let mut bits = Vec::new();
             t.coverage_bits(&mut bits);

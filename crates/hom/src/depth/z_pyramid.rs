@@ -265,19 +265,16 @@ impl ZPyramid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
+    /// Random depths in `[0, 1)`, one sample in 7 uncovered (infinite).
     fn depths(w: u32, h: u32, seed: u64) -> Vec<f32> {
-        let mut s = seed | 1;
+        let mut rng = Rng::new(seed);
         (0..w * h)
-            .map(|_| {
-                s ^= s << 13;
-                s ^= s >> 7;
-                s ^= s << 17;
-                match s % 7 {
-                    0 => f32::INFINITY,
-                    _ => (s >> 40) as f32 / (1u64 << 24) as f32,
-                }
+            .map(|_| match rng.below(7) {
+                0 => f32::INFINITY,
+                _ => rng.unit(),
             })
             .collect()
     }

@@ -154,6 +154,7 @@ fn pixel_covered(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
     fn pyramid_from(cov: &[Vec<bool>], width: u32, height: u32, block: u32) -> Pyramid {
@@ -179,9 +180,8 @@ mod tests {
             hole_rate in 0.0f64..0.02, x0 in 0u32..90, y0 in 0u32..90, w in 1u32..90, h in 1u32..90,
             transparency in 0.0f32..0.9,
         ) {
-            let mut state = seed | 1;
-            let mut rnd = || { state ^= state << 13; state ^= state >> 7; state ^= state << 17; (state >> 11) as f64 / (1u64 << 53) as f64 };
-            let cov: Vec<Vec<bool>> = (0..height).map(|_| (0..width).map(|_| rnd() >= hole_rate).collect()).collect();
+            let mut rng = Rng::new(seed);
+            let cov: Vec<Vec<bool>> = (0..height).map(|_| (0..width).map(|_| f64::from(rng.unit()) >= hole_rate).collect()).collect();
             let p = pyramid_from(&cov, width, height, block);
             let rect = ScreenRect { x0: x0.min(width), y0: y0.min(height), x1: (x0 + w).min(width), y1: (y0 + h).min(height), z_near: 1.0, z_far: 2.0 };
             // Brute force: every base pixel touching the rect is fully covered.

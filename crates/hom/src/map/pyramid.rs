@@ -265,6 +265,7 @@ fn reduce(lower: &Level, upper: &mut Level) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
     /// Brute force: a level-k pixel's count is the number of covered samples in
@@ -286,9 +287,8 @@ mod tests {
         fn pyramid_equals_brute_force_averaging(
             width in 1u32..150, height in 1u32..70, block in 1u32..10, min_side in 1u32..5, seed in any::<u64>(), density in 0.0f64..1.0
         ) {
-            let mut state = seed | 1;
-            let mut rnd = || { state ^= state << 13; state ^= state >> 7; state ^= state << 17; (state >> 11) as f64 / (1u64 << 53) as f64 };
-            let cov: Vec<Vec<bool>> = (0..height).map(|_| (0..width).map(|_| rnd() < density).collect()).collect();
+            let mut rng = Rng::new(seed);
+            let cov: Vec<Vec<bool>> = (0..height).map(|_| (0..width).map(|_| f64::from(rng.unit()) < density).collect()).collect();
             let wpr = (width as usize).div_ceil(64);
             let mut bits = vec![0u64; wpr * height as usize];
             for y in 0..height as usize {

@@ -314,8 +314,11 @@ mod tests {
     use crate::raster::setup::{FaceCull, Viewport};
     use crate::scene::{Mesh, Scene, SceneBuilder};
     use glam::{Mat4, Quat, Vec3};
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
+    /// `hom_testkit::cube()`'s twin: the kit's is a `Mesh` of the non-test
+    /// compilation of this crate, a different type here.
     fn cube() -> Mesh {
         let p: Vec<Vec3> = (0..8)
             .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
@@ -338,13 +341,8 @@ mod tests {
     /// Random boxes of every size (slivers to huge), plus a soup of random
     /// triangles (tiny, sliver and huge) around the origin.
     fn random_scene(seed: u64, n: usize) -> Scene {
-        let mut state = seed | 1;
-        let mut rnd = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(seed);
+        let mut rnd = move || rng.unit();
         let mut b = SceneBuilder::new("random");
         let m = b.add_mesh(cube());
         for i in 0..n {

@@ -502,6 +502,7 @@ fn setup_screen(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hom_testkit::Rng;
 
     fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {
         let vp = Viewport::new(w, h);
@@ -574,13 +575,8 @@ mod tests {
     fn span_matches_per_sample_test() {
         // Triangles of many sizes, both windings; row_span (scan or divide) must
         // agree with evaluating the edge functions at every sample.
-        let mut seed = 12345u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(12345);
+        let mut rnd = move || rng.unit();
         for _ in 0..3000 {
             let scale = [2.0, 5.0, 20.0, 80.0][(rnd() * 4.0) as usize % 4];
             let cx = rnd() * 70.0 - 3.0;

@@ -486,6 +486,7 @@ mod tests {
     use super::super::setup::{setup_triangle, Vertex, Viewport};
     use super::*;
     use glam::Vec4;
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
     /// The backends of [`RasterBackend::ALL`] this CPU cannot run, named on
@@ -549,13 +550,8 @@ mod tests {
     /// every backend this CPU supports.
     #[test]
     fn kernels_match_row_span() {
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(0x2545_F491_4F6C_DD1D);
+        let mut rnd = move || rng.unit();
         let (w, h) = (200u32, 150u32);
         let mut tris = Vec::new();
         for _ in 0..4000 {
@@ -656,13 +652,8 @@ mod tests {
     #[ignore = "timing, not a check"]
     fn kernel_timing() {
         use std::time::Instant;
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(0x9E37_79B9_7F4A_7C15);
+        let mut rnd = move || rng.unit();
         let (w, h) = (1024u32, 1024u32);
         // (name, box width range, box height range)
         let shapes = [

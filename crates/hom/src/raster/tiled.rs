@@ -114,6 +114,7 @@ mod tests {
     use crate::raster::queue::TriangleQueue;
     use crate::raster::setup::{FaceCull, Viewport};
     use glam::Vec4;
+    use hom_testkit::Rng;
     use proptest::prelude::*;
 
     /// `t` over `v` set up for a `w` × `h` viewport under `rule`.
@@ -146,13 +147,8 @@ mod tests {
     /// Random clip-space triangles: tiny to screen-filling, slivers, some
     /// crossing the near plane or the screen edges, depths spread or stacked.
     fn soup(seed: u64, n: usize) -> (Vec<Vec4>, Vec<[u32; 3]>) {
-        let mut s = seed | 1;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f32 / (1u64 << 53) as f32
-        };
+        let mut rng = Rng::new(seed);
+        let mut rnd = move || rng.unit();
         let mut v = Vec::new();
         let mut t = Vec::new();
         for i in 0..n {

@@ -441,21 +441,13 @@ mod tests {
     use super::*;
     use crate::scene::{Mesh, SceneBuilder};
     use glam::{Mat4, Quat};
+    use hom_testkit::Rng;
     use proptest::prelude::*;
-
-    fn rng(seed: u64) -> impl FnMut() -> f32 {
-        let mut s = seed | 1;
-        move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f32 / (1u64 << 53) as f32
-        }
-    }
 
     /// A scene of `n` random triangle soups (some dynamic).
     fn soup(seed: u64, n: usize, tris: usize) -> Scene {
-        let mut r = rng(seed);
+        let mut rng = Rng::new(seed);
+        let mut r = move || rng.unit();
         let mut b = SceneBuilder::new("soup");
         for i in 0..n {
             let p: Vec<Vec3> = (0..tris * 3)

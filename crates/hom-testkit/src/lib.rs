@@ -1,0 +1,271 @@
+//! # hom-testkit — the helpers hom's tests share
+//!
+//! Not published: a dev-dependency of the workspace's crates, so that the
+//! tests and benches needing random inputs, a scene of boxes or the
+//! no-false-cull check against the reference renderer's oracle share one copy.
+//!
+//! - [`Rng`]: a tiny deterministic generator (xorshift64), usable anywhere,
+//!   also in a crate's own unit tests.
+//! - Scenes and checks built on [`hom`] types ([`cube`], [`random_scene`],
+//!   [`assert_no_false_culls`], ...): for integration tests and benches
+//!   (`tests/`, `benches/`). Inside a crate's own `#[cfg(test)]` modules
+//!   they do not type-check, because the kit links the *other* compilation
+//!   of that crate (the one without `cfg(test)`); there use [`Rng`] only.
+#![forbid(unsafe_code)]
+
+use hom::cull::{CullOutput, Culler};
+use hom::geom::{Aabb, Camera};
+use hom::glam::{Mat4, Quat, Vec3};
+use hom::occluders::OccluderDbConfig;
+use hom::occlusion::{BufferOptions, FaceCull, OcclusionBuffer, Sampling};
+use hom::scene::{Mesh, Scene, SceneBuilder};
+use hom_render::{Framebuffer, Renderer};
+use hom_scene::{Animation, Motion};
+use std::path::PathBuf;
+
+/// xorshift64 (shifts 13, 7, 17; Marsaglia 2003): deterministic,
+/// dependency-free, good enough for test inputs, not for anything else.
+///
+/// The same seed gives the same stream on every platform.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator started from `seed | 1` (the state must never be zero).
+    pub fn new(seed: u64) -> Self {
+        Rng(seed | 1)
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    /// Uniform in `[0, 1)`, on a grid of 2^-24: the top 24 bits, which an
+    /// `f32` holds exactly, so the result never rounds up to 1.0.
+    pub fn unit(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// Uniform in `[lo, hi)`; the float arithmetic may round a draw up to `hi`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.unit()
+    }
+
+    /// Uniform in `0..n` (up to a modulo bias of at most `n / 2^64`); panics if `n` is 0.
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next_u64() % n
+    }
+
+    /// Each coordinate drawn by [`Rng::range`]`(lo, hi)`, x first.
+    pub fn vec3(&mut self, lo: f32, hi: f32) -> Vec3 {
+        Vec3::new(self.range(lo, hi), self.range(lo, hi), self.range(lo, hi))
+    }
+}
+
+/// A unit cube centred on the origin (12 triangles).
+pub fn cube() -> Mesh {
+    let p: Vec<Vec3> = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+        .collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let tris = faces
+        .iter()
+        .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+        .collect();
+    Mesh::new("cube", p, tris).expect("the cube is a valid mesh")
+}
+
+/// Every object may be an occluder: the strongest test of the depth and overlap logic.
+pub fn permissive_occluders() -> OccluderDbConfig {
+    OccluderDbConfig {
+        min_size: 0.0,
+        max_triangles: u32::MAX,
+        min_fill: 0.0,
+        redundancy_margin: -1.0,
+    }
+}
+
+/// Culls `scene` from `camera` with `culler` and panics if an object the
+/// oracle (the reference renderer's item buffer) sees is not kept visible.
+pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Culler) -> CullOutput {
+    let renderer = Renderer::new(1).expect("one thread");
+    let mut out = CullOutput::default();
+    culler.cull(scene, &camera.to_view(), &mut out).expect("a valid camera");
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    let counts = hom_render::oracle_pixel_counts(&renderer, scene, camera, &mut fb);
+    for (id, &n) in counts.iter().enumerate() {
+        if n > 0 {
+            assert!(
+                out.visible.binary_search(&(id as u32)).is_ok(),
+                "object {id} owns {n} pixels but was culled (occluded: {})",
+                out.occluded.contains(&(id as u32))
+            );
+        }
+    }
+    out
+}
+
+/// A random scene of `n` boxes around the origin (half of them dynamic when
+/// `dynamic`), at time 0.
+pub fn random_scene(seed: u64, n: usize, dynamic: bool) -> Scene {
+    random_moving_scene(seed, n, dynamic).0
+}
+
+/// [`random_scene`] with the motion of its dynamic boxes.
+pub fn random_moving_scene(seed: u64, n: usize, dynamic: bool) -> (Scene, Animation) {
+    let mut rng = Rng::new(seed);
+    let mut rnd = move || rng.unit();
+    let mut b = SceneBuilder::new("random");
+    let mut animation = Animation::none();
+    let m = b.add_mesh(cube());
+    for i in 0..n {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let scale = Vec3::new(0.2 + rnd() * 5.0, 0.2 + rnd() * 4.0, 0.2 + rnd() * 5.0);
+        let rot = Quat::from_rotation_y(rnd() * 3.0);
+        let t = Mat4::from_scale_rotation_translation(scale, rot, pos);
+        if dynamic && i % 2 == 0 {
+            let motion = Motion {
+                velocity: Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 4.0,
+                region: Aabb::new(pos - 3.0, pos + 3.0),
+                spin_axis: Vec3::Y,
+                spin_rate: rnd() * 2.0,
+            };
+            let id = b.add_dynamic_object(format!("o{i}"), m, t).expect("a valid object");
+            animation.add(id, t, motion).expect("a dynamic object");
+        } else {
+            b.add_object(format!("o{i}"), m, t).expect("a valid object");
+        }
+    }
+    (b.build().expect("a valid scene"), animation)
+}
+
+/// Over 60 random scenes, the culler `make` builds occlusion-culls at least
+/// one object in 20 and never wrongly: the conservative property tests are
+/// only meaningful if culling happens.
+pub fn assert_culls_a_fair_share(mut make: impl FnMut(&Scene) -> Box<dyn Culler>) {
+    let (mut occluded, mut total) = (0, 0);
+    for seed in 0..60u64 {
+        let scene = random_scene(seed * 31 + 5, 40, seed % 2 == 0);
+        let eye = Vec3::new(0.0, 0.5, 13.0);
+        let camera = Camera::new(eye, Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        let out = assert_no_false_culls(&scene, &camera, make(&scene).as_mut());
+        occluded += out.occluded.len();
+        total += scene.objects().len();
+    }
+    assert!(
+        occluded * 20 > total,
+        "only {occluded} of {total} objects occlusion-culled"
+    );
+}
+
+/// The case of the tests that compare an occluder raster with the renderer:
+/// a random scene (`seed`), a 101×77 camera on it, every other object as an occluder.
+pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>) {
+    let scene = random_scene(seed * 104_729 + 3, 30, seed.is_multiple_of(3));
+    let camera = Camera::new(
+        Vec3::new(1.5, 2.0, 14.0),
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::Y,
+        1.1,
+        0.1,
+        100.0,
+        101,
+        77,
+    );
+    let ids: Vec<u32> = (0..scene.objects().len() as u32).filter(|i| i % 2 == 1).collect();
+    (scene, camera, ids)
+}
+
+/// Clears `buf`, queues the meshes of the objects `ids` of `scene` as seen by
+/// `camera` (two-sided) and draws them: an occlusion buffer as an engine fills it.
+pub fn draw_objects(buf: &mut impl OcclusionBuffer, scene: &Scene, ids: &[u32], camera: &Camera) {
+    buf.clear();
+    for &id in ids {
+        let o = scene.object(id);
+        let m = scene.mesh_of(o);
+        let mvp = camera.view_proj() * o.transform;
+        buf.render_triangles(m.positions(), m.triangles(), &mvp, FaceCull::None)
+            .expect("scene meshes are valid");
+    }
+    buf.flush();
+}
+
+/// Buffer options with the reference renderer's sampling, for comparisons with it.
+pub fn exact() -> BufferOptions {
+    BufferOptions {
+        sampling: Sampling::Exact,
+        ..Default::default()
+    }
+}
+
+/// OpenArena's `pak1-maps.pk3` in the workspace's fetched-scene cache
+/// (`.cache/scenes/...` at the workspace root), or `None` after printing why
+/// the calling test skips (run `scripts/fetch-scenes.sh --tests-only`).
+pub fn openarena_maps() -> Option<PathBuf> {
+    // The kit lives at crates/hom-testkit: the workspace root is two folders up.
+    let pk3 = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if pk3.exists() {
+        return Some(pk3);
+    }
+    eprintln!(
+        "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+        pk3.display()
+    );
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stream_is_xorshift64_from_seed_or_1() {
+        // Seeds that differ only in the low bit give the same stream.
+        let (mut a, mut b) = (Rng::new(6), Rng::new(7));
+        let mut s = 7u64;
+        for _ in 0..100 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            assert_eq!((a.next_u64(), b.next_u64()), (s, s));
+        }
+        // Zero is not a fixed point.
+        assert_ne!(Rng::new(0).next_u64(), 0);
+    }
+
+    #[test]
+    fn unit_stays_below_one_where_the_53_bit_form_rounds_up() {
+        // The largest top 24 bits: (x >> 11) as f32 / 2^53 would be exactly 1.0 here.
+        let x = u64::MAX;
+        assert_eq!((x >> 11) as f32 / (1u64 << 53) as f32, 1.0);
+        assert!(((x >> 40) as f32 / (1u64 << 24) as f32) < 1.0);
+        let mut rng = Rng::new(1);
+        for _ in 0..100_000 {
+            let u = rng.unit();
+            assert!((0.0..1.0).contains(&u), "{u}");
+            assert!(rng.below(5) < 5);
+            let r = rng.range(-2.0, 3.0);
+            assert!((-2.0..=3.0).contains(&r), "{r}");
+        }
+    }
+
+    #[test]
+    fn the_cube_is_the_unit_box_at_the_origin() {
+        let m = cube();
+        assert_eq!((m.positions().len(), m.triangles().len()), (8, 12));
+        let b = Aabb::from_points(m.positions().iter().copied());
+        assert_eq!((b.min, b.max), (Vec3::splat(-0.5), Vec3::splat(0.5)));
+    }
+}
