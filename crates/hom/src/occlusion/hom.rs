@@ -106,6 +106,9 @@ pub struct HomBuffer {
     thresholds: Thresholds,
     depth: Depth,
     overlap: OverlapStats,
+    /// Cleared since the last draw: the representation still holds the old
+    /// frame until the next draw or settle empties it.
+    cleared: bool,
 }
 
 impl HomBuffer {
@@ -132,8 +135,9 @@ impl HomBuffer {
             coverage: CoverageBuffer::default(),
             pyramid,
             overlap: OverlapStats::default(),
+            cleared: true,
         };
-        b.reset();
+        b.settle();
         Ok(b)
     }
 
@@ -195,7 +199,18 @@ impl HomBuffer {
         }
     }
 
+    /// Empties the buffer lazily: the work is done by the first draw (or
+    /// [`HomBuffer::settle`]), so a cleared frame builds its pyramid once.
     fn reset(&mut self) {
+        self.cleared = true;
+        self.overlap = OverlapStats::default();
+    }
+
+    /// Makes the representation empty if it was cleared (the pyramid is left to the caller).
+    fn empty_if_cleared(&mut self) {
+        if !self.cleared {
+            return;
+        }
         let (w, h) = (self.front.width, self.front.height);
         if self.pyramid.viewport() != (w, h) {
             self.pyramid = self.map.new_pyramid(w, h);
@@ -203,16 +218,25 @@ impl HomBuffer {
             self.depth = new_depth(&self.map, w, h);
         }
         self.coverage.reset(w, h);
-        self.pyramid
-            .build_from_coverage(self.coverage.bits(), self.coverage.words_per_row());
         match &mut self.depth {
             Depth::Buffer(b) => b.clear(),
             Depth::Plane(p) => *p = SingleZPlane::default(),
         }
-        self.overlap = OverlapStats::default();
+    }
+
+    /// After a flush: a buffer cleared and never drawn since gets its empty pyramid.
+    fn settle(&mut self) {
+        if self.cleared {
+            self.empty_if_cleared();
+            self.pyramid
+                .build_from_coverage(self.coverage.bits(), self.coverage.words_per_row());
+            self.cleared = false;
+        }
     }
 
     fn draw(&mut self) {
+        self.empty_if_cleared();
+        self.cleared = false;
         let tris = &self.front.tris;
         let gather = match (&mut self.depth, self.map.depth) {
             (Depth::Buffer(b), DepthMode::Rasterized(..)) => Some(b),

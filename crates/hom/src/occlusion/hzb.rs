@@ -19,6 +19,9 @@ pub struct HzBuffer {
     front: Front,
     raster: TiledRasterizer,
     zbuffer: TiledZBuffer,
+    /// Cleared since the last draw: the z-buffer still holds the old frame
+    /// until the next draw or settle empties it.
+    cleared: bool,
 }
 
 impl HzBuffer {
@@ -32,6 +35,7 @@ impl HzBuffer {
             raster: TiledRasterizer::with_backend(front.backend),
             front,
             zbuffer,
+            cleared: false,
         })
     }
 
@@ -46,12 +50,26 @@ impl HzBuffer {
         &self.zbuffer
     }
 
+    /// Empties the buffer lazily (see [`HzBuffer::settle`]): a cleared frame
+    /// builds its pyramid once, when drawn.
     fn reset(&mut self) {
-        self.zbuffer.clear(self.front.width, self.front.height);
-        self.zbuffer.build_pyramid();
+        self.cleared = true;
+    }
+
+    /// After a flush: a buffer cleared and never drawn since is emptied.
+    fn settle(&mut self) {
+        if self.cleared {
+            self.zbuffer.clear(self.front.width, self.front.height);
+            self.zbuffer.build_pyramid();
+            self.cleared = false;
+        }
     }
 
     fn draw(&mut self) {
+        if self.cleared {
+            self.zbuffer.clear(self.front.width, self.front.height);
+            self.cleared = false;
+        }
         let s = self.raster.render(&self.front.tris, &mut self.zbuffer);
         self.front.stats.tiles_drawn += s.tiles_drawn;
         self.front.stats.tiles_rejected += s.tiles_rejected + s.blocks_rejected;

@@ -450,9 +450,10 @@ fn ms(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
-/// Implements [`OcclusionBuffer`] for a buffer with a `front: Front`, an
+/// Implements [`OcclusionBuffer`] for a buffer with a `front: Front` and
 /// inherent `draw(&mut self)` (draws `front.tris`), `reset(&mut self)`
-/// (empties the representation) and `is_behind(&self, &ScreenRect) -> bool`.
+/// (marks the representation cleared), `settle(&mut self)` (empties it if
+/// it was cleared and not drawn since) and `is_behind(&ScreenRect) -> bool`.
 macro_rules! occlusion_buffer {
     ($buffer:ty) => {
         impl $crate::occlusion::OcclusionBuffer for $buffer {
@@ -505,6 +506,7 @@ macro_rules! occlusion_buffer {
                     self.draw();
                     self.front.stats.raster_ms += start.elapsed().as_secs_f64() * 1e3;
                 }
+                self.settle();
             }
 
             fn test_aabb(

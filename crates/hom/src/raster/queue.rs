@@ -7,8 +7,9 @@ use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewpo
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
-/// Triangles set up per parallel task.
-const SETUP_CHUNK: usize = 2048;
+/// Triangles set up per parallel task: small enough that a culler's few
+/// thousand occluder triangles still split evenly over the threads.
+const SETUP_CHUNK: usize = 512;
 
 /// Most triangles a queue holds (64 Mi): more in one frame is a runaway caller.
 pub const MAX_QUEUED_TRIANGLES: usize = 1 << 26;
