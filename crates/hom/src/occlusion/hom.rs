@@ -225,6 +225,7 @@ impl HomBuffer {
     }
 
     /// After a flush: a buffer cleared and never drawn since gets its empty pyramid.
+    #[inline]
     fn settle(&mut self) {
         if self.cleared {
             self.empty_if_cleared();

@@ -57,6 +57,7 @@ impl HzBuffer {
     }
 
     /// After a flush: a buffer cleared and never drawn since is emptied.
+    #[inline]
     fn settle(&mut self) {
         if self.cleared {
             self.zbuffer.clear(self.front.width, self.front.height);

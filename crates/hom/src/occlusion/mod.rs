@@ -286,6 +286,7 @@ pub(crate) fn place_corners(corners: &[Vec3; 8], to_clip: &Mat4, width: u32, hei
 
 /// The placement of an NDC rectangle at a depth already in hom's convention:
 /// every pixel it touches (columns `trunc((x + 1) / 2 · W)`, inclusive).
+#[inline]
 pub(crate) fn place_ndc_rect(min: Vec2, max: Vec2, depth: f32, width: u32, height: u32) -> Placement {
     if !(min.is_finite() && max.is_finite() && depth.is_finite()) || min.x > max.x || min.y > max.y || depth < 0.0 {
         return Placement::Visible;
@@ -293,14 +294,15 @@ pub(crate) fn place_ndc_rect(min: Vec2, max: Vec2, depth: f32, width: u32, heigh
     if max.x < -1.0 || min.x > 1.0 || max.y < -1.0 || min.y > 1.0 || depth > 1.0 {
         return Placement::ViewCulled;
     }
-    let col = |x: f32| ((x + 1.0) * 0.5 * width as f32) as i64;
-    let row = |y: f32| ((1.0 - y) * 0.5 * height as f32) as i64;
-    let clamp = |v: i64, n: u32| v.clamp(0, i64::from(n) - 1) as u32;
+    // Clamped before the (truncating) conversion, which then needs no range checks.
+    let (w, h) = (width as f32, height as f32);
+    let col = |x: f32| ((x + 1.0) * 0.5 * w).clamp(0.0, w - 1.0) as u32;
+    let row = |y: f32| ((1.0 - y) * 0.5 * h).clamp(0.0, h - 1.0) as u32;
     Placement::Rect(ScreenRect {
-        x0: clamp(col(min.x), width),
-        x1: clamp(col(max.x), width) + 1,
-        y0: clamp(row(max.y), height),
-        y1: clamp(row(min.y), height) + 1,
+        x0: col(min.x),
+        x1: col(max.x) + 1,
+        y0: row(max.y),
+        y1: row(min.y) + 1,
         z_near: depth,
         z_far: depth,
     })
@@ -384,11 +386,14 @@ impl Front {
     }
 
     /// Sets the queued triangles up into `self.tris` (timed) and empties the
-    /// queue; false when nothing was queued.
+    /// queue; false when nothing was queued (every test asks: keep it cheap).
+    #[inline]
     fn set_up(&mut self) -> bool {
-        if self.queue.is_empty() {
-            return false;
-        }
+        !self.queue.is_empty() && self.set_up_queued()
+    }
+
+    #[inline(never)]
+    fn set_up_queued(&mut self) -> bool {
         let start = Instant::now();
         let inner = self.options.sampling == Sampling::Conservative;
         self.queue
@@ -400,6 +405,7 @@ impl Front {
     }
 
     /// Counts a test's answer.
+    #[inline]
     fn answer(&mut self, v: Visibility) -> Visibility {
         self.stats.tests += 1;
         match v {
@@ -432,6 +438,7 @@ impl Front {
         }
     }
 
+    #[inline]
     fn place_rect(&self, min: Vec2, max: Vec2, depth: f32) -> Placement {
         let z = self.options.clip.depth_to_zero_to_one(depth);
         place_ndc_rect(min, max, z, self.width, self.height)
@@ -500,6 +507,7 @@ macro_rules! occlusion_buffer {
                 self.front.render_clip_triangles(vertices, indices, cull)
             }
 
+            #[inline]
             fn flush(&mut self) {
                 if self.front.set_up() {
                     let start = std::time::Instant::now();
@@ -544,6 +552,7 @@ macro_rules! occlusion_buffer {
 
         impl $buffer {
             /// Answers a placement: the image decides only rectangles.
+            #[inline]
             fn decide(&mut self, p: $crate::occlusion::Placement) -> $crate::occlusion::Visibility {
                 use $crate::occlusion::{Placement, Visibility};
                 let v = match p {
@@ -562,6 +571,7 @@ macro_rules! occlusion_buffer {
 
             /// Whether every sample of `r` (pixels, hom's depth convention) is
             /// hidden; draws what is queued first. An empty rectangle is hidden.
+            #[inline]
             pub(crate) fn rect_is_occluded(&mut self, r: &$crate::geom::ScreenRect) -> bool {
                 <Self as $crate::occlusion::OcclusionBuffer>::flush(self);
                 r.is_empty() || self.is_behind(r)
