@@ -1,7 +1,9 @@
 //! The cullers `hom walk --culler NAME` can run, by name: the one factory
 //! every caller builds cullers with.
 
-use hom::cull::{Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller};
+use hom::cull::{
+    Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller, ZDepth,
+};
 use hom::scene::Scene;
 
 /// Names and one-line descriptions of the available cullers.
@@ -12,6 +14,10 @@ pub const CULLERS: &[(&str, &str)] = &[
     (
         "hzb",
         "hierarchical Z-buffer (Greene et al. 1993) with HOM's occluder selection, conservative",
+    ),
+    (
+        "masked",
+        "masked occlusion culling (Hasselgren et al. 2016): HOM's occluders as coverage masks and two depth layers per tile, conservative",
     ),
     (
         "hv",
@@ -56,6 +62,13 @@ pub fn make(name: &str, scene: &Scene, settings: &CullerSettings) -> Result<Box<
         "frustum" => Box::new(FrustumCuller::new(scene)),
         "hom" => Box::new(HomCuller::new(scene, settings.hom.clone())),
         "hzb" => Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&settings.hom))),
+        "masked" => Box::new(HzbCuller::new(
+            scene,
+            HzbConfig {
+                depth: ZDepth::Masked,
+                ..HzbConfig::from_hom(&settings.hom)
+            },
+        )),
         "hv" => Box::new(HvCuller::new(scene, settings.hv.clone())),
         _ => return Err(UnknownCuller { name: name.to_string() }),
     })

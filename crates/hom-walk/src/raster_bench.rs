@@ -8,7 +8,8 @@
 //! sample) with one thread and with two, then the 100,000 rectangle queries
 //! are answered with [`OcclusionBuffer::test_rect`] and every answer is
 //! compared with the exact ones (`*_exact_*.res`) and MOC's (`*_moc_*.res`);
-//! the same for a [`HomBuffer`] (occlusion map + depth estimation buffer).
+//! the same for a [`HomBuffer`] (occlusion map + depth estimation buffer)
+//! and a [`MaskedBuffer`] (coverage masks and two depth layers per tile).
 //! Recorded game frames (`.mocrec`) are rendered at their own resolution and
 //! at 256×256. Times are medians over the runs.
 //!
@@ -17,7 +18,7 @@
 //! rectangles cover every pixel they touch, as `test_rect` does.
 
 use glam::{Vec2, Vec4};
-use hom::occlusion::{BufferOptions, FaceCull, HomBuffer, HzBuffer, OcclusionBuffer, Visibility};
+use hom::occlusion::{BufferOptions, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, Visibility};
 use hom_scene::moc::{self, MocRecording, MocScene};
 use hom_scene::LoadError;
 use serde::Serialize;
@@ -136,12 +137,17 @@ pub struct RasterRow {
     /// Median time to draw the same triangles, nearest first, into a
     /// [`HomBuffer`] (submission, setup, coverage, pyramid, depth estimation cells), ms.
     pub map_ms: f64,
+    /// Median time to draw the same triangles, in file order, into a
+    /// [`MaskedBuffer`] (submission, setup, masks and depth layers), ms.
+    pub masked_ms: f64,
     /// MOC AVX2 and AVX-512 single-thread render times, ms (README), where measured.
     pub peer_ms: Option<(f64, f64)>,
     /// Query answers on the tiled z-buffer (scenes only, first thread count only).
     pub queries: Option<QueryScore>,
     /// Query answers on the occlusion map and depth estimation buffer (HOM).
     pub map_queries: Option<QueryScore>,
+    /// Query answers on the masked buffer.
+    pub masked_queries: Option<QueryScore>,
 }
 
 /// The whole run.
@@ -213,7 +219,7 @@ fn time_render(
     (width, height): (u32, u32),
     threads: usize,
     runs: usize,
-) -> Result<(RasterRow, HzBuffer, HomBuffer), RasterBenchError> {
+) -> Result<(RasterRow, HzBuffer, HomBuffer, MaskedBuffer), RasterBenchError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -221,7 +227,9 @@ fn time_render(
     let buffer_error = |e: hom::occlusion::OcclusionError| RasterBenchError::Options(e.to_string());
     let mut zb = HzBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
     let mut map = HomBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
+    let mut masked = MaskedBuffer::new(width, height, BufferOptions::default()).map_err(buffer_error)?;
     let (mut setup, mut render, mut total, mut map_times) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut masked_times = Vec::new();
     let sorted = nearest_first(batches);
     let sorted: Batches = sorted.iter().map(|(v, t, c)| (&v[..], &t[..], *c)).collect();
     pool.install(|| {
@@ -233,6 +241,9 @@ fn time_render(
         }
         for _ in 0..runs {
             map_times.push(draw(&mut map, &sorted)?.2);
+        }
+        for _ in 0..runs {
+            masked_times.push(draw(&mut masked, batches)?.2);
         }
         Ok::<(), RasterBenchError>(())
     })?;
@@ -256,11 +267,13 @@ fn time_render(
         tiles_drawn: stats.tiles_drawn,
         rejected: stats.tiles_rejected,
         map_ms: median(map_times),
+        masked_ms: median(masked_times),
         peer_ms: peer,
         queries: None,
         map_queries: None,
+        masked_queries: None,
     };
-    Ok((row, zb, map))
+    Ok((row, zb, map, masked))
 }
 
 fn answers(path: &Path, expected: usize) -> Result<Option<Vec<bool>>, RasterBenchError> {
@@ -365,11 +378,12 @@ pub fn run_raster_bench(
         };
         for &res in &resolutions {
             for (k, &threads) in options.threads.iter().enumerate() {
-                let (mut row, mut zb, mut map) = time_render(&input, &batches, res, threads, options.runs)?;
+                let (mut row, mut zb, mut map, mut masked) = time_render(&input, &batches, res, threads, options.runs)?;
                 if let (Some(s), 0) = (&scene, k) {
                     let (data, runs) = (&options.data, options.runs);
                     row.queries = score_queries(data, &input, s, res, &mut zb, runs)?;
                     row.map_queries = score_queries(data, &input, s, res, &mut map, runs)?;
+                    row.masked_queries = score_queries(data, &input, s, res, &mut masked, runs)?;
                 }
                 progress(&format!(
                     "{input} {}x{} {} thread(s): {:.2} ms",
@@ -391,19 +405,22 @@ impl RasterBenchReport {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "| input | resolution | triangles | threads | setup ms | z render ms | z total ms | Mtri/s | map ms | MOC AVX2 ms | MOC AVX-512 ms | z total ÷ AVX-512 |"
+            "| input | resolution | triangles | threads | setup ms | z render ms | z total ms | Mtri/s | map ms | MOC AVX2 ms | MOC AVX-512 ms | z total ÷ AVX-512 | masked ms | masked ÷ AVX-512 |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         for r in &self.rows {
-            let (p2, p5, ratio) = match r.peer_ms {
-                Some((a, b)) if r.threads == 1 => {
-                    (format!("{a:.2}"), format!("{b:.2}"), format!("{:.2}", r.total_ms / b))
-                }
-                _ => (String::new(), String::new(), String::new()),
+            let (p2, p5, ratio, masked_ratio) = match r.peer_ms {
+                Some((a, b)) if r.threads == 1 => (
+                    format!("{a:.2}"),
+                    format!("{b:.2}"),
+                    format!("{:.2}", r.total_ms / b),
+                    format!("{:.2}", r.masked_ms / b),
+                ),
+                _ => (String::new(), String::new(), String::new(), String::new()),
             };
             let _ = writeln!(
                 s,
-                "| {} | {}×{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {p2} | {p5} | {ratio} |",
+                "| {} | {}×{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {p2} | {p5} | {ratio} | {:.2} | {masked_ratio} |",
                 r.input,
                 r.width,
                 r.height,
@@ -414,16 +431,17 @@ impl RasterBenchReport {
                 r.total_ms,
                 r.triangles_per_s / 1e6,
                 r.map_ms,
+                r.masked_ms,
             );
         }
         let _ = writeln!(s);
         let _ = writeln!(
             s,
-            "| input | resolution | hidden (exact) | z wrong occluded | z found | map wrong occluded | map found | MOC wrong occluded | MOC found | z query ms | map query ms | MOC query ms |"
+            "| input | resolution | hidden (exact) | z wrong occluded | z found | map wrong occluded | map found | MOC wrong occluded | MOC found | z query ms | map query ms | MOC query ms | masked wrong occluded | masked found | masked query ms |"
         );
-        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
         for r in &self.rows {
-            let (Some(q), Some(m)) = (&r.queries, &r.map_queries) else {
+            let (Some(q), Some(m), Some(k)) = (&r.queries, &r.map_queries, &r.masked_queries) else {
                 continue;
             };
             let pct = |n: usize| {
@@ -435,7 +453,7 @@ impl RasterBenchReport {
             };
             let _ = writeln!(
                 s,
-                "| {} | {}×{} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {} |",
+                "| {} | {}×{} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {} | {} | {} | {:.2} |",
                 r.input,
                 r.width,
                 r.height,
@@ -449,6 +467,9 @@ impl RasterBenchReport {
                 q.ms,
                 m.ms,
                 q.peer_ms.map_or(String::new(), |m| format!("{m:.2}")),
+                k.wrong_occluded,
+                pct(k.found),
+                k.ms,
             );
         }
         s

@@ -5,6 +5,7 @@
 
 use hom::cull::{
     CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, OccluderConfig,
+    ZDepth,
 };
 use hom::geom::{Camera, Containment};
 use hom::glam::{Mat4, Quat, Vec3};
@@ -26,6 +27,13 @@ fn cullers(scene: &Scene, budget: u32) -> Vec<Box<dyn Culler>> {
         Box::new(FrustumCuller::new(scene)),
         Box::new(HomCuller::new(scene, hom.clone())),
         Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&hom))),
+        Box::new(HzbCuller::new(
+            scene,
+            HzbConfig {
+                depth: ZDepth::Masked,
+                ..HzbConfig::from_hom(&hom)
+            },
+        )),
         Box::new(HvCuller::new(scene, HvConfig::default())),
     ]
 }

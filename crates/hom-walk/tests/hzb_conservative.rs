@@ -1,8 +1,9 @@
 //! The hierarchical Z-buffer culler (Greene et al. 1993; the HOM paper's
-//! section 7.2 variation) never culls an object the oracle sees, and the
-//! occluder rasterizer's per-sample depth is the reference renderer's depth.
+//! section 7.2 variation) never culls an object the oracle sees, with either
+//! depth representation (per sample, or masked), and the occluder
+//! rasterizer's per-sample depth is the reference renderer's depth.
 
-use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig};
+use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig, ZDepth};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occlusion::HzBuffer;
@@ -14,12 +15,13 @@ use hom_testkit::{
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the depth logic.
-fn permissive() -> HzbConfig {
+fn permissive(depth: ZDepth) -> HzbConfig {
     let mut c = HzbConfig {
         occluders: OccluderConfig {
             occluder_db: permissive_occluders(),
             ..OccluderConfig::default()
         },
+        depth,
     };
     c.occluders.selection.budget = 60;
     c
@@ -31,14 +33,15 @@ proptest! {
     fn hzb_never_culls_what_the_oracle_sees(
         seed in any::<u64>(), n in 1usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
         look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0), dynamic in any::<bool>(), time in 0.0f32..5.0,
-        size in (8u32..120, 8u32..90),
+        size in (8u32..120, 8u32..90), masked in any::<bool>(),
     ) {
         let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
         animation.apply(&mut scene, time);
         let eye = Vec3::new(eye.0, eye.1, eye.2);
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, size.0, size.1);
         prop_assume!(camera.validate().is_ok());
-        let mut culler = HzbCuller::new(&scene, permissive());
+        let depth = if masked { ZDepth::Masked } else { ZDepth::PerSample };
+        let mut culler = HzbCuller::new(&scene, permissive(depth));
         // Two frames, so the second uses the feedback (hole filling) of the first.
         assert_no_false_culls(&scene, &camera, &mut culler);
         culler.frame_done(Some(1.0));
@@ -49,7 +52,9 @@ proptest! {
 /// The property test above is only meaningful if culling happens.
 #[test]
 fn random_scenes_are_really_culled() {
-    assert_culls_a_fair_share(|scene| Box::new(HzbCuller::new(scene, permissive())));
+    for depth in [ZDepth::PerSample, ZDepth::Masked] {
+        assert_culls_a_fair_share(|scene| Box::new(HzbCuller::new(scene, permissive(depth))));
+    }
 }
 
 /// The rasterizer's per-sample depth equals the renderer's depth buffer

@@ -64,6 +64,12 @@ fn answers_match_the_obvious_truth_at_every_resolution() {
         assert_eq!((q.peer_found, q.peer_wrong_occluded), (Some(1), Some(0)));
         let m = row.map_queries.as_ref().expect("answers exist");
         assert_eq!(m.wrong_occluded, 0, "{row:?}");
+        let k = row.masked_queries.as_ref().expect("answers exist");
+        assert_eq!(
+            (k.wrong_occluded, k.found),
+            (0, 2),
+            "{row:?}: a full-screen quad hides both"
+        );
     }
     let table = report.table();
     assert!(table.contains("| quad | 256×256 | 2 | 1 |"), "{table}");

@@ -1,5 +1,5 @@
 //! The front door (`hom::occlusion`) as an engine meets it, written only
-//! against its contract: random occluders in `HzBuffer` and `HomBuffer`
+//! against its contract: random occluders in `HzBuffer`, `HomBuffer` and `MaskedBuffer`
 //! under every clip convention, perspective and orthographic, every
 //! `Occluded` answer checked by brute-force ray casting (no ray from the eye
 //! through a sample may reach a box called occluded, and a fair share of the
@@ -11,7 +11,8 @@ use hom::glam::camera::rh::proj::{directx, opengl};
 use hom::glam::camera::rh::view::look_at_mat4;
 use hom::glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use hom::occlusion::{
-    BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, OcclusionBuffer, OcclusionError, Visibility,
+    BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, OcclusionError,
+    Visibility,
 };
 use hom_testkit::Rng;
 use proptest::prelude::*;
@@ -230,10 +231,12 @@ fn check_against_rays(seed: u64, ortho: bool, clip: ClipConvention) -> (usize, u
     let (mut hidden, mut found, mut wrong) = (0, 0, 0);
     let mut hz = HzBuffer::new(cam.width, cam.height, options(clip)).unwrap();
     let mut hom = HomBuffer::new(cam.width, cam.height, options(clip)).unwrap();
+    let mut masked = MaskedBuffer::new(cam.width, cam.height, options(clip)).unwrap();
     let a = answers(&mut hz, &w, &vp);
     let b = answers(&mut hom, &w, &vp);
+    let c = answers(&mut masked, &w, &vp);
     for (k, &(reached, seen_anywhere)) in truth.iter().enumerate() {
-        for v in [a[k], b[k]] {
+        for v in [a[k], b[k], c[k]] {
             if v == Visibility::Occluded && reached {
                 wrong += 1;
                 eprintln!(
@@ -413,11 +416,13 @@ proptest! {
         for clip in CONVENTIONS {
             let mut hz = HzBuffer::new(w, h, options(clip)).unwrap();
             let mut hom = HomBuffer::new(w, h, options(clip)).unwrap();
+            let mut masked = MaskedBuffer::new(w, h, options(clip)).unwrap();
             let got = (
                 rect_answers(&mut hz, clip, seed),
                 rect_answers(&mut hom, clip, seed),
                 box_answers(&mut hz, clip, seed),
                 box_answers(&mut hom, clip, seed),
+                [rect_answers(&mut masked, clip, seed), box_answers(&mut masked, clip, seed)],
             );
             match &want {
                 None => want = Some(got),
@@ -425,7 +430,7 @@ proptest! {
             }
         }
         // The comparison is only meaningful if the answers vary.
-        let (r, _, b, _) = want.unwrap();
+        let (r, _, b, _, _) = want.unwrap();
         prop_assume!(r.iter().chain(&b).any(|&v| v != r[0]));
     }
 }
@@ -486,6 +491,10 @@ fn orthographic_views_cull_like_perspective_ones() {
         hom.render_triangles(&p, &t, &vp, FaceCull::None).unwrap();
         assert_eq!(hom.test_aabb(&behind, &vp), Visibility::Occluded, "{clip:?}");
         assert_eq!(hom.test_aabb(&front, &vp), Visibility::Visible, "{clip:?}");
+        let mut masked = MaskedBuffer::new(96, 64, options(clip)).unwrap();
+        masked.render_triangles(&p, &t, &vp, FaceCull::None).unwrap();
+        assert_eq!(masked.test_aabb(&behind, &vp), Visibility::Occluded, "{clip:?}");
+        assert_eq!(masked.test_aabb(&front, &vp), Visibility::Visible, "{clip:?}");
     }
 }
 

@@ -24,7 +24,7 @@ use super::{CullError, CullOutput, Culler};
 use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{HomBuffer, MapOptions};
+use crate::occlusion::{HomBuffer, MapOptions, RectTest};
 use crate::scene::Scene;
 
 pub use crate::occlusion::{DepthMode, Opacity};

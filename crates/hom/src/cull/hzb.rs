@@ -20,49 +20,77 @@
 //! never culled. The same caveats as HOM's apply (same resolution and sampling
 //! as the final image, stand-ins contained in their objects, opaque occluders).
 //!
+//! # Two depth representations
+//! [`ZDepth::PerSample`] (the default) draws into an [`HzBuffer`]: the
+//! renderer's exact depth at every sample. [`ZDepth::Masked`] draws into a
+//! [`MaskedBuffer`] (masked software occlusion culling, Hasselgren et al.
+//! 2016): a coverage mask and two conservative depth layers per 32×8 tile,
+//! far cheaper to draw, coarser to test. Both are conservative; the culler
+//! reports itself as `hzb` or `masked`.
+//!
 //! Hole filling (occluder selection's feedback) needs the opacity of screen
 //! regions, which the Z-pyramid does not hold: when the selector asks for the
 //! worst hole, an opacity pyramid is built from the last frame's depth
 //! (covered = finite depth), with HOM's default geometry, and searched
 //! ([`crate::map::worst_hole_of_coverage`]).
 
-use super::traversal::{culler_buffer_options, sized, OccluderCulling};
+use super::traversal::{culler_buffer_options, sized, OccluderCulling, Selected};
 use super::{CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{HzBuffer, MapOptions};
+use crate::occlusion::{HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer, RectTest};
 use crate::scene::Scene;
 
-/// Settings of the HZB culler: HOM's occluder selection and database.
+/// Which depth the HZB culler keeps of its occluders.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ZDepth {
+    /// Exact per-sample depth ([`HzBuffer`]).
+    #[default]
+    PerSample,
+    /// Coverage masks and two depth layers per 32×8 tile ([`MaskedBuffer`]).
+    Masked,
+}
+
+/// Settings of the HZB culler: HOM's occluder selection and database, and the depth representation.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct HzbConfig {
     /// Which objects occlude, and how each frame's are chosen (shared with HOM).
     pub occluders: OccluderConfig,
+    /// The occluders' depth: per sample or masked.
+    pub depth: ZDepth,
 }
 
 impl HzbConfig {
-    /// The occluder settings of a HOM configuration.
+    /// The occluder settings of a HOM configuration, per-sample depth.
     pub fn from_hom(hom: &HomConfig) -> HzbConfig {
         HzbConfig {
             occluders: hom.occluders.clone(),
+            depth: ZDepth::PerSample,
         }
     }
 
-    /// [`OccluderConfig::for_scene`]'s occluders.
+    /// [`OccluderConfig::for_scene`]'s occluders, per-sample depth.
     pub fn for_scene(scene: &Scene) -> HzbConfig {
         HzbConfig {
             occluders: OccluderConfig::for_scene(scene),
+            depth: ZDepth::PerSample,
         }
     }
+}
+
+/// The HZB culler's buffer, of the configured representation.
+enum Buffer {
+    PerSample(Option<HzBuffer>),
+    Masked(Option<MaskedBuffer>),
 }
 
 /// The HZB culler; see the module docs for its guarantee.
 pub struct HzbCuller {
     config: HzbConfig,
     common: OccluderCulling,
-    buffer: Option<HzBuffer>,
+    buffer: Buffer,
 }
 
 impl HzbCuller {
@@ -70,8 +98,11 @@ impl HzbCuller {
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
         HzbCuller {
             common: OccluderCulling::new(scene, &config.occluders),
+            buffer: match config.depth {
+                ZDepth::PerSample => Buffer::PerSample(None),
+                ZDepth::Masked => Buffer::Masked(None),
+            },
             config,
-            buffer: None,
         }
     }
 
@@ -85,28 +116,50 @@ impl HzbCuller {
         &mut self.common.db
     }
 
-    /// The last frame's occluder depth and its pyramid.
+    /// The last frame's per-sample occluder depth and its pyramid (per-sample depth only).
     pub fn zbuffer(&self) -> Option<&TiledZBuffer> {
-        self.buffer.as_ref().map(|b| b.last_zbuffer())
+        match &self.buffer {
+            Buffer::PerSample(b) => b.as_ref().map(|b| b.last_zbuffer()),
+            Buffer::Masked(_) => None,
+        }
     }
 
     /// The current settings.
     pub fn config(&self) -> &HzbConfig {
         &self.config
     }
+
+    /// Steps 2 and 3 of a frame with `buffer`.
+    fn draw_and_traverse<B: OcclusionBuffer + RectTest>(
+        common: &mut OccluderCulling,
+        scene: &Scene,
+        frame: Selected,
+        buffer: &mut B,
+        out: &mut CullOutput,
+    ) {
+        // 2. Occluder depth (the render also builds the hierarchy above the tiles).
+        let drawn = common.draw(scene, &frame, buffer, out);
+        // 3. Traversal: frustum → the buffer, front to back.
+        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+    }
 }
 
 impl Culler for HzbCuller {
     fn name(&self) -> &'static str {
-        "hzb"
+        match self.config.depth {
+            ZDepth::PerSample => "hzb",
+            ZDepth::Masked => "masked",
+        }
     }
 
     fn config(&self) -> Vec<(&'static str, String)> {
-        let depth = (
-            "depth",
-            "per-sample tiled z-buffer, pyramid of farthest depth".to_string(),
-        );
-        std::iter::once(depth).chain(self.common.describe()).collect()
+        let depth = match self.config.depth {
+            ZDepth::PerSample => "per-sample tiled z-buffer, pyramid of farthest depth",
+            ZDepth::Masked => "masked: coverage mask and two depth layers per 32x8 tile",
+        };
+        std::iter::once(("depth", depth.to_string()))
+            .chain(self.common.describe())
+            .collect()
     }
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
@@ -114,20 +167,32 @@ impl Culler for HzbCuller {
         let hole_opacity = self.config.occluders.selection.hole_opacity;
         let last = &self.buffer;
         let frame = self.common.select(scene, view, out, || {
-            let zb = last.as_ref()?.last_zbuffer();
             let mut bits = Vec::new();
-            zb.coverage_bits(&mut bits);
-            worst_hole_of_coverage(&bits, zb.width(), zb.height(), &MapOptions::default(), hole_opacity)
+            let (w, h) = match last {
+                Buffer::PerSample(b) => {
+                    let zb = b.as_ref()?.last_zbuffer();
+                    zb.coverage_bits(&mut bits);
+                    (zb.width(), zb.height())
+                }
+                Buffer::Masked(b) => {
+                    let zb = b.as_ref()?.last_zbuffer();
+                    zb.coverage_bits(&mut bits);
+                    (zb.width(), zb.height())
+                }
+            };
+            worst_hole_of_coverage(&bits, w, h, &MapOptions::default(), hole_opacity)
         })?;
-        // 2. Occluder depth per output sample (the render also builds the pyramid above the tiles).
-        let buffer = sized(&mut self.buffer, view, |w, h| {
-            HzBuffer::new(w, h, culler_buffer_options())
-        });
         let common = &mut self.common;
-        let drawn = common.draw(scene, &frame, buffer, out);
-
-        // 3. Traversal: frustum → Z-pyramid, front to back.
-        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+        match &mut self.buffer {
+            Buffer::PerSample(slot) => {
+                let buffer = sized(slot, view, |w, h| HzBuffer::new(w, h, culler_buffer_options()));
+                Self::draw_and_traverse(common, scene, frame, buffer, out);
+            }
+            Buffer::Masked(slot) => {
+                let buffer = sized(slot, view, |w, h| MaskedBuffer::new(w, h, culler_buffer_options()));
+                Self::draw_and_traverse(common, scene, frame, buffer, out);
+            }
+        }
         Ok(())
     }
 

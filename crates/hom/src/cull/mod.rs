@@ -18,7 +18,7 @@ pub use crate::occluders::OccluderConfig;
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
-pub use hzb::{HzbConfig, HzbCuller};
+pub use hzb::{HzbConfig, HzbCuller, ZDepth};
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;

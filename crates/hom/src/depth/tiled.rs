@@ -150,7 +150,9 @@ impl TiledZBuffer {
                 let row = if full {
                     inside
                 } else {
-                    (0..TILE).fold(0u64, |row, i| row | u64::from(tile[(j * TILE + i) as usize].is_finite()) << i)
+                    (0..TILE).fold(0u64, |row, i| {
+                        row | u64::from(tile[(j * TILE + i) as usize].is_finite()) << i
+                    })
                 };
                 let (x, y) = (tx * TILE, (ty * TILE + j) as usize);
                 // Tiles are 8 wide and 64 / 8 is whole: a tile row never straddles two words.

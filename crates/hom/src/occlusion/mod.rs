@@ -56,6 +56,10 @@
 //! - [`HomBuffer`]: hierarchical occlusion maps (Zhang et al. 1997) — an
 //!   opacity pyramid of exact coverage counts plus a depth estimation buffer;
 //!   optionally approximate ([`Opacity::Threshold`]).
+//! - [`MaskedBuffer`]: masked software occlusion culling (Hasselgren et al.
+//!   2016) — per 32×8 tile a coverage mask and two conservative depth
+//!   layers: far less work per occluder, fewer hidden boxes found where small
+//!   occluders at mixed depths share a tile.
 //!
 //! Triangles are queued by `render_*` and set up and drawn, in parallel on
 //! the current rayon pool, at the first test after them (or at
@@ -63,9 +67,11 @@
 
 mod hom;
 mod hzb;
+mod masked;
 
 pub use self::hom::{DepthMode, HomBuffer, MapOptions, Opacity};
 pub use self::hzb::HzBuffer;
+pub use self::masked::MaskedBuffer;
 pub use crate::geom::ClipConvention;
 pub use crate::raster::setup::FaceCull;
 
@@ -178,8 +184,9 @@ pub struct BufferStats {
     /// Triangles drawn after clipping (a clipped triangle counts once per fan
     /// piece), face culling and dropping those that cover no sample.
     pub triangles_drawn: u64,
-    /// [`HzBuffer`]: 8×8 tiles whose samples were tested; `tiles_rejected`,
-    /// tiles and blocks skipped because everything there was nearer.
+    /// [`HzBuffer`]: 8×8 tiles whose samples were tested; [`MaskedBuffer`]:
+    /// 32×8 tiles a triangle reached. `tiles_rejected`: tiles and blocks
+    /// skipped because everything there was nearer (or, masked, told nothing new).
     pub tiles_drawn: u64,
     /// See `tiles_drawn`.
     pub tiles_rejected: u64,
@@ -250,6 +257,14 @@ pub trait OcclusionBuffer {
 
     /// What the buffer did since the last clear.
     fn stats(&self) -> BufferStats;
+}
+
+/// The cullers' test: a rectangle of samples in hom's depth convention
+/// (what the traversal projects boxes to), without the public placement.
+pub(crate) trait RectTest {
+    /// Whether every sample of `r` is hidden; draws what is queued first.
+    /// An empty rectangle is hidden.
+    fn rect_is_occluded(&mut self, r: &ScreenRect) -> bool;
 }
 
 /// Where a test lands before the image is consulted.
@@ -559,7 +574,7 @@ macro_rules! occlusion_buffer {
                     Placement::ViewCulled => Visibility::ViewCulled,
                     Placement::Visible => Visibility::Visible,
                     Placement::Rect(r) => {
-                        if self.rect_is_occluded(&r) {
+                        if <Self as $crate::occlusion::RectTest>::rect_is_occluded(self, &r) {
                             Visibility::Occluded
                         } else {
                             Visibility::Visible
@@ -568,11 +583,11 @@ macro_rules! occlusion_buffer {
                 };
                 self.front.answer(v)
             }
+        }
 
-            /// Whether every sample of `r` (pixels, hom's depth convention) is
-            /// hidden; draws what is queued first. An empty rectangle is hidden.
+        impl $crate::occlusion::RectTest for $buffer {
             #[inline]
-            pub(crate) fn rect_is_occluded(&mut self, r: &$crate::geom::ScreenRect) -> bool {
+            fn rect_is_occluded(&mut self, r: &$crate::geom::ScreenRect) -> bool {
                 <Self as $crate::occlusion::OcclusionBuffer>::flush(self);
                 r.is_empty() || self.is_behind(r)
             }

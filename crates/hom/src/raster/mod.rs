@@ -19,6 +19,8 @@
 #[forbid(unsafe_code)]
 mod coverage;
 #[forbid(unsafe_code)]
+pub(crate) mod masked;
+#[forbid(unsafe_code)]
 pub(crate) mod queue;
 // The renderer (`hom-render`) shares this setup and sampling rule: public for it, not the front door.
 #[doc(hidden)]

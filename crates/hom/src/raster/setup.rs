@@ -102,6 +102,26 @@ impl Tri {
         self.depth_in_row(self.depth_row(py), px as i32 - i32::from(self.x0))
     }
 
+    /// Bounds of [`Tri::depth_at`] over columns `xa..=xb`, rows `ya..=yb`
+    /// (within the box): `(nearest, farthest)` the plane reaches there (a
+    /// linear function: at corners), widened by slack for the few `f32`
+    /// roundings of the formula and of the bound, and clamped at 0 as the
+    /// formula is. Every sample the triangle covers there lies within them.
+    #[inline]
+    pub fn depth_bounds(&self, xa: u32, xb: u32, ya: u32, yb: u32) -> (f32, f32) {
+        /// Relative slack: covers the roundings (tested against the formula itself).
+        const SLACK: f32 = 1.0 / (1 << 19) as f32;
+        let (x0, y0) = (u32::from(self.x0), u32::from(self.y0));
+        let (dxa, dxb) = ((xa - x0) as f32, (xb - x0) as f32);
+        let (dya, dyb) = ((ya - y0) as f32, (yb - y0) as f32);
+        let (ax, bx) = (self.dzdx * dxa, self.dzdx * dxb);
+        let (ay, by) = (self.dzdy * dya, self.dzdy * dyb);
+        let slack = (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * SLACK;
+        let low = self.zref + ax.min(bx) + ay.min(by) - slack;
+        let high = self.zref + ax.max(bx) + ay.max(by) + slack;
+        (low.max(0.0), high.max(0.0))
+    }
+
     /// [`Tri::depth_at`] given the row's `zr = depth_row(py)` and the column
     /// offset `dx = px − x0`, for loops that compute the row once.
     #[inline(always)]

@@ -12,9 +12,6 @@ use crate::depth::tiled::{TiledZBuffer, TILE, TILE_SAMPLES};
 
 /// Tiles per block side: blocks are a band's tile rows × `BLOCK_TILES` tiles.
 const BLOCK_TILES: u32 = 8;
-/// Relative slack on a plane's depth bound: covers the few `f32` roundings
-/// of the renderer's formula and of the bound itself.
-const PLANE_SLACK: f32 = 1.0 / (1 << 19) as f32;
 
 /// Work done by [`TiledRasterizer::render`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -99,16 +96,10 @@ fn tile_edges(t: &Tri, px: u32, py: u32) -> Result<Option<TileEdges>, ()> {
 }
 
 /// Nearest depth `t`'s plane can give at any sample of columns `xa..=xb`,
-/// rows `ya..=yb` (within its box), minus slack for rounding; at least 0, as
-/// the renderer clamps.
+/// rows `ya..=yb` (within its box).
 #[inline]
 fn plane_floor(t: &Tri, xa: u32, xb: u32, ya: u32, yb: u32) -> f32 {
-    let (x0, y0) = (u32::from(t.x0), u32::from(t.y0));
-    let (dxa, dxb) = ((xa - x0) as f32, (xb - x0) as f32);
-    let (dya, dyb) = ((ya - y0) as f32, (yb - y0) as f32);
-    let low = t.zref + (t.dzdx * dxa).min(t.dzdx * dxb) + (t.dzdy * dya).min(t.dzdy * dyb);
-    let size = t.zref.abs() + t.dzdx.abs() * dxb + t.dzdy.abs() * dyb;
-    (low - size * PLANE_SLACK).max(0.0)
+    t.depth_bounds(xa, xb, ya, yb).0
 }
 
 impl Band {

@@ -1,0 +1,374 @@
+//! A masked depth buffer after Hasselgren, Andersson and Akenine-Möller,
+//! "Masked Software Occlusion Culling" (HPG 2016): instead of a depth per
+//! sample, each tile of 32×8 samples holds two conservative depth layers —
+//! a reference depth `z0` that bounds every sample of the tile, and a
+//! working layer: a coverage mask with a depth `z1` that bounds the samples
+//! in it. Depth is hom's clip `z / w` (nearer is smaller); a bound `z` means
+//! every occluder sample it covers lies at `z` or nearer.
+//!
+//! # Updating (hom's own rule, in the spirit of the paper's)
+//! A triangle covering mask `m` of a tile with a conservative far depth `zt`
+//! (its plane's farthest value over the covered part of the tile):
+//! - `zt >= z0`: it tells nothing new; skipped (this is also the rejection
+//!   of occluders hidden by nearer ones).
+//! - if the working layer and `m` together cover the tile, every sample is
+//!   bounded by `max(z1, zt)`: that becomes `z0` (if nearer) and the working
+//!   layer empties;
+//! - else, when the new triangle is much nearer than the working layer
+//!   (`z1 − zt > z0 − z1`), the working layer is replaced by it (its old
+//!   samples fall back to `z0`, still a bound); otherwise it is merged
+//!   (`mask |= m`, `z1 = max(z1, zt)`).
+//!
+//! Every rule only ever replaces a bound by another valid bound, so a test
+//! against the buffer is conservative whatever the triangle order; occluders
+//! drawn nearest first keep the bounds tight.
+//!
+//! # Testing
+//! A rectangle at nearest depth `z` is hidden when, in every tile it
+//! touches, `z` lies beyond `z0` (by [`super::DEPTH_MARGIN`]), or the
+//! rectangle's samples there all lie in the working layer and `z` lies
+//! beyond `z1`. Blocks of 4×4 tiles keep the farthest `z0` of their tiles,
+//! so a rectangle over a well-covered region is accepted a block at a time.
+//! Samples past the viewport's edge count as covered (nothing there is seen).
+
+use super::DEPTH_MARGIN;
+use crate::geom::ScreenRect;
+
+/// Tile width in samples (one `u32` of mask per row).
+pub const MASK_TILE_W: u32 = 32;
+/// Tile height in samples.
+pub const MASK_TILE_H: u32 = 8;
+/// Tiles per block side.
+const BLOCK: u32 = 4;
+
+/// One tile's two layers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct MaskTile {
+    /// Bounds every sample of the tile (`INFINITY`: nothing known).
+    pub z0: f32,
+    /// Bounds the samples in `mask` (meaningless when only the samples past
+    /// the viewport's edge are in it).
+    pub z1: f32,
+    /// Row `j`, bit `i`: sample `(32·tx + i, 8·ty + j)` is in the working layer.
+    pub mask: [u32; 8],
+}
+
+/// The masked depth buffer; see the module docs.
+#[derive(Clone, Debug, Default)]
+pub struct MaskedZBuffer {
+    width: u32,
+    height: u32,
+    tiles_x: u32,
+    tiles_y: u32,
+    tiles: Vec<MaskTile>,
+    /// Per tile, the bits of samples past the viewport's edge (always "covered").
+    outside: Vec<[u32; 8]>,
+    /// Per block of 4×4 tiles, the farthest `z0` of its tiles (filled by [`MaskedZBuffer::build_blocks`]).
+    blocks: Vec<f32>,
+    blocks_x: u32,
+}
+
+/// Bits `lo..hi` of a 32-bit row (`lo`, `hi` clamped to `0..=32`).
+#[inline]
+pub(crate) fn row_bits(lo: i64, hi: i64) -> u32 {
+    let (lo, hi) = (lo.clamp(0, 32), hi.clamp(0, 32));
+    if hi <= lo {
+        0
+    } else {
+        ((1u64 << hi) - (1u64 << lo)) as u32
+    }
+}
+
+impl MaskedZBuffer {
+    /// Clears to "nothing covered" at `width` × `height` (each side 1..=16384).
+    ///
+    /// # Panics
+    /// If a side is 0 or above 16384.
+    pub fn clear(&mut self, width: u32, height: u32) {
+        assert!(
+            (1..=16384).contains(&width) && (1..=16384).contains(&height),
+            "viewport {width}x{height}"
+        );
+        if (width, height) != (self.width, self.height) {
+            self.width = width;
+            self.height = height;
+            self.tiles_x = width.div_ceil(MASK_TILE_W);
+            self.tiles_y = height.div_ceil(MASK_TILE_H);
+            self.outside = (0..self.tiles_y)
+                .flat_map(|ty| (0..self.tiles_x).map(move |tx| (tx, ty)))
+                .map(|(tx, ty)| {
+                    let inside_cols = row_bits(0, i64::from(width - tx * MASK_TILE_W));
+                    let rows = height - ty * MASK_TILE_H;
+                    std::array::from_fn(|j| if (j as u32) < rows { !inside_cols } else { u32::MAX })
+                })
+                .collect();
+            self.blocks_x = self.tiles_x.div_ceil(BLOCK);
+        }
+        self.tiles.clear();
+        self.tiles.extend(self.outside.iter().map(|&mask| MaskTile {
+            z0: f32::INFINITY,
+            z1: f32::NEG_INFINITY,
+            mask,
+        }));
+        self.blocks.clear();
+    }
+
+    /// Width in samples.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in samples.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Tiles across and down.
+    pub fn tiles(&self) -> (u32, u32) {
+        (self.tiles_x, self.tiles_y)
+    }
+
+    /// The bound the buffer holds for sample `(x, y)`: every occluder sample
+    /// drawn there lies at this depth or nearer (`INFINITY`: none known).
+    ///
+    /// # Panics
+    /// If `(x, y)` is outside the viewport.
+    pub fn bound(&self, x: u32, y: u32) -> f32 {
+        assert!(
+            x < self.width && y < self.height,
+            "sample {x},{y} outside {}x{}",
+            self.width,
+            self.height
+        );
+        let t = &self.tiles[((y / MASK_TILE_H) * self.tiles_x + x / MASK_TILE_W) as usize];
+        let bit = t.mask[(y % MASK_TILE_H) as usize] >> (x % MASK_TILE_W) & 1 == 1;
+        if bit {
+            t.z0.min(t.z1)
+        } else {
+            t.z0
+        }
+    }
+
+    /// One bit per sample with a finite bound (covered by something): bit
+    /// `x % 64` of word `y * ceil(width / 64) + x / 64`, as
+    /// [`crate::raster::CoverageBuffer`] lays its bits out.
+    pub fn coverage_bits(&self, bits: &mut Vec<u64>) {
+        let wpr = (self.width as usize).div_ceil(64);
+        bits.clear();
+        bits.resize(wpr * self.height as usize, 0);
+        for (k, t) in self.tiles.iter().enumerate() {
+            let (tx, ty) = (k as u32 % self.tiles_x, k as u32 / self.tiles_x);
+            for j in 0..MASK_TILE_H.min(self.height - ty * MASK_TILE_H) {
+                let inside = !self.outside[k][j as usize];
+                let row = if t.z0.is_finite() {
+                    inside
+                } else if t.z1.is_finite() {
+                    t.mask[j as usize] & inside
+                } else {
+                    0
+                };
+                let (x, y) = (tx * MASK_TILE_W, (ty * MASK_TILE_H + j) as usize);
+                // Tiles are 32 wide: a tile row never straddles two words.
+                bits[y * wpr + x as usize / 64] |= u64::from(row) << (x % 64);
+            }
+        }
+    }
+
+    /// The tiles and their bits past the viewport's edge, for the rasterizer's bands.
+    pub(crate) fn rows_mut(&mut self) -> (&mut [MaskTile], &[[u32; 8]], u32) {
+        self.blocks.clear();
+        (&mut self.tiles, &self.outside, self.tiles_x)
+    }
+
+    /// Builds the block maxima (after drawing, before testing).
+    pub fn build_blocks(&mut self) {
+        let blocks_y = self.tiles_y.div_ceil(BLOCK);
+        self.blocks.clear();
+        self.blocks
+            .resize((self.blocks_x * blocks_y) as usize, f32::NEG_INFINITY);
+        for ty in 0..self.tiles_y {
+            for tx in 0..self.tiles_x {
+                let b = &mut self.blocks[((ty / BLOCK) * self.blocks_x + tx / BLOCK) as usize];
+                *b = b.max(self.tiles[(ty * self.tiles_x + tx) as usize].z0);
+            }
+        }
+    }
+
+    /// True when every sample of `r` holds an occluder nearer than
+    /// `r.z_near` by more than [`DEPTH_MARGIN`] (see the module docs). An
+    /// empty rectangle is behind. `r` must lie within the viewport.
+    ///
+    /// # Panics
+    /// If the blocks were not built since the last draw ([`MaskedZBuffer::build_blocks`]).
+    pub fn is_behind(&self, r: &ScreenRect) -> bool {
+        if r.is_empty() {
+            return true;
+        }
+        assert!(!self.blocks.is_empty(), "MaskedZBuffer::build_blocks was not called");
+        let z = r.z_near;
+        // Most visible rectangles are visible at their centre.
+        let (cx, cy) = ((r.x0 + r.x1 - 1) / 2, (r.y0 + r.y1 - 1) / 2);
+        if z <= self.bound(cx, cy) + DEPTH_MARGIN {
+            return false;
+        }
+        let (tx0, ty0) = (r.x0 / MASK_TILE_W, r.y0 / MASK_TILE_H);
+        let (tx1, ty1) = ((r.x1 - 1) / MASK_TILE_W, (r.y1 - 1) / MASK_TILE_H);
+        for by in ty0 / BLOCK..=ty1 / BLOCK {
+            for bx in tx0 / BLOCK..=tx1 / BLOCK {
+                if z > self.blocks[(by * self.blocks_x + bx) as usize] + DEPTH_MARGIN {
+                    continue; // every sample of the block is bounded nearer
+                }
+                for ty in (by * BLOCK).max(ty0)..=((by + 1) * BLOCK - 1).min(ty1) {
+                    for tx in (bx * BLOCK).max(tx0)..=((bx + 1) * BLOCK - 1).min(tx1) {
+                        if !self.tile_behind(tx, ty, r) {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Whether the samples of `r` in tile `(tx, ty)` are all bounded nearer than `r.z_near`.
+    #[inline]
+    fn tile_behind(&self, tx: u32, ty: u32, r: &ScreenRect) -> bool {
+        let t = &self.tiles[(ty * self.tiles_x + tx) as usize];
+        let z = r.z_near;
+        if z > t.z0 + DEPTH_MARGIN {
+            return true;
+        }
+        if z.is_nan() || z <= t.z1 + DEPTH_MARGIN {
+            return false;
+        }
+        let (x0, y0) = (tx * MASK_TILE_W, ty * MASK_TILE_H);
+        let cols = row_bits(i64::from(r.x0) - i64::from(x0), i64::from(r.x1) - i64::from(x0));
+        let (j0, j1) = (r.y0.max(y0) - y0, r.y1.min(y0 + MASK_TILE_H) - y0);
+        (j0..j1).all(|j| cols & !t.mask[j as usize] == 0)
+    }
+}
+
+impl MaskTile {
+    /// Folds in a triangle covering `m` (within the viewport) with far depth
+    /// `zt` (see the module docs); `outside` is the tile's samples past the
+    /// viewport's edge. Returns false when the triangle told the tile nothing new.
+    #[inline]
+    pub(crate) fn insert(&mut self, m: &[u32; 8], zt: f32, outside: &[u32; 8]) -> bool {
+        if zt.is_nan() || zt >= self.z0 || m.iter().all(|&r| r == 0) {
+            return false;
+        }
+        let merged: [u32; 8] = std::array::from_fn(|j| self.mask[j] | m[j]);
+        let empty = self.mask == *outside;
+        if merged.iter().all(|&r| r == u32::MAX) {
+            // Every sample lies in the working layer or under the triangle.
+            let z = if empty { zt } else { self.z1.max(zt) };
+            self.z0 = self.z0.min(z);
+            self.mask = *outside;
+            self.z1 = f32::NEG_INFINITY;
+        } else if !empty && zt < self.z1 && self.z1 - zt > self.z0 - self.z1 {
+            // Much nearer than the working layer: start a new one.
+            self.mask = std::array::from_fn(|j| m[j] | outside[j]);
+            self.z1 = zt;
+        } else {
+            self.z1 = if empty { zt } else { self.z1.max(zt) };
+            self.mask = merged;
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hom_testkit::Rng;
+
+    #[test]
+    fn row_bits_are_the_range() {
+        for lo in -3..36i64 {
+            for hi in -3..36i64 {
+                let b = row_bits(lo, hi);
+                for i in 0..32 {
+                    assert_eq!(b >> i & 1 == 1, i >= lo && i < hi, "{lo}..{hi} bit {i}");
+                }
+            }
+        }
+    }
+
+    /// Random inserts of random masks and depths, in any order: every
+    /// sample's bound stays at or beyond its truth (the nearest depth of the
+    /// inserts covering it), and the rectangle test never calls a rectangle
+    /// behind where a sample's truth is not nearer.
+    #[test]
+    fn bounds_stay_conservative_whatever_the_order() {
+        let mut rng = Rng::new(5);
+        for case in 0..400 {
+            let (w, h) = (1 + rng.below(100) as u32, 1 + rng.below(30) as u32);
+            let mut zb = MaskedZBuffer::default();
+            zb.clear(w, h);
+            // The truth: per sample, the nearest depth of any triangle covering it.
+            let mut truth = vec![f32::INFINITY; (w * h) as usize];
+            for _ in 0..(1 + rng.below(40)) {
+                // A random rectangle of samples at a random depth, as a "triangle".
+                let (x0, x1) = (rng.below(u64::from(w)) as u32, rng.below(u64::from(w)) as u32);
+                let (y0, y1) = (rng.below(u64::from(h)) as u32, rng.below(u64::from(h)) as u32);
+                let (x0, x1, y0, y1) = (x0.min(x1), x0.max(x1) + 1, y0.min(y1), y0.max(y1) + 1);
+                let z = rng.unit();
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let t = &mut truth[(y * w + x) as usize];
+                        *t = t.min(z);
+                    }
+                }
+                let (tiles_x, _) = zb.tiles();
+                let (tiles, outside, _) = zb.rows_mut();
+                for ty in y0 / 8..=(y1 - 1) / 8 {
+                    for tx in x0 / 32..=(x1 - 1) / 32 {
+                        let m: [u32; 8] = std::array::from_fn(|j| {
+                            let y = ty * 8 + j as u32;
+                            if y >= y0 && y < y1 {
+                                row_bits(i64::from(x0) - i64::from(tx * 32), i64::from(x1) - i64::from(tx * 32))
+                            } else {
+                                0
+                            }
+                        });
+                        let k = (ty * tiles_x + tx) as usize;
+                        tiles[k].insert(&m, z, &outside[k]);
+                    }
+                }
+            }
+            zb.build_blocks();
+            for y in 0..h {
+                for x in 0..w {
+                    let t = truth[(y * w + x) as usize];
+                    assert!(
+                        zb.bound(x, y) >= t,
+                        "case {case}: sample {x},{y} bound {} nearer than {t}",
+                        zb.bound(x, y)
+                    );
+                }
+            }
+            // And the rectangle test agrees with the bounds, conservatively.
+            for _ in 0..50 {
+                let (x0, y0) = (rng.below(u64::from(w)) as u32, rng.below(u64::from(h)) as u32);
+                let r = ScreenRect {
+                    x0,
+                    y0,
+                    x1: (x0 + 1 + rng.below(40) as u32).min(w),
+                    y1: (y0 + 1 + rng.below(12) as u32).min(h),
+                    z_near: rng.unit() * 1.2,
+                    z_far: 1.0,
+                };
+                if zb.is_behind(&r) {
+                    for y in r.y0..r.y1 {
+                        for x in r.x0..r.x1 {
+                            assert!(
+                                r.z_near > truth[(y * w + x) as usize],
+                                "case {case}: {r:?} called behind at {x},{y}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
