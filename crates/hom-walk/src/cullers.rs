@@ -94,7 +94,7 @@ mod tests {
         assert_eq!(err.name, "magic");
         assert_eq!(
             err.to_string(),
-            "unknown culler 'magic'; available: none, frustum, hom, hzb, hv"
+            "unknown culler 'magic'; available: none, frustum, hom, hzb, masked, hv"
         );
     }
 }
