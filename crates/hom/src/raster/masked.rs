@@ -19,7 +19,7 @@
 //! Bands of tile rows are independent and each sees its triangles in order,
 //! so the result does not depend on the thread count.
 
-use super::setup::{Tri, HALF, ONE};
+use super::setup::{Tri, ONE};
 use crate::depth::masked::{row_bits, MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W};
 use rayon::prelude::*;
 
@@ -41,146 +41,149 @@ pub(crate) struct MaskedStats {
     pub blocks_rejected: u64,
 }
 
-/// One edge stepped row by row: the first or last covered column offset
-/// (from the box's `x0`) as `q + (r > 0)` (left) or `q` (right) of the
-/// exact quotient of the edge function, and its per-row step.
+/// A triangle's edges arranged for scan-line stepping, computed once per
+/// triangle. A sloped edge bounds a row's covered columns from the left
+/// (`a > 0`) or from the right (`a < 0`); the three `a` sum to zero, so
+/// there are at most two of each, and a missing one is a slope that never
+/// binds. A horizontal edge (`a = 0`) only limits the rows.
 #[derive(Clone, Copy, Debug)]
-enum Edge {
-    /// Covered where `k >= ceil(n / d)`; `n = q·d + r`, `0 <= r < d`.
-    Left { q: i64, r: i64, d: i64, sq: i64, sr: i64 },
-    /// Covered where `k <= floor(e / d)`; `e = q·d + r`.
-    Right { q: i64, r: i64, d: i64, sq: i64, sr: i64 },
-    /// Horizontal: the whole row or none, as `e >= 0`.
-    Flat { e: i64, step: i64 },
+struct ScanEdges {
+    /// The rows `rows.0..rows.1` (absolute) the horizontal edges allow; empty
+    /// when they allow none.
+    rows: (u32, u32),
+    /// Left bounds, then right bounds.
+    slopes: [Slope; 4],
 }
 
-impl Edge {
-    /// Edge `i` of `t` at row `py`, with its per-row step `(sq, sr)` from [`edge_steps`].
-    fn new(t: &Tri, i: usize, py: u32, (sq, sr): (i64, i64)) -> Edge {
-        let e = t.a[i] * (i64::from(t.x0) * ONE + HALF) + t.b[i] * (i64::from(py) * ONE + HALF) + t.c[i];
-        let (d, step) = (t.a[i] * ONE, t.b[i] * ONE);
-        match d.signum() {
-            // n = -e falls by step per row.
-            1 => Edge::Left {
-                q: (-e).div_euclid(d),
-                r: (-e).rem_euclid(d),
-                d,
-                sq,
-                sr,
-            },
-            -1 => Edge::Right {
-                q: e.div_euclid(-d),
-                r: e.rem_euclid(-d),
-                d: -d,
-                sq,
-                sr,
-            },
-            _ => Edge::Flat { e, step },
-        }
-    }
-
-    /// Narrows `lo..=hi` (column offsets) to this edge's covered part of the row.
-    #[inline]
-    fn clip(&self, lo: &mut i64, hi: &mut i64) {
-        match *self {
-            Edge::Left { q, r, .. } => *lo = (*lo).max(q + i64::from(r > 0)),
-            Edge::Right { q, .. } => *hi = (*hi).min(q),
-            Edge::Flat { e, .. } => {
-                if e < 0 {
-                    *hi = -1;
-                }
-            }
-        }
-    }
-
-    /// The next row.
-    #[inline]
-    fn step(&mut self) {
-        match self {
-            Edge::Left { q, r, d, sq, sr } | Edge::Right { q, r, d, sq, sr } => {
-                // Branch-free: whether the remainder carries is data, not pattern.
-                let carry = i64::from(*r + *sr >= *d);
-                *q += *sq + carry;
-                *r += *sr - carry * *d;
-            }
-            Edge::Flat { e, step } => *e += *step,
-        }
-    }
+/// A sloped edge's row-to-row step. A row's bound is the exact quotient of
+/// the edge function by `d`: the first covered column offset (from the
+/// box's `x0`) is `ceil(n / d)` for a left edge (`n = -e`), the last is
+/// `floor(e / d)` for a right edge; stepping a row adds `sq` to the quotient
+/// and `sr` to the remainder, with a carry.
+#[derive(Clone, Copy, Debug)]
+struct Slope {
+    /// The edge's index, or `NO_EDGE` for a bound that never binds.
+    edge: u8,
+    /// Divisor, `|a|·ONE`; 1 for a bound that never binds.
+    d: i64,
+    /// Per-row quotient step.
+    sq: i64,
+    /// Per-row remainder step, `0 <= sr < d`.
+    sr: i64,
 }
 
-/// Each edge's per-row step of `t` as quotient and remainder by its
-/// divisor: constant per triangle, so computed once, not per band.
-fn edge_steps(t: &Tri) -> [(i64, i64); 3] {
-    [0, 1, 2].map(|i| {
-        let (d, step) = (t.a[i] * ONE, t.b[i] * ONE);
-        match d.signum() {
-            1 => ((-step).div_euclid(d), (-step).rem_euclid(d)),
-            -1 => (step.div_euclid(-d), step.rem_euclid(-d)),
-            _ => (0, 0),
+/// `Slope::edge` of a bound that never binds.
+const NO_EDGE: u8 = 3;
+
+impl ScanEdges {
+    /// The scan-line form of `t`.
+    fn new(t: &Tri) -> ScanEdges {
+        let none = Slope { edge: NO_EDGE, d: 1, sq: 0, sr: 0 };
+        let mut slopes = [none; 4];
+        let (mut left, mut right) = (0, 2);
+        let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
+        for i in 0..3 {
+            let (d, step) = (t.a[i] * ONE, t.b[i] * ONE);
+            if d == 0 {
+                // Covered rows: e0 + k·step >= 0 at row y0 + k.
+                let e0 = t.edges_at_row(u32::from(t.y0))[i];
+                let (k_lo, k_hi) = match step.signum() {
+                    1 => ((-e0).div_euclid(step) + i64::from((-e0).rem_euclid(step) > 0), i64::MAX),
+                    -1 => (0, e0.div_euclid(-step) + 1),
+                    _ if e0 >= 0 => (0, i64::MAX),
+                    _ => (0, 0),
+                };
+                ya = ya.max(i64::from(t.y0).saturating_add(k_lo));
+                yb = yb.min(i64::from(t.y0).saturating_add(k_hi));
+            } else if (d > 0 && left == 2) || (d < 0 && right == 4) {
+                // Impossible for a triangle (the `a` sum to zero); dropping
+                // an occluder stays on the safe side.
+                yb = ya;
+            } else if d > 0 {
+                // n = -e falls by step per row.
+                slopes[left] = Slope { edge: i as u8, d, sq: (-step).div_euclid(d), sr: (-step).rem_euclid(d) };
+                left += 1;
+            } else {
+                slopes[right] = Slope { edge: i as u8, d: -d, sq: step.div_euclid(-d), sr: step.rem_euclid(-d) };
+                right += 1;
+            }
         }
-    })
+        let rows = if ya < yb { (ya as u32, yb as u32) } else { (0, 0) };
+        ScanEdges { rows, slopes }
+    }
 }
 
 /// The covered columns `lo..hi` (absolute) of rows `py0..py0 + spans.len()`
-/// of `t` (all within its box), into `spans`; an empty row is `(0, 0)`.
-/// `steps` is [`edge_steps`] of `t`.
-fn spans(t: &Tri, steps: &[(i64, i64); 3], py0: u32, spans: &mut [(u32, u32)]) {
-    let mut edges = [0, 1, 2].map(|i| Edge::new(t, i, py0, steps[i]));
+/// of `t` (all within its box and within `edges.rows`), into `spans`; an
+/// empty row is `(0, 0)`. `edges` is [`ScanEdges::new`] of `t`.
+fn spans(t: &Tri, edges: &ScanEdges, py0: u32, spans: &mut [(u32, u32)]) {
     let last = i64::from(t.x1 - t.x0) - 1;
     let x0 = u32::from(t.x0);
-    for s in spans.iter_mut() {
-        let (mut lo, mut hi) = (0i64, last);
-        for e in &mut edges {
-            e.clip(&mut lo, &mut hi);
-            e.step();
+    // Quotient and remainder of each bound at row py0; a bound that never
+    // binds sits at the box's edge.
+    let e = t.edges_at_row(py0);
+    let mut q = [0, 0, last, last];
+    let mut r = [0i64; 4];
+    for (k, s) in edges.slopes.iter().enumerate() {
+        if s.edge != NO_EDGE {
+            let n = if k < 2 { -e[usize::from(s.edge)] } else { e[usize::from(s.edge)] };
+            (q[k], r[k]) = (n.div_euclid(s.d), n.rem_euclid(s.d));
         }
-        *s = if lo <= hi {
+    }
+    let d = edges.slopes.map(|s| s.d);
+    let sq = edges.slopes.map(|s| s.sq);
+    let sr = edges.slopes.map(|s| s.sr);
+    for span in spans.iter_mut() {
+        let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
+        let hi = q[2].min(q[3]).min(last);
+        *span = if lo <= hi {
             (x0 + lo as u32, x0 + hi as u32 + 1)
         } else {
             (0, 0)
         };
+        for k in 0..4 {
+            // Branch-free: whether the remainder carries is data, not pattern.
+            let carry = i64::from(r[k] + sr[k] >= d[k]);
+            q[k] += sq[k] + carry;
+            r[k] += sr[k] - carry * d[k];
+        }
     }
 }
 
 /// Draws set-up triangles into a [`MaskedZBuffer`]; keeps its scratch between frames.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct MaskedRasterizer {
-    /// Per band, the indices of the triangles overlapping it, in order.
-    bins: Vec<Vec<u32>>,
-    /// Per triangle, [`edge_steps`].
-    steps: Vec<[(i64, i64); 3]>,
+    /// Per triangle, its rows `y0..y1`: what a group of bands reads to skip
+    /// the triangles outside it.
+    rows: Vec<(u16, u16)>,
 }
 
 impl MaskedRasterizer {
     /// Draws `tris` (set up for `zb`'s viewport) into `zb`, which keeps what
     /// it holds, and builds its blocks. Uses the current rayon pool; the
     /// result does not depend on its size.
+    ///
+    /// Work is split into groups of bands of tile rows; each group walks the
+    /// whole triangle list in order (streaming it, where a bin of indices per
+    /// band would jump through memory) and draws what overlaps its bands.
     pub fn render(&mut self, tris: &[Tri], zb: &mut MaskedZBuffer) -> MaskedStats {
         let (tiles_x, tiles_y) = zb.tiles();
-        let bands = tiles_y.div_ceil(BAND_TILES) as usize;
-        self.bins.resize_with(bands, Vec::new);
-        self.bins.truncate(bands);
-        for bin in &mut self.bins {
-            bin.clear();
-        }
-        let band_px = BAND_TILES * MASK_TILE_H;
-        for (i, t) in tris.iter().enumerate() {
-            for band in u32::from(t.y0) / band_px..=(u32::from(t.y1) - 1) / band_px {
-                self.bins[band as usize].push(i as u32);
-            }
-        }
-        tris.par_iter().map(edge_steps).collect_into_vec(&mut self.steps);
-        let steps = &self.steps;
+        let bands = tiles_y.div_ceil(BAND_TILES);
+        // A few groups per thread, so stealing evens out unequal bands.
+        let groups = (rayon::current_num_threads() as u32 * 3).clamp(1, bands);
+        let group_bands = bands.div_ceil(groups);
+        self.rows.clear();
+        self.rows.extend(tris.iter().map(|t| (t.y0, t.y1)));
+        let rows = &self.rows;
         let (tiles, outside, _) = zb.rows_mut();
-        let band_tiles = (tiles_x * BAND_TILES) as usize;
+        let group_tiles = (tiles_x * BAND_TILES * group_bands) as usize;
         let stats = tiles
-            .par_chunks_mut(band_tiles)
-            .zip(outside.par_chunks(band_tiles))
-            .zip(self.bins.par_iter())
+            .par_chunks_mut(group_tiles)
+            .zip(outside.par_chunks(group_tiles))
             .enumerate()
-            .map(|(band, ((tiles, outside), bin))| {
-                let ty0 = band as u32 * BAND_TILES;
-                draw_band(tris, steps, bin, ty0, tiles_x, tiles, outside)
+            .map(|(g, (tiles, outside))| {
+                let ty0 = g as u32 * group_bands * BAND_TILES;
+                draw_group(tris, rows, ty0, tiles_x, tiles, outside)
             })
             .reduce(MaskedStats::default, |a, b| MaskedStats {
                 tiles_drawn: a.tiles_drawn + b.tiles_drawn,
@@ -192,46 +195,93 @@ impl MaskedRasterizer {
     }
 }
 
-/// The triangles `bin` of `tris` (with their [`edge_steps`]) into one band
-/// of tile rows from `ty0`.
-fn draw_band(
+/// The triangles of `tris` (with their `rows`) that overlap the tile rows
+/// from `ty0` held in `tiles`, in order, band by band.
+fn draw_group(
     tris: &[Tri],
-    steps: &[[(i64, i64); 3]],
-    bin: &[u32],
+    rows: &[(u16, u16)],
     ty0: u32,
     tiles_x: u32,
     tiles: &mut [MaskTile],
     outside: &[[u32; 8]],
 ) -> MaskedStats {
+    let band_tiles = (tiles_x * BAND_TILES) as usize;
+    let mut bands: Vec<Band> = tiles
+        .chunks_mut(band_tiles)
+        .zip(outside.chunks(band_tiles))
+        .enumerate()
+        .map(|(b, (tiles, outside))| Band::new(ty0 + b as u32 * BAND_TILES, tiles_x, tiles, outside))
+        .collect();
+    let band_px = i64::from(BAND_TILES * MASK_TILE_H);
+    let y0 = i64::from(ty0 * MASK_TILE_H);
+    let n = bands.len() as i64;
     let mut stats = MaskedStats::default();
-    let rows = tiles.len() as u32 / tiles_x;
-    let (band_y0, band_y1) = (ty0 * MASK_TILE_H, (ty0 + rows) * MASK_TILE_H);
-    // Per block of tiles across the band, the farthest reference depth.
-    let blocks_x = tiles_x.div_ceil(BLOCK_TILES);
-    let block_max = |tiles: &[MaskTile], b: u32| {
-        let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(tiles_x));
+    for (t, &(ya, yb)) in tris.iter().zip(rows) {
+        let (a, b) = ((i64::from(ya) - y0).div_euclid(band_px), (i64::from(yb) - 1 - y0).div_euclid(band_px));
+        if b < 0 || a >= n {
+            continue;
+        }
+        let edges = ScanEdges::new(t);
+        for band in &mut bands[a.max(0) as usize..=b.min(n - 1) as usize] {
+            band.draw(t, &edges, &mut stats);
+        }
+    }
+    stats
+}
+
+/// One band of tile rows being drawn: its tiles and, per block of tiles
+/// across it, the farthest reference depth.
+struct Band<'a> {
+    /// First tile row.
+    ty0: u32,
+    /// Tiles across.
+    tiles_x: u32,
+    /// The band's tiles, row-major.
+    tiles: &'a mut [MaskTile],
+    /// Per tile, the bits of samples outside the viewport.
+    outside: &'a [[u32; 8]],
+    /// Per block, the farthest `z0` of its tiles.
+    blocks: Vec<f32>,
+}
+
+impl<'a> Band<'a> {
+    fn new(ty0: u32, tiles_x: u32, tiles: &'a mut [MaskTile], outside: &'a [[u32; 8]]) -> Band<'a> {
+        let mut band = Band { ty0, tiles_x, tiles, outside, blocks: Vec::new() };
+        band.blocks = (0..tiles_x.div_ceil(BLOCK_TILES)).map(|b| band.block_max(b)).collect();
+        band
+    }
+
+    /// The farthest reference depth of block `b`'s tiles.
+    fn block_max(&self, b: u32) -> f32 {
+        let rows = self.tiles.len() as u32 / self.tiles_x;
+        let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(self.tiles_x));
         (0..rows)
-            .flat_map(|ty| (x0..x1).map(move |tx| (ty * tiles_x + tx) as usize))
-            .fold(f32::NEG_INFINITY, |m, k| m.max(tiles[k].z0))
-    };
-    let mut blocks: Vec<f32> = (0..blocks_x).map(|b| block_max(tiles, b)).collect();
-    // The spans of the band's rows, (0, 0) outside the triangle's.
-    let mut span = [(0u32, 0u32); (BAND_TILES * MASK_TILE_H) as usize];
-    for &i in bin {
-        let t = &tris[i as usize];
-        let (ya, yb) = (u32::from(t.y0).max(band_y0), u32::from(t.y1).min(band_y1));
+            .flat_map(|ty| (x0..x1).map(move |tx| (ty * self.tiles_x + tx) as usize))
+            .fold(f32::NEG_INFINITY, |m, k| m.max(self.tiles[k].z0))
+    }
+
+    /// Draws `t` (with its [`ScanEdges`]) into the band.
+    fn draw(&mut self, t: &Tri, edges: &ScanEdges, stats: &mut MaskedStats) {
+        let tiles_x = self.tiles_x;
+        let rows = self.tiles.len() as u32 / tiles_x;
+        let (band_y0, band_y1) = (self.ty0 * MASK_TILE_H, (self.ty0 + rows) * MASK_TILE_H);
+        let (ya, yb) = (edges.rows.0.max(band_y0), edges.rows.1.min(band_y1));
+        if ya >= yb {
+            return;
+        }
         // Nothing to do where the triangle lies behind every tile's reference depth.
         let (xa, xb) = (u32::from(t.x0), u32::from(t.x1) - 1);
         let nearest = t.depth_bounds(xa, xb, ya, yb - 1).0;
         let (ba, bb) = (xa / MASK_TILE_W / BLOCK_TILES, xb / MASK_TILE_W / BLOCK_TILES);
-        if (ba..=bb).all(|b| nearest >= blocks[b as usize]) {
+        if (ba..=bb).all(|b| nearest >= self.blocks[b as usize]) {
             stats.blocks_rejected += 1;
-            continue;
+            return;
         }
-        span.fill((0, 0));
+        // The spans of the band's rows, (0, 0) outside the triangle's.
+        let mut span = [(0u32, 0u32); (BAND_TILES * MASK_TILE_H) as usize];
         spans(
             t,
-            &steps[i as usize],
+            edges,
             ya,
             &mut span[(ya - band_y0) as usize..(yb - band_y0) as usize],
         );
@@ -253,7 +303,7 @@ fn draw_band(
                 // The covered part of this tile lies in these columns and rows.
                 let (ca, cb) = (lo.max(x_tile0), hi.min(x_tile0 + MASK_TILE_W) - 1);
                 let zt = t.depth_bounds(ca, cb, ra, rb).1;
-                if zt.is_nan() || zt >= tiles[k].z0 {
+                if zt.is_nan() || zt >= self.tiles[k].z0 {
                     stats.tiles_rejected += 1;
                     continue;
                 }
@@ -261,20 +311,19 @@ fn draw_band(
                     let (a, b) = rows[j];
                     row_bits(i64::from(a) - i64::from(x_tile0), i64::from(b) - i64::from(x_tile0))
                 });
-                let z0 = tiles[k].z0;
-                if !tiles[k].insert(&m, zt, &outside[k]) {
+                let z0 = self.tiles[k].z0;
+                if !self.tiles[k].insert(&m, zt, &self.outside[k]) {
                     stats.tiles_rejected += 1;
-                } else if tiles[k].z0 < z0 {
+                } else if self.tiles[k].z0 < z0 {
                     // A reference depth only falls: the block's falls if this tile held it.
                     let b = (tx / BLOCK_TILES) as usize;
-                    if z0 == blocks[b] {
-                        blocks[b] = block_max(tiles, b as u32);
+                    if z0 == self.blocks[b] {
+                        self.blocks[b] = self.block_max(b as u32);
                     }
                 }
             }
         }
     }
-    stats
 }
 
 #[cfg(test)]
@@ -317,11 +366,17 @@ mod tests {
         #[test]
         fn spans_are_the_exact_row_spans(seed in any::<u64>(), w in 1u32..300, h in 1u32..200, inner in any::<bool>()) {
             for t in soup(seed, 40, w, h, inner) {
-                let n = usize::from(t.y1 - t.y0);
-                let mut s = vec![(0, 0); n];
-                spans(&t, &edge_steps(&t), u32::from(t.y0), &mut s);
+                let edges = ScanEdges::new(&t);
+                let (ya, yb) = edges.rows;
+                for py in u32::from(t.y0)..u32::from(t.y1) {
+                    if !(ya..yb).contains(&py) {
+                        prop_assert_eq!(t.row_span(py), None, "row {} of {:?} outside {:?}", py, t, edges.rows);
+                    }
+                }
+                let mut s = vec![(0, 0); (yb - ya) as usize];
+                spans(&t, &edges, ya, &mut s);
                 for (k, got) in s.iter().enumerate() {
-                    let py = u32::from(t.y0) + k as u32;
+                    let py = ya + k as u32;
                     let want = t.row_span(py).unwrap_or((0, 0));
                     prop_assert_eq!(*got, want, "row {} of {:?}", py, t);
                 }
