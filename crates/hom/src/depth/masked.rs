@@ -11,7 +11,9 @@
 //! (its plane's farthest value over the covered part of the tile):
 //! - `zt >= z0`: it tells nothing new; skipped (this is also the rejection
 //!   of occluders hidden by nearer ones).
-//! - if the working layer and `m` together cover the tile, every sample is
+//! - if `m` alone covers the tile, every sample is bounded by `zt`: that
+//!   becomes `z0`, and the working layer stays only if it is still nearer;
+//! - else if the working layer and `m` together cover the tile, every sample is
 //!   bounded by `max(z1, zt)`: that becomes `z0` (if nearer) and the working
 //!   layer empties;
 //! - else, when the new triangle is much nearer than the working layer
@@ -257,6 +259,9 @@ impl MaskTile {
         if zt.is_nan() || zt >= self.z0 || m.iter().all(|&r| r == 0) {
             return false;
         }
+        if m.iter().zip(outside).all(|(&r, &o)| r | o == u32::MAX) {
+            return self.insert_full(zt, outside);
+        }
         let merged: [u32; 8] = std::array::from_fn(|j| self.mask[j] | m[j]);
         let empty = self.mask == *outside;
         if merged.iter().all(|&r| r == u32::MAX) {
@@ -272,6 +277,23 @@ impl MaskTile {
         } else {
             self.z1 = if empty { zt } else { self.z1.max(zt) };
             self.mask = merged;
+        }
+        true
+    }
+
+    /// [`MaskTile::insert`] of a triangle that covers the whole tile (within
+    /// the viewport): every sample lies at `zt` or nearer, whatever the
+    /// layers held, so `zt` becomes the reference depth; the working layer
+    /// stays where it is still nearer.
+    #[inline]
+    pub(crate) fn insert_full(&mut self, zt: f32, outside: &[u32; 8]) -> bool {
+        if zt.is_nan() || zt >= self.z0 {
+            return false;
+        }
+        self.z0 = zt;
+        if self.z1 >= zt {
+            self.mask = *outside;
+            self.z1 = f32::NEG_INFINITY;
         }
         true
     }

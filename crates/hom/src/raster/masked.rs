@@ -240,15 +240,18 @@ struct Band<'a> {
     tiles: &'a mut [MaskTile],
     /// Per tile, the bits of samples outside the viewport.
     outside: &'a [[u32; 8]],
-    /// Per block, the farthest `z0` of its tiles.
+    /// Per block, the farthest `z0` of its tiles, or at least it (a block
+    /// whose farthest tile fell is only marked `stale`).
     blocks: Vec<f32>,
+    /// Per block, whether `blocks` is to be recomputed before it is used:
+    /// once per triangle at most, not once per tile that falls.
+    stale: Vec<bool>,
 }
 
 impl<'a> Band<'a> {
     fn new(ty0: u32, tiles_x: u32, tiles: &'a mut [MaskTile], outside: &'a [[u32; 8]]) -> Band<'a> {
-        let mut band = Band { ty0, tiles_x, tiles, outside, blocks: Vec::new() };
-        band.blocks = (0..tiles_x.div_ceil(BLOCK_TILES)).map(|b| band.block_max(b)).collect();
-        band
+        let n = tiles_x.div_ceil(BLOCK_TILES) as usize;
+        Band { ty0, tiles_x, tiles, outside, blocks: vec![f32::INFINITY; n], stale: vec![true; n] }
     }
 
     /// The farthest reference depth of block `b`'s tiles.
@@ -273,6 +276,12 @@ impl<'a> Band<'a> {
         let (xa, xb) = (u32::from(t.x0), u32::from(t.x1) - 1);
         let nearest = t.depth_bounds(xa, xb, ya, yb - 1).0;
         let (ba, bb) = (xa / MASK_TILE_W / BLOCK_TILES, xb / MASK_TILE_W / BLOCK_TILES);
+        for b in ba..=bb {
+            if self.stale[b as usize] {
+                self.blocks[b as usize] = self.block_max(b);
+                self.stale[b as usize] = false;
+            }
+        }
         if (ba..=bb).all(|b| nearest >= self.blocks[b as usize]) {
             stats.blocks_rejected += 1;
             return;
@@ -294,6 +303,9 @@ impl<'a> Band<'a> {
             if lo >= hi {
                 continue;
             }
+            // Columns every row of the tile row covers: the tiles wholly
+            // inside take the fast path (no masks to build).
+            let (full_lo, full_hi) = rows.iter().fold((0, u32::MAX), |(a, b), s| (a.max(s.0), b.min(s.1)));
             let y_tile0 = band_y0 + ty * MASK_TILE_H;
             let (ra, rb) = (ya.max(y_tile0), yb.min(y_tile0 + MASK_TILE_H) - 1);
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
@@ -307,18 +319,23 @@ impl<'a> Band<'a> {
                     stats.tiles_rejected += 1;
                     continue;
                 }
-                let m: [u32; 8] = std::array::from_fn(|j| {
-                    let (a, b) = rows[j];
-                    row_bits(i64::from(a) - i64::from(x_tile0), i64::from(b) - i64::from(x_tile0))
-                });
                 let z0 = self.tiles[k].z0;
-                if !self.tiles[k].insert(&m, zt, &self.outside[k]) {
+                let told = if full_lo <= x_tile0 && x_tile0 + MASK_TILE_W <= full_hi {
+                    self.tiles[k].insert_full(zt, &self.outside[k])
+                } else {
+                    let m: [u32; 8] = std::array::from_fn(|j| {
+                        let (a, b) = rows[j];
+                        row_bits(i64::from(a) - i64::from(x_tile0), i64::from(b) - i64::from(x_tile0))
+                    });
+                    self.tiles[k].insert(&m, zt, &self.outside[k])
+                };
+                if !told {
                     stats.tiles_rejected += 1;
                 } else if self.tiles[k].z0 < z0 {
                     // A reference depth only falls: the block's falls if this tile held it.
                     let b = (tx / BLOCK_TILES) as usize;
                     if z0 == self.blocks[b] {
-                        self.blocks[b] = self.block_max(b as u32);
+                        self.stale[b] = true;
                     }
                 }
             }
