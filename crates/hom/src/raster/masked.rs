@@ -101,10 +101,12 @@ impl ScanEdges {
                 yb = ya;
             } else if d > 0 {
                 // n = -e falls by step per row.
-                slopes[left] = Slope { edge: i as u8, d, sq: (-step).div_euclid(d), sr: (-step).rem_euclid(d) };
+                let (sq, sr) = div_rem(-step, d);
+                slopes[left] = Slope { edge: i as u8, d, sq, sr };
                 left += 1;
             } else {
-                slopes[right] = Slope { edge: i as u8, d: -d, sq: step.div_euclid(-d), sr: step.rem_euclid(-d) };
+                let (sq, sr) = div_rem(step, -d);
+                slopes[right] = Slope { edge: i as u8, d: -d, sq, sr };
                 right += 1;
             }
         }
@@ -113,39 +115,87 @@ impl ScanEdges {
     }
 }
 
-/// The covered columns `lo..hi` (absolute) of rows `py0..py0 + spans.len()`
-/// of `t` (all within its box and within `edges.rows`), into `spans`; an
-/// empty row is `(0, 0)`. `edges` is [`ScanEdges::new`] of `t`.
-fn spans(t: &Tri, edges: &ScanEdges, py0: u32, spans: &mut [(u32, u32)]) {
-    let last = i64::from(t.x1 - t.x0) - 1;
-    let x0 = u32::from(t.x0);
-    // Quotient and remainder of each bound at row py0; a bound that never
-    // binds sits at the box's edge.
-    let e = t.edges_at_row(py0);
-    let mut q = [0, 0, last, last];
-    let mut r = [0i64; 4];
-    for (k, s) in edges.slopes.iter().enumerate() {
-        if s.edge != NO_EDGE {
-            let n = if k < 2 { -e[usize::from(s.edge)] } else { e[usize::from(s.edge)] };
-            (q[k], r[k]) = (n.div_euclid(s.d), n.rem_euclid(s.d));
+/// `(n.div_euclid(d), n.rem_euclid(d))` for `d > 0`, one division. (An
+/// `f64` estimate with integer correction measured slower: its correction
+/// branches mispredict.)
+#[inline]
+fn div_rem(n: i64, d: i64) -> (i64, i64) {
+    (n.div_euclid(d), n.rem_euclid(d))
+}
+
+/// A triangle's row bounds stepped down its rows: the covered columns of
+/// each row, exactly, from the row before (a quotient and a remainder per
+/// bound, no division after the first row).
+#[derive(Clone, Copy, Debug)]
+struct Stepper {
+    /// Per bound (two left, two right), the quotient.
+    q: [i64; 4],
+    /// Per bound, the remainder, `0 <= r < d`.
+    r: [i64; 4],
+    /// Per bound, the divisor.
+    d: [i64; 4],
+    /// Per bound, the per-row steps of `q` and `r`.
+    sq: [i64; 4],
+    /// See `sq`.
+    sr: [i64; 4],
+    /// The box's first column.
+    x0: u32,
+    /// The last column offset in the box.
+    last: i64,
+}
+
+impl Stepper {
+    /// `t`'s bounds (with its [`ScanEdges`]) at row `py` (within the box); a
+    /// bound that never binds sits at the box's edge.
+    fn new(t: &Tri, edges: &ScanEdges, py: u32) -> Stepper {
+        let last = i64::from(t.x1 - t.x0) - 1;
+        let e = t.edges_at_row(py);
+        let mut q = [0, 0, last, last];
+        let mut r = [0i64; 4];
+        for (k, s) in edges.slopes.iter().enumerate() {
+            if s.edge != NO_EDGE {
+                let n = if k < 2 { -e[usize::from(s.edge)] } else { e[usize::from(s.edge)] };
+                (q[k], r[k]) = div_rem(n, s.d);
+            }
+        }
+        Stepper {
+            q,
+            r,
+            d: edges.slopes.map(|s| s.d),
+            sq: edges.slopes.map(|s| s.sq),
+            sr: edges.slopes.map(|s| s.sr),
+            x0: u32::from(t.x0),
+            last,
         }
     }
-    let d = edges.slopes.map(|s| s.d);
-    let sq = edges.slopes.map(|s| s.sq);
-    let sr = edges.slopes.map(|s| s.sr);
-    for span in spans.iter_mut() {
-        let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
-        let hi = q[2].min(q[3]).min(last);
-        *span = if lo <= hi {
-            (x0 + lo as u32, x0 + hi as u32 + 1)
-        } else {
-            (0, 0)
-        };
+
+    /// The covered columns `lo..hi` (absolute) of the next `spans.len()`
+    /// rows, into `spans`; an empty row is `(0, 0)`.
+    fn rows(&mut self, spans: &mut [(u32, u32)]) {
+        let Stepper { q, r, d, sq, sr, x0, last } = self;
+        for span in spans.iter_mut() {
+            let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
+            let hi = q[2].min(q[3]).min(*last);
+            *span = if lo <= hi {
+                (*x0 + lo as u32, *x0 + hi as u32 + 1)
+            } else {
+                (0, 0)
+            };
+            for k in 0..4 {
+                // Branch-free: whether the remainder carries is data, not pattern.
+                let carry = i64::from(r[k] + sr[k] >= d[k]);
+                q[k] += sq[k] + carry;
+                r[k] += sr[k] - carry * d[k];
+            }
+        }
+    }
+
+    /// Steps over `n` rows (at most a band's) without their spans.
+    fn skip(&mut self, n: u32) {
         for k in 0..4 {
-            // Branch-free: whether the remainder carries is data, not pattern.
-            let carry = i64::from(r[k] + sr[k] >= d[k]);
-            q[k] += sq[k] + carry;
-            r[k] += sr[k] - carry * d[k];
+            let (c, r) = div_rem(self.r[k] + i64::from(n) * self.sr[k], self.d[k]);
+            self.q[k] += i64::from(n) * self.sq[k] + c;
+            self.r[k] = r;
         }
     }
 }
@@ -222,8 +272,14 @@ fn draw_group(
             continue;
         }
         let edges = ScanEdges::new(t);
+        let (ya, yb) = (edges.rows.0.max(y0 as u32), edges.rows.1);
+        if ya >= yb {
+            continue;
+        }
+        // One stepper down the triangle's rows through the group's bands.
+        let mut stepper = Stepper::new(t, &edges, ya);
         for band in &mut bands[a.max(0) as usize..=b.min(n - 1) as usize] {
-            band.draw(t, &edges, &mut stats);
+            band.draw(t, (ya, yb), &mut stepper, &mut stats);
         }
     }
     stats
@@ -263,12 +319,13 @@ impl<'a> Band<'a> {
             .fold(f32::NEG_INFINITY, |m, k| m.max(self.tiles[k].z0))
     }
 
-    /// Draws `t` (with its [`ScanEdges`]) into the band.
-    fn draw(&mut self, t: &Tri, edges: &ScanEdges, stats: &mut MaskedStats) {
+    /// Draws the rows of `t` in `rows` (its covered rows from the
+    /// stepper's) that lie in the band, and steps `stepper` past them.
+    fn draw(&mut self, t: &Tri, rows: (u32, u32), stepper: &mut Stepper, stats: &mut MaskedStats) {
         let tiles_x = self.tiles_x;
-        let rows = self.tiles.len() as u32 / tiles_x;
-        let (band_y0, band_y1) = (self.ty0 * MASK_TILE_H, (self.ty0 + rows) * MASK_TILE_H);
-        let (ya, yb) = (edges.rows.0.max(band_y0), edges.rows.1.min(band_y1));
+        let band_rows = self.tiles.len() as u32 / tiles_x;
+        let (band_y0, band_y1) = (self.ty0 * MASK_TILE_H, (self.ty0 + band_rows) * MASK_TILE_H);
+        let (ya, yb) = (rows.0.max(band_y0), rows.1.min(band_y1));
         if ya >= yb {
             return;
         }
@@ -284,16 +341,12 @@ impl<'a> Band<'a> {
         }
         if (ba..=bb).all(|b| nearest >= self.blocks[b as usize]) {
             stats.blocks_rejected += 1;
+            stepper.skip(yb - ya);
             return;
         }
         // The spans of the band's rows, (0, 0) outside the triangle's.
         let mut span = [(0u32, 0u32); (BAND_TILES * MASK_TILE_H) as usize];
-        spans(
-            t,
-            edges,
-            ya,
-            &mut span[(ya - band_y0) as usize..(yb - band_y0) as usize],
-        );
+        stepper.rows(&mut span[(ya - band_y0) as usize..(yb - band_y0) as usize]);
         for ty in (ya - band_y0) / MASK_TILE_H..=(yb - 1 - band_y0) / MASK_TILE_H {
             let rows = &span[(ty * MASK_TILE_H) as usize..][..MASK_TILE_H as usize];
             let (lo, hi) = rows
@@ -391,7 +444,23 @@ mod tests {
                     }
                 }
                 let mut s = vec![(0, 0); (yb - ya) as usize];
-                spans(&t, &edges, ya, &mut s);
+                if ya < yb {
+                    // In pieces, some skipped, as bands do.
+                    let mut stepper = Stepper::new(&t, &edges, ya);
+                    let mut k = 0;
+                    while k < s.len() {
+                        let n = (1 + (seed >> (k % 60)) as usize % 13).min(s.len() - k);
+                        if (seed >> (k % 50)) & 3 == 0 {
+                            stepper.skip(n as u32);
+                            for (j, got) in s[k..k + n].iter_mut().enumerate() {
+                                *got = t.row_span(ya + (k + j) as u32).unwrap_or((0, 0));
+                            }
+                        } else {
+                            stepper.rows(&mut s[k..k + n]);
+                        }
+                        k += n;
+                    }
+                }
                 for (k, got) in s.iter().enumerate() {
                     let py = ya + k as u32;
                     let want = t.row_span(py).unwrap_or((0, 0));
