@@ -20,7 +20,7 @@
 //! so the result does not depend on the thread count.
 
 use super::setup::{Tri, ONE};
-use crate::depth::masked::{row_bits, MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W};
+use crate::depth::masked::{row_bits, MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W, SUB_H, SUB_W};
 use rayon::prelude::*;
 
 /// Tile rows per band (each band is filled by one thread).
@@ -142,6 +142,8 @@ struct Stepper {
     x0: u32,
     /// The last column offset in the box.
     last: i64,
+    /// The row the bounds are at.
+    py: u32,
 }
 
 impl Stepper {
@@ -166,13 +168,15 @@ impl Stepper {
             sr: edges.slopes.map(|s| s.sr),
             x0: u32::from(t.x0),
             last,
+            py,
         }
     }
 
     /// The covered columns `lo..hi` (absolute) of the next `spans.len()`
     /// rows, into `spans`; an empty row is `(0, 0)`.
     fn rows(&mut self, spans: &mut [(u32, u32)]) {
-        let Stepper { q, r, d, sq, sr, x0, last } = self;
+        self.py += spans.len() as u32;
+        let Stepper { q, r, d, sq, sr, x0, last, .. } = self;
         for span in spans.iter_mut() {
             let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
             let hi = q[2].min(q[3]).min(*last);
@@ -190,14 +194,6 @@ impl Stepper {
         }
     }
 
-    /// Steps over `n` rows (at most a band's) without their spans.
-    fn skip(&mut self, n: u32) {
-        for k in 0..4 {
-            let (c, r) = div_rem(self.r[k] + i64::from(n) * self.sr[k], self.d[k]);
-            self.q[k] += i64::from(n) * self.sq[k] + c;
-            self.r[k] = r;
-        }
-    }
 }
 
 /// Draws set-up triangles into a [`MaskedZBuffer`]; keeps its scratch between frames.
@@ -271,15 +267,11 @@ fn draw_group(
         if b < 0 || a >= n {
             continue;
         }
-        let edges = ScanEdges::new(t);
-        let (ya, yb) = (edges.rows.0.max(y0 as u32), edges.rows.1);
-        if ya >= yb {
-            continue;
-        }
-        // One stepper down the triangle's rows through the group's bands.
-        let mut stepper = Stepper::new(t, &edges, ya);
+        // The scan-line form and one stepper down the triangle's rows through
+        // the group's bands, made at the first band that is not skipped.
+        let mut scan = None;
         for band in &mut bands[a.max(0) as usize..=b.min(n - 1) as usize] {
-            band.draw(t, (ya, yb), &mut stepper, &mut stats);
+            band.draw(t, &mut scan, &mut stats);
         }
     }
     stats
@@ -316,16 +308,17 @@ impl<'a> Band<'a> {
         let (x0, x1) = (b * BLOCK_TILES, ((b + 1) * BLOCK_TILES).min(self.tiles_x));
         (0..rows)
             .flat_map(|ty| (x0..x1).map(move |tx| (ty * self.tiles_x + tx) as usize))
-            .fold(f32::NEG_INFINITY, |m, k| m.max(self.tiles[k].z0))
+            .fold(f32::NEG_INFINITY, |m, k| m.max(self.tiles[k].far()))
     }
 
-    /// Draws the rows of `t` in `rows` (its covered rows from the
-    /// stepper's) that lie in the band, and steps `stepper` past them.
-    fn draw(&mut self, t: &Tri, rows: (u32, u32), stepper: &mut Stepper, stats: &mut MaskedStats) {
+    /// Draws the part of `t` in the band. `scan` is its [`ScanEdges`] and
+    /// stepper, made here when first needed (a triangle hidden in every band
+    /// it reaches needs neither: no division).
+    fn draw(&mut self, t: &Tri, scan: &mut Option<(ScanEdges, Stepper)>, stats: &mut MaskedStats) {
         let tiles_x = self.tiles_x;
         let band_rows = self.tiles.len() as u32 / tiles_x;
         let (band_y0, band_y1) = (self.ty0 * MASK_TILE_H, (self.ty0 + band_rows) * MASK_TILE_H);
-        let (ya, yb) = (rows.0.max(band_y0), rows.1.min(band_y1));
+        let (ya, yb) = (u32::from(t.y0).max(band_y0), u32::from(t.y1).min(band_y1));
         if ya >= yb {
             return;
         }
@@ -341,8 +334,20 @@ impl<'a> Band<'a> {
         }
         if (ba..=bb).all(|b| nearest >= self.blocks[b as usize]) {
             stats.blocks_rejected += 1;
-            stepper.skip(yb - ya);
             return;
+        }
+        let (edges, stepper) = scan.get_or_insert_with(|| {
+            let edges = ScanEdges::new(t);
+            let first = edges.rows.0.clamp(ya, u32::from(t.y1) - 1);
+            (edges, Stepper::new(t, &edges, first))
+        });
+        let (ya, yb) = (ya.max(edges.rows.0), yb.min(edges.rows.1));
+        if ya >= yb {
+            return;
+        }
+        if stepper.py != ya {
+            // The bands between were skipped (or this is the first).
+            *stepper = Stepper::new(t, edges, ya);
         }
         // The spans of the band's rows, (0, 0) outside the triangle's.
         let mut span = [(0u32, 0u32); (BAND_TILES * MASK_TILE_H) as usize];
@@ -367,27 +372,38 @@ impl<'a> Band<'a> {
                 stats.tiles_drawn += 1;
                 // The covered part of this tile lies in these columns and rows.
                 let (ca, cb) = (lo.max(x_tile0), hi.min(x_tile0 + MASK_TILE_W) - 1);
-                let zt = t.depth_bounds(ca, cb, ra, rb).1;
-                if zt.is_nan() || zt >= self.tiles[k].z0 {
+                // Per subtile, its part of that (an empty part: any cell, unused).
+                let part = |a: u32, b: u32, lo: u32, hi: u32| if a.max(lo) <= b.min(hi) { (a.max(lo), b.min(hi)) } else { (a, a) };
+                let cols: [(u32, u32); 4] = std::array::from_fn(|sx| {
+                    let c0 = x_tile0 + sx as u32 * SUB_W;
+                    part(ca, cb, c0, c0 + SUB_W - 1)
+                });
+                let subrows: [(u32, u32); 2] = std::array::from_fn(|sy| {
+                    let r0 = y_tile0 + sy as u32 * SUB_H;
+                    part(ra, rb, r0, r0 + SUB_H - 1)
+                });
+                let zt = t.far_depth_grid(&cols, &subrows);
+                let tile = &mut self.tiles[k];
+                if zt.iter().zip(&tile.z0).all(|(z, z0)| !(z < z0)) {
                     stats.tiles_rejected += 1;
                     continue;
                 }
-                let z0 = self.tiles[k].z0;
+                let far = tile.far();
                 let told = if full_lo <= x_tile0 && x_tile0 + MASK_TILE_W <= full_hi {
-                    self.tiles[k].insert_full(zt, &self.outside[k])
+                    tile.insert_full(&zt, &self.outside[k])
                 } else {
                     let m: [u32; 8] = std::array::from_fn(|j| {
                         let (a, b) = rows[j];
                         row_bits(i64::from(a) - i64::from(x_tile0), i64::from(b) - i64::from(x_tile0))
                     });
-                    self.tiles[k].insert(&m, zt, &self.outside[k])
+                    tile.insert(&m, &zt, &self.outside[k])
                 };
                 if !told {
                     stats.tiles_rejected += 1;
-                } else if self.tiles[k].z0 < z0 {
+                } else if self.tiles[k].far() < far {
                     // A reference depth only falls: the block's falls if this tile held it.
                     let b = (tx / BLOCK_TILES) as usize;
-                    if z0 == self.blocks[b] {
+                    if far == self.blocks[b] {
                         self.stale[b] = true;
                     }
                 }
@@ -451,9 +467,12 @@ mod tests {
                     while k < s.len() {
                         let n = (1 + (seed >> (k % 60)) as usize % 13).min(s.len() - k);
                         if (seed >> (k % 50)) & 3 == 0 {
-                            stepper.skip(n as u32);
+                            // Skipped rows: a fresh stepper after them, as a band does.
                             for (j, got) in s[k..k + n].iter_mut().enumerate() {
                                 *got = t.row_span(ya + (k + j) as u32).unwrap_or((0, 0));
+                            }
+                            if k + n < s.len() {
+                                stepper = Stepper::new(&t, &edges, ya + (k + n) as u32);
                             }
                         } else {
                             stepper.rows(&mut s[k..k + n]);

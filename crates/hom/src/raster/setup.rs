@@ -109,17 +109,32 @@ impl Tri {
     /// formula is. Every sample the triangle covers there lies within them.
     #[inline]
     pub fn depth_bounds(&self, xa: u32, xb: u32, ya: u32, yb: u32) -> (f32, f32) {
-        /// Relative slack: covers the roundings (tested against the formula itself).
-        const SLACK: f32 = 1.0 / (1 << 19) as f32;
         let (x0, y0) = (u32::from(self.x0), u32::from(self.y0));
         let (dxa, dxb) = ((xa - x0) as f32, (xb - x0) as f32);
         let (dya, dyb) = ((ya - y0) as f32, (yb - y0) as f32);
         let (ax, bx) = (self.dzdx * dxa, self.dzdx * dxb);
         let (ay, by) = (self.dzdy * dya, self.dzdy * dyb);
-        let slack = (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * SLACK;
+        let slack = (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * DEPTH_SLACK;
         let low = self.zref + ax.min(bx) + ay.min(by) - slack;
         let high = self.zref + ax.max(bx) + ay.max(by) + slack;
         (low.max(0.0), high.max(0.0))
+    }
+
+    /// The farthest bound of [`Tri::depth_bounds`] over each cell of a grid,
+    /// columns `cols[i]` by rows `rows[j]` (inclusive, within the box), as
+    /// entry `4·j + i`; at least as far as `depth_bounds` of the cell (the
+    /// plane is separable: six corner terms serve eight cells, and the
+    /// slack is the whole grid's).
+    #[inline]
+    pub fn far_depth_grid(&self, cols: &[(u32, u32); 4], rows: &[(u32, u32); 2]) -> [f32; 8] {
+        let (x0, y0) = (u32::from(self.x0), u32::from(self.y0));
+        let fx = cols.map(|(a, b)| (self.dzdx * (a - x0) as f32).max(self.dzdx * (b - x0) as f32));
+        let fy = rows.map(|(a, b)| (self.dzdy * (a - y0) as f32).max(self.dzdy * (b - y0) as f32));
+        let dxb = cols.iter().map(|c| c.1).max().unwrap_or(x0) - x0;
+        let dyb = rows.iter().map(|r| r.1).max().unwrap_or(y0) - y0;
+        let slack =
+            (self.zref.abs() + self.dzdx.abs() * dxb as f32 + self.dzdy.abs() * dyb as f32) * DEPTH_SLACK;
+        std::array::from_fn(|k| (self.zref + fx[k % 4] + fy[k / 4] + slack).max(0.0))
     }
 
     /// [`Tri::depth_at`] given the row's `zr = depth_row(py)` and the column
@@ -129,6 +144,10 @@ impl Tri {
         (zr + self.dzdx * dx as f32).max(0.0)
     }
 }
+
+/// Relative slack of [`Tri::depth_bounds`]: covers the roundings (tested
+/// against the formula itself).
+const DEPTH_SLACK: f32 = 1.0 / (1 << 19) as f32;
 
 /// Covered steps `lo..hi` of a row of `n` samples with edge values `e` at
 /// step 0 and increments `step`, by testing each sample (the reference for tests).
@@ -633,5 +652,46 @@ mod tests {
             // Top and left quad edges are covered, bottom and right are not: 12 x 12.
             assert_eq!(inside, 144);
         }
+    }
+
+    /// Random triangles and random cells of their boxes: every covered
+    /// sample's depth lies within `depth_bounds` of its cell, and within
+    /// `far_depth_grid` of a grid of cells, which is never nearer than the
+    /// cell's own far bound.
+    #[test]
+    fn depth_bounds_hold_every_covered_sample() {
+        let mut rng = Rng::new(41);
+        let (w, h) = (200, 120);
+        let mut checked = 0;
+        for _ in 0..400 {
+            let clip = [0; 3].map(|_| {
+                let wv = rng.range(0.2, 30.0);
+                Vec4::new(rng.range(-1.5, 1.5) * wv, rng.range(-1.5, 1.5) * wv, wv * rng.range(0.0, 1.0), wv)
+            });
+            for t in setup(clip, w, h) {
+                let (x0, x1, y0, y1) = (u32::from(t.x0), u32::from(t.x1), u32::from(t.y0), u32::from(t.y1));
+                let mut pick = |a: u32, b: u32| {
+                    let (p, q) = (a + rng.below(u64::from(b - a)) as u32, a + rng.below(u64::from(b - a)) as u32);
+                    (p.min(q), p.max(q))
+                };
+                let cols: [(u32, u32); 4] = std::array::from_fn(|_| pick(x0, x1));
+                let rows: [(u32, u32); 2] = std::array::from_fn(|_| pick(y0, y1));
+                let grid = t.far_depth_grid(&cols, &rows);
+                for (k, (&(xa, xb), &(ya, yb))) in (0..8).map(|k| (&cols[k % 4], &rows[k / 4])).enumerate() {
+                    let (near, far) = t.depth_bounds(xa, xb, ya, yb);
+                    assert!(grid[k] >= far, "{t:?}: grid cell {k} {} nearer than {far}", grid[k]);
+                    for y in ya..=yb {
+                        for x in xa..=xb {
+                            if t.covers(x, y) {
+                                let z = t.depth_at(x, y);
+                                assert!(near <= z && z <= far, "{t:?} at {x},{y}: {z} outside {near}..{far}");
+                                checked += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "only {checked} samples checked");
     }
 }
