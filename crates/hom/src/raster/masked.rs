@@ -78,7 +78,12 @@ const NO_EDGE: u8 = 3;
 impl ScanEdges {
     /// The scan-line form of `t`.
     fn new(t: &Tri) -> ScanEdges {
-        let none = Slope { edge: NO_EDGE, d: 1, sq: 0, sr: 0 };
+        let none = Slope {
+            edge: NO_EDGE,
+            d: 1,
+            sq: 0,
+            sr: 0,
+        };
         let mut slopes = [none; 4];
         let (mut left, mut right) = (0, 2);
         let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
@@ -102,11 +107,21 @@ impl ScanEdges {
             } else if d > 0 {
                 // n = -e falls by step per row.
                 let (sq, sr) = div_rem(-step, d);
-                slopes[left] = Slope { edge: i as u8, d, sq, sr };
+                slopes[left] = Slope {
+                    edge: i as u8,
+                    d,
+                    sq,
+                    sr,
+                };
                 left += 1;
             } else {
                 let (sq, sr) = div_rem(step, -d);
-                slopes[right] = Slope { edge: i as u8, d: -d, sq, sr };
+                slopes[right] = Slope {
+                    edge: i as u8,
+                    d: -d,
+                    sq,
+                    sr,
+                };
                 right += 1;
             }
         }
@@ -156,7 +171,11 @@ impl Stepper {
         let mut r = [0i64; 4];
         for (k, s) in edges.slopes.iter().enumerate() {
             if s.edge != NO_EDGE {
-                let n = if k < 2 { -e[usize::from(s.edge)] } else { e[usize::from(s.edge)] };
+                let n = if k < 2 {
+                    -e[usize::from(s.edge)]
+                } else {
+                    e[usize::from(s.edge)]
+                };
                 (q[k], r[k]) = div_rem(n, s.d);
             }
         }
@@ -176,7 +195,16 @@ impl Stepper {
     /// rows, into `spans`; an empty row is `(0, 0)`.
     fn rows(&mut self, spans: &mut [(u32, u32)]) {
         self.py += spans.len() as u32;
-        let Stepper { q, r, d, sq, sr, x0, last, .. } = self;
+        let Stepper {
+            q,
+            r,
+            d,
+            sq,
+            sr,
+            x0,
+            last,
+            ..
+        } = self;
         for span in spans.iter_mut() {
             let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
             let hi = q[2].min(q[3]).min(*last);
@@ -193,7 +221,6 @@ impl Stepper {
             }
         }
     }
-
 }
 
 /// Draws set-up triangles into a [`MaskedZBuffer`]; keeps its scratch between frames.
@@ -263,7 +290,10 @@ fn draw_group(
     let n = bands.len() as i64;
     let mut stats = MaskedStats::default();
     for (t, &(ya, yb)) in tris.iter().zip(rows) {
-        let (a, b) = ((i64::from(ya) - y0).div_euclid(band_px), (i64::from(yb) - 1 - y0).div_euclid(band_px));
+        let (a, b) = (
+            (i64::from(ya) - y0).div_euclid(band_px),
+            (i64::from(yb) - 1 - y0).div_euclid(band_px),
+        );
         if b < 0 || a >= n {
             continue;
         }
@@ -299,7 +329,14 @@ struct Band<'a> {
 impl<'a> Band<'a> {
     fn new(ty0: u32, tiles_x: u32, tiles: &'a mut [MaskTile], outside: &'a [[u32; 8]]) -> Band<'a> {
         let n = tiles_x.div_ceil(BLOCK_TILES) as usize;
-        Band { ty0, tiles_x, tiles, outside, blocks: vec![f32::INFINITY; n], stale: vec![true; n] }
+        Band {
+            ty0,
+            tiles_x,
+            tiles,
+            outside,
+            blocks: vec![f32::INFINITY; n],
+            stale: vec![true; n],
+        }
     }
 
     /// The farthest reference depth of block `b`'s tiles.
@@ -373,7 +410,13 @@ impl<'a> Band<'a> {
                 // The covered part of this tile lies in these columns and rows.
                 let (ca, cb) = (lo.max(x_tile0), hi.min(x_tile0 + MASK_TILE_W) - 1);
                 // Per subtile, its part of that (an empty part: any cell, unused).
-                let part = |a: u32, b: u32, lo: u32, hi: u32| if a.max(lo) <= b.min(hi) { (a.max(lo), b.min(hi)) } else { (a, a) };
+                let part = |a: u32, b: u32, lo: u32, hi: u32| {
+                    if a.max(lo) <= b.min(hi) {
+                        (a.max(lo), b.min(hi))
+                    } else {
+                        (a, a)
+                    }
+                };
                 let cols: [(u32, u32); 4] = std::array::from_fn(|sx| {
                     let c0 = x_tile0 + sx as u32 * SUB_W;
                     part(ca, cb, c0, c0 + SUB_W - 1)

@@ -132,8 +132,7 @@ impl Tri {
         let fy = rows.map(|(a, b)| (self.dzdy * (a - y0) as f32).max(self.dzdy * (b - y0) as f32));
         let dxb = cols.iter().map(|c| c.1).max().unwrap_or(x0) - x0;
         let dyb = rows.iter().map(|r| r.1).max().unwrap_or(y0) - y0;
-        let slack =
-            (self.zref.abs() + self.dzdx.abs() * dxb as f32 + self.dzdy.abs() * dyb as f32) * DEPTH_SLACK;
+        let slack = (self.zref.abs() + self.dzdx.abs() * dxb as f32 + self.dzdy.abs() * dyb as f32) * DEPTH_SLACK;
         std::array::from_fn(|k| (self.zref + fx[k % 4] + fy[k / 4] + slack).max(0.0))
     }
 
@@ -666,12 +665,20 @@ mod tests {
         for _ in 0..400 {
             let clip = [0; 3].map(|_| {
                 let wv = rng.range(0.2, 30.0);
-                Vec4::new(rng.range(-1.5, 1.5) * wv, rng.range(-1.5, 1.5) * wv, wv * rng.range(0.0, 1.0), wv)
+                Vec4::new(
+                    rng.range(-1.5, 1.5) * wv,
+                    rng.range(-1.5, 1.5) * wv,
+                    wv * rng.range(0.0, 1.0),
+                    wv,
+                )
             });
             for t in setup(clip, w, h) {
                 let (x0, x1, y0, y1) = (u32::from(t.x0), u32::from(t.x1), u32::from(t.y0), u32::from(t.y1));
                 let mut pick = |a: u32, b: u32| {
-                    let (p, q) = (a + rng.below(u64::from(b - a)) as u32, a + rng.below(u64::from(b - a)) as u32);
+                    let (p, q) = (
+                        a + rng.below(u64::from(b - a)) as u32,
+                        a + rng.below(u64::from(b - a)) as u32,
+                    );
                     (p.min(q), p.max(q))
                 };
                 let cols: [(u32, u32); 4] = std::array::from_fn(|_| pick(x0, x1));
