@@ -341,8 +341,7 @@ impl MaskTile {
                 let byte = 0xFFu32 << (sx as u32 * SUB_W);
                 reached &= !byte;
                 let (k, z) = (sy * 4 + sx, zt[sy * 4 + sx]);
-                // (NaN fails the comparison: skipped.)
-                if !(z < self.z0[k]) {
+                if z.is_nan() || z >= self.z0[k] {
                     continue;
                 }
                 told = true;

@@ -427,7 +427,7 @@ impl<'a> Band<'a> {
                 });
                 let zt = t.far_depth_grid(&cols, &subrows);
                 let tile = &mut self.tiles[k];
-                if zt.iter().zip(&tile.z0).all(|(z, z0)| !(z < z0)) {
+                if zt.iter().zip(&tile.z0).all(|(z, z0)| z.is_nan() || z >= z0) {
                     stats.tiles_rejected += 1;
                     continue;
                 }
