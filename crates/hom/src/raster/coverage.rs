@@ -228,6 +228,11 @@ impl CoverageRasterizer {
 
         let (bins, backend) = (&self.bins, self.backend);
         let wpr = coverage.words_per_row;
+        // The bits of the last word of a row that lie inside the viewport.
+        let last_word = match coverage.width % 64 {
+            0 => u64::MAX,
+            r => (1u64 << r) - 1,
+        };
         // One row of depth cells per band (none when not gathering depth).
         let mut cell_rows: Vec<&mut [f32]> = match depth {
             Some(d) => d.cells_mut().chunks_mut(cols).collect(),
@@ -252,8 +257,22 @@ impl CoverageRasterizer {
                     }
                 }
                 let mut masks = [0u64; MASK_ROWS];
+                // Word columns (64 samples) that every row of the band covers
+                // wholly: a triangle within them covers no sample first, so it
+                // changes neither coverage nor depth cells and is skipped. (On
+                // layered occluders this is most of them.)
+                let rows = words.len() / wpr;
+                let column_full = |words: &[u64], c: usize| {
+                    let inside = if c + 1 == wpr { last_word } else { u64::MAX };
+                    (0..rows).all(|r| words[r * wpr + c] & inside == inside)
+                };
+                let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
                 for &i in bin {
                     let t = &tris[i as usize];
+                    let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
+                    if full[wa..=wb].iter().all(|&f| f) {
+                        continue;
+                    }
                     let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
                     let x0 = u32::from(t.x0);
                     // Depth at sample x of row py. Only samples this triangle covers first
@@ -274,27 +293,30 @@ impl CoverageRasterizer {
                                 set_span(row, lo, hi);
                             }
                         }
-                        continue;
-                    }
-                    let mut py0 = ta;
-                    while py0 < tb {
-                        let rows = &mut masks[..((tb - py0) as usize).min(MASK_ROWS)];
-                        row_masks(backend, t, py0, rows);
-                        for (py, &m) in (py0..).zip(rows.iter()) {
-                            if m == 0 {
-                                continue;
+                    } else {
+                        let mut py0 = ta;
+                        while py0 < tb {
+                            let rows = &mut masks[..((tb - py0) as usize).min(MASK_ROWS)];
+                            row_masks(backend, t, py0, rows);
+                            for (py, &m) in (py0..).zip(rows.iter()) {
+                                if m == 0 {
+                                    continue;
+                                }
+                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                if gather {
+                                    let zr = t.depth_row(py);
+                                    or_mask_reporting(row, x0, m, |base, fresh| {
+                                        raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                    });
+                                } else {
+                                    or_mask(row, x0, m);
+                                }
                             }
-                            let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                            if gather {
-                                let zr = t.depth_row(py);
-                                or_mask_reporting(row, x0, m, |base, fresh| {
-                                    raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
-                                });
-                            } else {
-                                or_mask(row, x0, m);
-                            }
+                            py0 += rows.len() as u32;
                         }
-                        py0 += rows.len() as u32;
+                    }
+                    for (c, f) in full.iter_mut().enumerate().take(wb + 1).skip(wa) {
+                        *f = *f || column_full(words, c);
                     }
                 }
                 for c in cells.iter_mut() {
@@ -431,6 +453,76 @@ mod tests {
                 prop_assert_eq!((got.width(), got.height()), (w, h));
                 prop_assert!(got.bits() == want.bits(), "{:?}: coverage differs from scalar", backend);
                 prop_assert!(got_cells == want_cells, "{:?}: depth cells differ from scalar", backend);
+            }
+        }
+    }
+
+    /// Layered screen-sized quads and small triangles, in random order, so
+    /// that word columns fill up and later triangles are skipped: coverage
+    /// is the union of the renderer's coverage, and each depth cell the
+    /// farthest depth at any sample of it where a triangle covered it first
+    /// (brute force, sample by sample, in submission order).
+    #[test]
+    fn skipping_full_columns_changes_nothing() {
+        use glam::Vec4;
+        let mut rng = Rng::new(17);
+        for case in 0..24 {
+            let (w, h) = (1 + rng.below(300) as u32, 1 + rng.below(120) as u32);
+            let (mut v, mut idx) = (Vec::new(), Vec::new());
+            for _ in 0..(5 + rng.below(40)) {
+                let b = v.len() as u32;
+                let z = rng.range(0.05, 0.95);
+                if rng.below(3) == 0 {
+                    let (cx, cy, r) = (rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(0.01, 0.4));
+                    v.extend([(cx - r, cy - r), (cx + r, cy), (cx, cy + r)].map(|(x, y)| Vec4::new(x, y, z, 1.0)));
+                    idx.push([b, b + 1, b + 2]);
+                } else {
+                    let (x0, y0) = (rng.range(-1.3, 0.2), rng.range(-1.3, 0.2));
+                    let (x1, y1) = (rng.range(0.5, 1.3), rng.range(0.5, 1.3));
+                    let tilt = rng.range(-0.3, 0.3);
+                    v.extend(
+                        [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+                            .map(|(x, y)| Vec4::new(x, y, (z + tilt * x).clamp(0.0, 1.0), 1.0)),
+                    );
+                    idx.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+                }
+            }
+            let mut q = TriangleQueue::default();
+            q.push_clip(&v, &idx, |v| v, FaceCull::None).unwrap();
+            let mut tris = Vec::new();
+            q.set_up(&Viewport::new(w, h), false, &mut tris);
+            let (cols, rows) = (1 + rng.below(40) as u32, 1 + rng.below(20) as u32);
+            for backend in RasterBackend::supported() {
+                let mut cov = CoverageBuffer::default();
+                cov.reset(w, h);
+                let mut deb = DepthEstimationBuffer::new(w, h, cols, rows);
+                CoverageRasterizer::with_backend(backend).rasterize(&mut cov, &tris, Some(&mut deb));
+                let (cw, ch) = deb.cell_size();
+                let mut want = vec![f32::NEG_INFINITY; deb.cells().len()];
+                for y in 0..h {
+                    for x in 0..w {
+                        let first = tris.iter().find(|t| {
+                            (u32::from(t.x0)..u32::from(t.x1)).contains(&x)
+                                && (u32::from(t.y0)..u32::from(t.y1)).contains(&y)
+                                && t.covers(x, y)
+                        });
+                        assert_eq!(
+                            cov.is_covered(x, y),
+                            first.is_some(),
+                            "case {case} {backend:?}: sample {x},{y}"
+                        );
+                        if let Some(t) = first {
+                            let c = &mut want[((y / ch) * deb.size().0 + x / cw) as usize];
+                            *c = c.max(t.depth_at(x, y));
+                        }
+                    }
+                }
+                for c in &mut want {
+                    if *c == f32::NEG_INFINITY {
+                        *c = f32::INFINITY;
+                    }
+                }
+                assert_eq!(deb.cells(), &want[..], "case {case} {backend:?}: depth cells");
             }
         }
     }
