@@ -208,12 +208,15 @@ impl CoverageRasterizer {
         depth: Option<&mut DepthEstimationBuffer>,
     ) {
         let height = coverage.height;
-        // Bands of rows: one row of depth cells each when gathering depth, so
-        // every band writes only its own cells.
-        let (cols, band_rows, cell_w) = match depth.as_deref() {
-            Some(d) => (d.size().0 as usize, d.cell_size().1, d.cell_size().0),
-            None => (0, BAND_ROWS, 1),
+        // Bands of rows: whole rows of depth cells when gathering depth, so
+        // every band writes only its own cells; at least `BAND_ROWS` rows
+        // (small cells: a band of 4 rows cost more per triangle than it drew).
+        let (cols, cell_w, cell_h) = match depth.as_deref() {
+            Some(d) => (d.size().0 as usize, d.cell_size().0, d.cell_size().1),
+            None => (0, 1, BAND_ROWS),
         };
+        let cell_rows_per_band = (BAND_ROWS / cell_h).max(1);
+        let band_rows = cell_h * cell_rows_per_band;
         let bands = height.div_ceil(band_rows) as usize;
         self.bins.resize_with(bands, Vec::new);
         self.bins.truncate(bands);
@@ -233,9 +236,9 @@ impl CoverageRasterizer {
             0 => u64::MAX,
             r => (1u64 << r) - 1,
         };
-        // One row of depth cells per band (none when not gathering depth).
+        // The rows of depth cells of each band (none when not gathering depth).
         let mut cell_rows: Vec<&mut [f32]> = match depth {
-            Some(d) => d.cells_mut().chunks_mut(cols).collect(),
+            Some(d) => d.cells_mut().chunks_mut(cols * cell_rows_per_band as usize).collect(),
             None => (0..bands).map(|_| <&mut [f32]>::default()).collect(),
         };
         debug_assert_eq!(cell_rows.len(), bands, "depth cells and bands share rows");
@@ -286,6 +289,7 @@ impl CoverageRasterizer {
                             let row = &mut words[(py - y0) as usize * wpr..][..wpr];
                             if gather {
                                 let zr = t.depth_row(py);
+                                let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
                                 set_span_reporting(row, lo, hi, |base, fresh| {
                                     raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
                                 });
@@ -305,6 +309,7 @@ impl CoverageRasterizer {
                                 let row = &mut words[(py - y0) as usize * wpr..][..wpr];
                                 if gather {
                                     let zr = t.depth_row(py);
+                                    let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
                                     or_mask_reporting(row, x0, m, |base, fresh| {
                                         raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
                                     });
