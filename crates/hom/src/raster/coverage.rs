@@ -9,9 +9,11 @@
 //! depend on the thread count or order).
 //!
 //! Rows are filled by one of the [`RasterBackend`]s: the scalar one (exact
-//! spans from [`Tri::row_span`]) defines the result, and the vector kernels of
+//! spans, [`Tri::row_span`]'s, stepped row to row by [`super::scanline`])
+//! defines the result, and the vector kernels of
 //! [`super::simd`] produce bit-identical coverage and depth cells.
 
+use super::scanline::{ScanEdges, Stepper};
 use super::setup::Tri;
 use super::simd::{row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
@@ -284,18 +286,31 @@ impl CoverageRasterizer {
                     // the nearest from above.
                     let z = |zr: f32, x: u32| t.depth_in_row(zr, (x - x0) as i32);
                     if backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX {
-                        for py in ta..tb {
-                            let Some((lo, hi)) = t.row_span(py) else { continue };
-                            let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                            if gather {
-                                let zr = t.depth_row(py);
-                                let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
-                                set_span_reporting(row, lo, hi, |base, fresh| {
-                                    raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
-                                });
-                            } else {
-                                set_span(row, lo, hi);
+                        // Exact spans stepped row to row (`Tri::row_span`'s, without its divisions).
+                        let edges = ScanEdges::new(t);
+                        let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
+                        let mut stepper = Stepper::new(t, &edges, ta.min(u32::from(t.y1) - 1));
+                        let mut spans = [(0u32, 0u32); MASK_ROWS];
+                        let mut py0 = ta;
+                        while py0 < tb {
+                            let spans = &mut spans[..((tb - py0) as usize).min(MASK_ROWS)];
+                            stepper.rows(spans);
+                            for (py, &(lo, hi)) in (py0..).zip(spans.iter()) {
+                                if lo >= hi {
+                                    continue;
+                                }
+                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                if gather {
+                                    let zr = t.depth_row(py);
+                                    let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
+                                    set_span_reporting(row, lo, hi, |base, fresh| {
+                                        raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                    });
+                                } else {
+                                    set_span(row, lo, hi);
+                                }
                             }
+                            py0 += spans.len() as u32;
                         }
                     } else {
                         let mut py0 = ta;

@@ -19,7 +19,8 @@
 //! Bands of tile rows are independent and each sees its triangles in order,
 //! so the result does not depend on the thread count.
 
-use super::setup::{Tri, ONE};
+use super::scanline::{ScanEdges, Stepper};
+use super::setup::Tri;
 use crate::depth::masked::{row_bits, MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W, SUB_H, SUB_W};
 use rayon::prelude::*;
 
@@ -39,188 +40,6 @@ pub(crate) struct MaskedStats {
     /// Triangle and band pairs skipped whole, before any coverage, because
     /// the triangle lies behind every tile of the blocks it overlaps.
     pub blocks_rejected: u64,
-}
-
-/// A triangle's edges arranged for scan-line stepping, computed once per
-/// triangle. A sloped edge bounds a row's covered columns from the left
-/// (`a > 0`) or from the right (`a < 0`); the three `a` sum to zero, so
-/// there are at most two of each, and a missing one is a slope that never
-/// binds. A horizontal edge (`a = 0`) only limits the rows.
-#[derive(Clone, Copy, Debug)]
-struct ScanEdges {
-    /// The rows `rows.0..rows.1` (absolute) the horizontal edges allow; empty
-    /// when they allow none.
-    rows: (u32, u32),
-    /// Left bounds, then right bounds.
-    slopes: [Slope; 4],
-}
-
-/// A sloped edge's row-to-row step. A row's bound is the exact quotient of
-/// the edge function by `d`: the first covered column offset (from the
-/// box's `x0`) is `ceil(n / d)` for a left edge (`n = -e`), the last is
-/// `floor(e / d)` for a right edge; stepping a row adds `sq` to the quotient
-/// and `sr` to the remainder, with a carry.
-#[derive(Clone, Copy, Debug)]
-struct Slope {
-    /// The edge's index, or `NO_EDGE` for a bound that never binds.
-    edge: u8,
-    /// Divisor, `|a|·ONE`; 1 for a bound that never binds.
-    d: i64,
-    /// Per-row quotient step.
-    sq: i64,
-    /// Per-row remainder step, `0 <= sr < d`.
-    sr: i64,
-}
-
-/// `Slope::edge` of a bound that never binds.
-const NO_EDGE: u8 = 3;
-
-impl ScanEdges {
-    /// The scan-line form of `t`.
-    fn new(t: &Tri) -> ScanEdges {
-        let none = Slope {
-            edge: NO_EDGE,
-            d: 1,
-            sq: 0,
-            sr: 0,
-        };
-        let mut slopes = [none; 4];
-        let (mut left, mut right) = (0, 2);
-        let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
-        for i in 0..3 {
-            let (d, step) = (t.a[i] * ONE, t.b[i] * ONE);
-            if d == 0 {
-                // Covered rows: e0 + k·step >= 0 at row y0 + k.
-                let e0 = t.edges_at_row(u32::from(t.y0))[i];
-                let (k_lo, k_hi) = match step.signum() {
-                    1 => ((-e0).div_euclid(step) + i64::from((-e0).rem_euclid(step) > 0), i64::MAX),
-                    -1 => (0, e0.div_euclid(-step) + 1),
-                    _ if e0 >= 0 => (0, i64::MAX),
-                    _ => (0, 0),
-                };
-                ya = ya.max(i64::from(t.y0).saturating_add(k_lo));
-                yb = yb.min(i64::from(t.y0).saturating_add(k_hi));
-            } else if (d > 0 && left == 2) || (d < 0 && right == 4) {
-                // Impossible for a triangle (the `a` sum to zero); dropping
-                // an occluder stays on the safe side.
-                yb = ya;
-            } else if d > 0 {
-                // n = -e falls by step per row.
-                let (sq, sr) = div_rem(-step, d);
-                slopes[left] = Slope {
-                    edge: i as u8,
-                    d,
-                    sq,
-                    sr,
-                };
-                left += 1;
-            } else {
-                let (sq, sr) = div_rem(step, -d);
-                slopes[right] = Slope {
-                    edge: i as u8,
-                    d: -d,
-                    sq,
-                    sr,
-                };
-                right += 1;
-            }
-        }
-        let rows = if ya < yb { (ya as u32, yb as u32) } else { (0, 0) };
-        ScanEdges { rows, slopes }
-    }
-}
-
-/// `(n.div_euclid(d), n.rem_euclid(d))` for `d > 0`, one division. (An
-/// `f64` estimate with integer correction measured slower: its correction
-/// branches mispredict.)
-#[inline]
-fn div_rem(n: i64, d: i64) -> (i64, i64) {
-    (n.div_euclid(d), n.rem_euclid(d))
-}
-
-/// A triangle's row bounds stepped down its rows: the covered columns of
-/// each row, exactly, from the row before (a quotient and a remainder per
-/// bound, no division after the first row).
-#[derive(Clone, Copy, Debug)]
-struct Stepper {
-    /// Per bound (two left, two right), the quotient.
-    q: [i64; 4],
-    /// Per bound, the remainder, `0 <= r < d`.
-    r: [i64; 4],
-    /// Per bound, the divisor.
-    d: [i64; 4],
-    /// Per bound, the per-row steps of `q` and `r`.
-    sq: [i64; 4],
-    /// See `sq`.
-    sr: [i64; 4],
-    /// The box's first column.
-    x0: u32,
-    /// The last column offset in the box.
-    last: i64,
-    /// The row the bounds are at.
-    py: u32,
-}
-
-impl Stepper {
-    /// `t`'s bounds (with its [`ScanEdges`]) at row `py` (within the box); a
-    /// bound that never binds sits at the box's edge.
-    fn new(t: &Tri, edges: &ScanEdges, py: u32) -> Stepper {
-        let last = i64::from(t.x1 - t.x0) - 1;
-        let e = t.edges_at_row(py);
-        let mut q = [0, 0, last, last];
-        let mut r = [0i64; 4];
-        for (k, s) in edges.slopes.iter().enumerate() {
-            if s.edge != NO_EDGE {
-                let n = if k < 2 {
-                    -e[usize::from(s.edge)]
-                } else {
-                    e[usize::from(s.edge)]
-                };
-                (q[k], r[k]) = div_rem(n, s.d);
-            }
-        }
-        Stepper {
-            q,
-            r,
-            d: edges.slopes.map(|s| s.d),
-            sq: edges.slopes.map(|s| s.sq),
-            sr: edges.slopes.map(|s| s.sr),
-            x0: u32::from(t.x0),
-            last,
-            py,
-        }
-    }
-
-    /// The covered columns `lo..hi` (absolute) of the next `spans.len()`
-    /// rows, into `spans`; an empty row is `(0, 0)`.
-    fn rows(&mut self, spans: &mut [(u32, u32)]) {
-        self.py += spans.len() as u32;
-        let Stepper {
-            q,
-            r,
-            d,
-            sq,
-            sr,
-            x0,
-            last,
-            ..
-        } = self;
-        for span in spans.iter_mut() {
-            let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
-            let hi = q[2].min(q[3]).min(*last);
-            *span = if lo <= hi {
-                (*x0 + lo as u32, *x0 + hi as u32 + 1)
-            } else {
-                (0, 0)
-            };
-            for k in 0..4 {
-                // Branch-free: whether the remainder carries is data, not pattern.
-                let carry = i64::from(r[k] + sr[k] >= d[k]);
-                q[k] += sq[k] + carry;
-                r[k] += sr[k] - carry * d[k];
-            }
-        }
-    }
 }
 
 /// Draws set-up triangles into a [`MaskedZBuffer`]; keeps its scratch between frames.
@@ -459,78 +278,13 @@ impl<'a> Band<'a> {
 mod tests {
     use super::*;
     use crate::raster::queue::TriangleQueue;
+    use crate::raster::scanline::tests::soup;
     use crate::raster::setup::{FaceCull, Viewport};
     use glam::Vec4;
     use hom_testkit::Rng;
     use proptest::prelude::*;
 
-    /// Random clip-space triangles, tiny to screen-filling, some crossing the
-    /// near plane or the screen edges, at spread depths.
-    fn soup(seed: u64, n: usize, w: u32, h: u32, inner: bool) -> Vec<Tri> {
-        let mut rng = Rng::new(seed);
-        let mut v = Vec::new();
-        let mut t = Vec::new();
-        for i in 0..n {
-            let size = [0.01, 0.05, 0.3, 1.5, 6.0][rng.below(5) as usize];
-            let (cx, cy) = (rng.range(-1.3, 1.3), rng.range(-1.3, 1.3));
-            let w0 = rng.range(1.0, 21.0);
-            for _ in 0..3 {
-                let wv = (w0 * rng.range(0.6, 1.4)).max(0.05);
-                let x = (cx + rng.range(-0.5, 0.5) * size) * wv;
-                let y = (cy + rng.range(-0.5, 0.5) * size) * wv;
-                v.push(Vec4::new(x, y, wv - 0.5, wv));
-            }
-            let b = 3 * i as u32;
-            t.push([b, b + 1, b + 2]);
-        }
-        let mut q = TriangleQueue::default();
-        q.push_clip(&v, &t, |v| v, FaceCull::None).unwrap();
-        let mut out = Vec::new();
-        q.set_up(&Viewport::new(w, h), inner, &mut out);
-        out
-    }
-
     proptest! {
-        /// Every row's span equals `Tri::row_span` (the renderer's coverage).
-        #[test]
-        fn spans_are_the_exact_row_spans(seed in any::<u64>(), w in 1u32..300, h in 1u32..200, inner in any::<bool>()) {
-            for t in soup(seed, 40, w, h, inner) {
-                let edges = ScanEdges::new(&t);
-                let (ya, yb) = edges.rows;
-                for py in u32::from(t.y0)..u32::from(t.y1) {
-                    if !(ya..yb).contains(&py) {
-                        prop_assert_eq!(t.row_span(py), None, "row {} of {:?} outside {:?}", py, t, edges.rows);
-                    }
-                }
-                let mut s = vec![(0, 0); (yb - ya) as usize];
-                if ya < yb {
-                    // In pieces, some skipped, as bands do.
-                    let mut stepper = Stepper::new(&t, &edges, ya);
-                    let mut k = 0;
-                    while k < s.len() {
-                        let n = (1 + (seed >> (k % 60)) as usize % 13).min(s.len() - k);
-                        if (seed >> (k % 50)) & 3 == 0 {
-                            // Skipped rows: a fresh stepper after them, as a band does.
-                            for (j, got) in s[k..k + n].iter_mut().enumerate() {
-                                *got = t.row_span(ya + (k + j) as u32).unwrap_or((0, 0));
-                            }
-                            if k + n < s.len() {
-                                stepper = Stepper::new(&t, &edges, ya + (k + n) as u32);
-                            }
-                        } else {
-                            stepper.rows(&mut s[k..k + n]);
-                        }
-                        k += n;
-                    }
-                }
-                for (k, got) in s.iter().enumerate() {
-                    let py = ya + k as u32;
-                    let want = t.row_span(py).unwrap_or((0, 0));
-                    prop_assert_eq!(*got, want, "row {} of {:?}", py, t);
-                }
-            }
-        }
-
         /// The masked buffer never bounds a sample nearer than the nearest
         /// triangle covering it (the renderer's depth there), and its
         /// rectangle test never hides a sample the triangles leave visible.

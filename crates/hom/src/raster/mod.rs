@@ -22,6 +22,8 @@ mod coverage;
 pub(crate) mod masked;
 #[forbid(unsafe_code)]
 pub(crate) mod queue;
+#[forbid(unsafe_code)]
+mod scanline;
 // The renderer (`hom-render`) shares this setup and sampling rule: public for it, not the front door.
 #[doc(hidden)]
 #[forbid(unsafe_code)]
