@@ -68,6 +68,8 @@ pub(crate) struct MaskTile {
     pub z1: [f32; SUBTILES],
     /// Row `j`, bit `i`: sample `(32·tx + i, 8·ty + j)` is in its subtile's working layer.
     pub mask: [u32; 8],
+    /// The farthest of `z0` (kept by the updates: blocks read it often).
+    far: f32,
 }
 
 /// The masked depth buffer; see the module docs.
@@ -127,18 +129,23 @@ impl MaskedZBuffer {
             self.fresh = self
                 .outside
                 .iter()
-                .map(|&mask| MaskTile {
-                    z0: std::array::from_fn(|k| {
-                        let byte = 0xFFu32 << ((k % 4) as u32 * SUB_W);
-                        let rows = &mask[k / 4 * SUB_H as usize..][..SUB_H as usize];
-                        if rows.iter().all(|r| r & byte == byte) {
-                            f32::NEG_INFINITY
-                        } else {
-                            f32::INFINITY
-                        }
-                    }),
-                    z1: [f32::NEG_INFINITY; SUBTILES],
-                    mask,
+                .map(|&mask| {
+                    let mut tile = MaskTile {
+                        z0: std::array::from_fn(|k| {
+                            let byte = 0xFFu32 << ((k % 4) as u32 * SUB_W);
+                            let rows = &mask[k / 4 * SUB_H as usize..][..SUB_H as usize];
+                            if rows.iter().all(|r| r & byte == byte) {
+                                f32::NEG_INFINITY
+                            } else {
+                                f32::INFINITY
+                            }
+                        }),
+                        z1: [f32::NEG_INFINITY; SUBTILES],
+                        mask,
+                        far: f32::INFINITY,
+                    };
+                    tile.refresh_far();
+                    tile
                 })
                 .collect();
         }
@@ -310,7 +317,13 @@ impl MaskTile {
     /// The farthest reference depth of the tile's subtiles.
     #[inline]
     pub(crate) fn far(&self) -> f32 {
-        self.z0.iter().fold(f32::NEG_INFINITY, |m, &z| m.max(z))
+        self.far
+    }
+
+    /// Recomputes `far` after a reference depth fell.
+    #[inline]
+    fn refresh_far(&mut self) {
+        self.far = self.z0.iter().fold(f32::NEG_INFINITY, |m, &z| m.max(z));
     }
 
     /// Folds in a triangle covering `m` (within the viewport) with far depth
@@ -319,7 +332,7 @@ impl MaskTile {
     /// triangle told the tile nothing new.
     #[inline]
     pub(crate) fn insert(&mut self, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
-        let mut told = false;
+        let (mut told, mut fell) = (false, false);
         for sy in 0..2 {
             let rows = sy * SUB_H as usize..(sy + 1) * SUB_H as usize;
             // Per subtile (a byte of each row): whether m reaches it, covers
@@ -347,6 +360,7 @@ impl MaskTile {
                 told = true;
                 let empty = held & byte == 0;
                 if alone & byte == byte {
+                    fell = true;
                     self.z0[k] = z;
                     if self.z1[k] >= z {
                         clear |= byte;
@@ -354,6 +368,7 @@ impl MaskTile {
                     }
                 } else if merged & byte == byte {
                     let far = if empty { z } else { self.z1[k].max(z) };
+                    fell |= far < self.z0[k];
                     self.z0[k] = self.z0[k].min(far);
                     clear |= byte;
                     self.z1[k] = f32::NEG_INFINITY;
@@ -372,6 +387,9 @@ impl MaskTile {
                     self.mask[j] = r & !(clear | replace) | o & clear | (m[j] | o) & replace | m[j] & merge;
                 }
             }
+        }
+        if fell {
+            self.refresh_far();
         }
         told
     }
@@ -399,6 +417,9 @@ impl MaskTile {
                 let c = clear[j / SUB_H as usize];
                 *row = *row & !c | outside[j] & c;
             }
+        }
+        if told {
+            self.refresh_far();
         }
         told
     }
@@ -464,6 +485,9 @@ mod tests {
                 }
             }
             zb.build_blocks();
+            for t in &zb.tiles {
+                assert_eq!(t.far(), t.z0.iter().fold(f32::NEG_INFINITY, |m, &z| m.max(z)), "case {case}: kept far");
+            }
             for y in 0..h {
                 for x in 0..w {
                     let t = truth[(y * w + x) as usize];
