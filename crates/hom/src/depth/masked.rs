@@ -486,7 +486,11 @@ mod tests {
             }
             zb.build_blocks();
             for t in &zb.tiles {
-                assert_eq!(t.far(), t.z0.iter().fold(f32::NEG_INFINITY, |m, &z| m.max(z)), "case {case}: kept far");
+                assert_eq!(
+                    t.far(),
+                    t.z0.iter().fold(f32::NEG_INFINITY, |m, &z| m.max(z)),
+                    "case {case}: kept far"
+                );
             }
             for y in 0..h {
                 for x in 0..w {

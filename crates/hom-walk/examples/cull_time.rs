@@ -1,0 +1,58 @@
+//! The cost of one culler alone, without rendering: the built-in scene's walk
+//! (its first 100 frames) culled three times over on two threads, the first
+//! pass a warm-up; prints the mean cull time per frame and the mean of each
+//! stage. For A/B measurements on a noisy machine, build two binaries and
+//! run them alternately.
+//!
+//! `cargo run --release -p hom-walk --example cull_time -- masked city`
+
+use hom::cull::CullOutput;
+use hom_walk::cullers::{make, CullerSettings};
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("cull_time: {e}");
+        std::process::exit(2);
+    }
+}
+
+fn run() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    let (Some(culler), Some(scene_name)) = (args.get(1), args.get(2)) else {
+        return Err("usage: cull_time CULLER SCENE (e.g. masked city)".into());
+    };
+    let built = hom_scene::builtin(scene_name)?;
+    let (scene, path) = (built.scene, built.path);
+    let mut c = make(culler, &scene, &CullerSettings::for_scene(&scene))?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
+    let frames = path.frames.len().min(100);
+    if frames == 0 {
+        return Err(format!("scene {scene_name} has an empty walk").into());
+    }
+    let mut out = CullOutput::default();
+    let mut stages: BTreeMap<&'static str, f64> = BTreeMap::new();
+    let mut timed = 0.0;
+    for pass in 0..3 {
+        let start = Instant::now();
+        for i in 0..frames {
+            pool.install(|| c.cull(&scene, &path.camera(i).to_view(), &mut out))?;
+            c.frame_done(Some(10.0));
+            if pass > 0 {
+                for (k, v) in &out.stages {
+                    *stages.entry(*k).or_insert(0.0) += v;
+                }
+            }
+        }
+        if pass > 0 {
+            timed += start.elapsed().as_secs_f64() * 1e3;
+        }
+    }
+    let n = (2 * frames) as f64;
+    println!("{culler} {scene_name}: {:.3} ms per frame", timed / n);
+    for (k, v) in stages {
+        println!("  {k}: {:.3} ms", v / n);
+    }
+    Ok(())
+}
