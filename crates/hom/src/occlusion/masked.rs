@@ -1,10 +1,10 @@
 //! [`MaskedBuffer`]: masked software occlusion culling (Hasselgren, Andersson
 //! and Akenine-Möller, HPG 2016) as an occlusion buffer — per 32×8-sample
-//! tile a coverage mask and two conservative depth layers
+//! tile a coverage mask, and per 8×4 subtile two conservative depth layers
 //! ([`MaskedZBuffer`]), drawn by the masked rasterizer (exact coverage from
-//! scan-line edge events, one far depth per triangle and tile). Much less
-//! work per triangle than [`super::HzBuffer`]'s per-sample depth; it finds
-//! fewer hidden boxes where small occluders at mixed depths share a tile.
+//! scan-line edge events, one far depth per triangle and subtile). Much less
+//! work per sample than [`super::HzBuffer`]'s per-sample depth; it finds
+//! fewer hidden boxes where small occluders at mixed depths share a subtile.
 
 use super::{occlusion_buffer, BufferOptions, Front, OcclusionError};
 use crate::depth::MaskedZBuffer;

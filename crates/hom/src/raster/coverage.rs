@@ -289,7 +289,10 @@ impl CoverageRasterizer {
                         // Exact spans stepped row to row (`Tri::row_span`'s, without its divisions).
                         let edges = ScanEdges::new(t);
                         let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
-                        let mut stepper = Stepper::new(t, &edges, ta.min(u32::from(t.y1) - 1));
+                        if ta >= tb {
+                            continue; // no covered row in this band: nothing to set up or mark full
+                        }
+                        let mut stepper = Stepper::new(t, &edges, ta);
                         let mut spans = [(0u32, 0u32); MASK_ROWS];
                         let mut py0 = ta;
                         while py0 < tb {

@@ -1,23 +1,22 @@
 //! The masked rasterizer (after Hasselgren, Andersson and Akenine-Möller,
 //! "Masked Software Occlusion Culling", HPG 2016): set-up triangles into a
 //! [`MaskedZBuffer`] as coverage masks of 32×8-sample tiles with one
-//! conservative depth per triangle and tile.
+//! conservative depth per triangle and 8×4 subtile.
 //!
 //! Coverage comes from edge events per scan line, not per-sample edge
-//! functions: for each row, each edge's first (or last) covered column is
-//! stepped exactly from the row before — a quotient and a remainder, no
-//! division after the first row of a band — so a row's span is exactly the
-//! one [`Tri::row_span`] computes (the renderer's coverage, or the inner
-//! rule's when the triangle was set up with it). A tile row's mask is then
-//! two shifts of its span.
+//! functions: [`super::scanline`] steps each row's span exactly from the row
+//! before, so a row's span is exactly the one [`Tri::row_span`] computes
+//! (the renderer's coverage, or the inner rule's when the triangle was set
+//! up with it). A tile row's mask is then two shifts of its span.
 //!
-//! Depth: per triangle and tile, the farthest value of the triangle's plane
-//! over the part of its box in the tile, plus rounding slack, so at least
-//! the depth the renderer computes at any sample the triangle covers there
-//! ([`Tri::depth_at`]).
+//! Depth: per triangle and subtile, the farthest value of the triangle's
+//! plane over the covered part of the subtile, plus rounding slack
+//! ([`Tri::far_depth_grid`]), so at least the depth the renderer computes at
+//! any sample the triangle covers there ([`Tri::depth_at`]).
 //!
 //! Bands of tile rows are independent and each sees its triangles in order,
-//! so the result does not depend on the thread count.
+//! so the result does not depend on the thread count or on how bands are
+//! grouped.
 
 use super::scanline::{ScanEdges, Stepper};
 use super::setup::Tri;
