@@ -330,7 +330,7 @@ impl MaskTile {
     /// `zt[k]` over its part of subtile `k` (see the module docs); `outside`
     /// is the tile's samples past the viewport's edge. Returns false when the
     /// triangle told the tile nothing new.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn insert(&mut self, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
         let (mut told, mut fell) = (false, false);
         for sy in 0..2 {
@@ -398,7 +398,7 @@ impl MaskTile {
     /// the viewport): every sample of subtile `k` lies at `zt[k]` or nearer,
     /// whatever the layers held, so that becomes its reference depth; the
     /// working layer stays where it is still nearer.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn insert_full(&mut self, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
         let mut told = false;
         let mut clear = [0u32; 2];

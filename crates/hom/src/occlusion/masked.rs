@@ -29,7 +29,7 @@ impl MaskedBuffer {
         zbuffer.clear(width, height);
         zbuffer.build_blocks();
         Ok(MaskedBuffer {
-            raster: MaskedRasterizer::default(),
+            raster: MaskedRasterizer::with_backend(front.backend),
             front,
             zbuffer,
             cleared: false,

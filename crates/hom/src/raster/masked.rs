@@ -7,7 +7,12 @@
 //! functions: [`super::scanline`] steps each row's span exactly from the row
 //! before, so a row's span is exactly the one [`Tri::row_span`] computes
 //! (the renderer's coverage, or the inner rule's when the triangle was set
-//! up with it). A tile row's mask is then two shifts of its span.
+//! up with it). The eight rows of a tile row step together as eight `i32`
+//! lanes ([`TileRows`], vector kernels in [`super::simd_masked`]); a
+//! triangle with few rows left steps them one at a time ([`Stepper`]), and a
+//! box of at most 8×8 samples takes the per-sample edge test
+//! ([`row_masks`]), which needs no division. A tile row's masks are then
+//! two shifts of its spans.
 //!
 //! Depth: per triangle and subtile, the farthest value of the triangle's
 //! plane over the covered part of the subtile, plus rounding slack
@@ -18,9 +23,11 @@
 //! so the result does not depend on the thread count or on how bands are
 //! grouped.
 
-use super::scanline::{ScanEdges, Stepper};
+use super::scanline::{LaneSpans, ScanEdges, Stepper, TileRows};
 use super::setup::Tri;
-use crate::depth::masked::{row_bits, MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W, SUB_H, SUB_W};
+use super::simd::{row_masks, RasterBackend};
+use super::simd_masked::{render_group, RowKernel};
+use crate::depth::masked::{MaskTile, MaskedZBuffer, MASK_TILE_H, MASK_TILE_W, SUB_H, SUB_W};
 use rayon::prelude::*;
 
 /// Tile rows per band (each band is filled by one thread).
@@ -47,9 +54,25 @@ pub(crate) struct MaskedRasterizer {
     /// Per triangle, its rows `y0..y1`: what a group of bands reads to skip
     /// the triangles outside it.
     rows: Vec<(u16, u16)>,
+    backend: RasterBackend,
 }
 
 impl MaskedRasterizer {
+    /// An empty rasterizer using `backend`; every backend draws the same buffer.
+    ///
+    /// # Panics
+    /// If the CPU does not support `backend`.
+    pub fn with_backend(backend: RasterBackend) -> MaskedRasterizer {
+        assert!(
+            backend.is_supported(),
+            "raster backend {backend:?} is not supported by this CPU"
+        );
+        MaskedRasterizer {
+            rows: Vec::new(),
+            backend,
+        }
+    }
+
     /// Draws `tris` (set up for `zb`'s viewport) into `zb`, which keeps what
     /// it holds, and builds its blocks. Uses the current rayon pool; the
     /// result does not depend on its size.
@@ -68,13 +91,20 @@ impl MaskedRasterizer {
         let rows = &self.rows;
         let (tiles, outside, _) = zb.rows_mut();
         let group_tiles = (tiles_x * BAND_TILES * group_bands) as usize;
+        let backend = self.backend;
         let stats = tiles
             .par_chunks_mut(group_tiles)
             .zip(outside.par_chunks(group_tiles))
             .enumerate()
             .map(|(g, (tiles, outside))| {
-                let ty0 = g as u32 * group_bands * BAND_TILES;
-                draw_group(tris, rows, ty0, tiles_x, tiles, outside)
+                let parts = GroupParts {
+                    rows,
+                    ty0: g as u32 * group_bands * BAND_TILES,
+                    tiles_x,
+                    tiles,
+                    outside,
+                };
+                render_group(backend, tris, parts)
             })
             .reduce(MaskedStats::default, |a, b| MaskedStats {
                 tiles_drawn: a.tiles_drawn + b.tiles_drawn,
@@ -86,16 +116,32 @@ impl MaskedRasterizer {
     }
 }
 
-/// The triangles of `tris` (with their `rows`) that overlap the tile rows
-/// from `ty0` held in `tiles`, in order, band by band.
-fn draw_group(
-    tris: &[Tri],
-    rows: &[(u16, u16)],
-    ty0: u32,
-    tiles_x: u32,
-    tiles: &mut [MaskTile],
-    outside: &[[u32; 8]],
-) -> MaskedStats {
+/// A group of bands to draw: the triangles' rows, the group's first tile
+/// row, tiles across, and its tiles with their bits past the viewport's edge.
+pub(crate) struct GroupParts<'a> {
+    /// Per triangle, its rows `y0..y1`.
+    pub rows: &'a [(u16, u16)],
+    /// The group's first tile row.
+    pub ty0: u32,
+    /// Tiles across.
+    pub tiles_x: u32,
+    /// The group's tiles, row-major.
+    pub tiles: &'a mut [MaskTile],
+    /// Per tile, the bits of samples past the viewport's edge.
+    pub outside: &'a [[u32; 8]],
+}
+
+/// The triangles of `tris` that overlap the group's tile rows, in order,
+/// band by band, with kernels `k`.
+#[inline(always)]
+pub(crate) fn draw_group<K: RowKernel>(k: K, tris: &[Tri], parts: GroupParts) -> MaskedStats {
+    let GroupParts {
+        rows,
+        ty0,
+        tiles_x,
+        tiles,
+        outside,
+    } = parts;
     let band_tiles = (tiles_x * BAND_TILES) as usize;
     let mut bands: Vec<Band> = tiles
         .chunks_mut(band_tiles)
@@ -115,14 +161,94 @@ fn draw_group(
         if b < 0 || a >= n {
             continue;
         }
-        // The scan-line form and one stepper down the triangle's rows through
-        // the group's bands, made at the first band that is not skipped.
+        // The scan-line form and the row bounds down the triangle's rows
+        // through the group's bands, made at the first band that is not skipped.
         let mut scan = None;
         for band in &mut bands[a.max(0) as usize..=b.min(n - 1) as usize] {
-            band.draw(t, &mut scan, &mut stats);
+            band.draw(k, t, &mut scan, &mut stats);
         }
     }
     stats
+}
+
+/// Boxes at most this wide get their rows' coverage from the per-sample
+/// edge test: for small triangles that costs less than the divisions of a
+/// scan-line setup.
+const MASKS_MAX_W: u32 = 8;
+
+/// Triangles with fewer rows left than this step them one at a time: making
+/// the lanes costs eight scalar steps.
+const LANES_MIN_ROWS: u32 = 16;
+
+/// A triangle's row bounds, as the masked raster steps them: eight rows at
+/// a time in `i32` lanes where they fit, else a row at a time.
+enum Bounds {
+    /// Not made yet.
+    None,
+    /// A narrow box: row masks from the per-sample edge test ([`row_masks`]), no division.
+    Masks,
+    Lanes(TileRows),
+    Rows(Stepper),
+}
+
+/// A triangle's scan-line form and its bounds at some row.
+struct Scan {
+    edges: ScanEdges,
+    bounds: Bounds,
+}
+
+impl Scan {
+    /// `t`'s scan form: for a box at most [`MASKS_MAX_W`] wide, row masks
+    /// (and all its rows); else its [`ScanEdges`], bounds made at the first tile row.
+    fn new(t: &Tri) -> Scan {
+        if u32::from(t.x1 - t.x0) <= MASKS_MAX_W && u32::from(t.y1 - t.y0) <= MASKS_MAX_W {
+            let rows = (u32::from(t.y0), u32::from(t.y1));
+            Scan {
+                edges: ScanEdges::rows_only(rows),
+                bounds: Bounds::Masks,
+            }
+        } else {
+            Scan {
+                edges: ScanEdges::new(t),
+                bounds: Bounds::None,
+            }
+        }
+    }
+
+    /// The spans of the tile row at `y` (rows `y + ja .. y + jb` of it), with
+    /// the bounds moved to the next tile row.
+    #[inline(always)]
+    fn tile_row<K: RowKernel>(&mut self, k: K, t: &Tri, y: u32, ja: u32, jb: u32) -> LaneSpans {
+        let at = match &self.bounds {
+            Bounds::None => false,
+            Bounds::Masks => true,
+            Bounds::Lanes(l) => l.row == y,
+            Bounds::Rows(s) => s.py == y + ja,
+        };
+        if !at {
+            // The bands between were skipped (or this is the first).
+            let (first, end) = self.edges.rows;
+            let lanes = end - first.max(y) >= LANES_MIN_ROWS;
+            self.bounds = match lanes.then(|| TileRows::new(t, &self.edges, y, end)).flatten() {
+                Some(l) => Bounds::Lanes(l),
+                None => Bounds::Rows(Stepper::new(t, &self.edges, y + ja)),
+            };
+        }
+        match &mut self.bounds {
+            Bounds::Masks => {
+                let mut masks = [0u64; 8];
+                row_masks(K::BACKEND, t, y + ja, &mut masks[ja as usize..jb as usize]);
+                LaneSpans::from_masks(&masks)
+            }
+            Bounds::Lanes(l) => k.next(l, ja, jb),
+            Bounds::Rows(s) => {
+                let mut spans = [(0u32, 0u32); 8];
+                s.rows(&mut spans[ja as usize..jb as usize]);
+                LaneSpans::from_spans(&spans, u32::from(t.x0))
+            }
+            Bounds::None => unreachable!("made above"),
+        }
+    }
 }
 
 /// One band of tile rows being drawn: its tiles and, per block of tiles
@@ -166,10 +292,11 @@ impl<'a> Band<'a> {
             .fold(f32::NEG_INFINITY, |m, k| m.max(self.tiles[k].far()))
     }
 
-    /// Draws the part of `t` in the band. `scan` is its [`ScanEdges`] and
-    /// stepper, made here when first needed (a triangle hidden in every band
-    /// it reaches needs neither: no division).
-    fn draw(&mut self, t: &Tri, scan: &mut Option<(ScanEdges, Stepper)>, stats: &mut MaskedStats) {
+    /// Draws the part of `t` in the band with kernels `k`. `scan` is its
+    /// [`ScanEdges`] and bounds, made here when first needed (a triangle
+    /// hidden in every band it reaches needs neither: no division).
+    #[inline(always)]
+    fn draw<K: RowKernel>(&mut self, k: K, t: &Tri, scan: &mut Option<Scan>, stats: &mut MaskedStats) {
         let tiles_x = self.tiles_x;
         let band_rows = self.tiles.len() as u32 / tiles_x;
         let (band_y0, band_y1) = (self.ty0 * MASK_TILE_H, (self.ty0 + band_rows) * MASK_TILE_H);
@@ -191,39 +318,27 @@ impl<'a> Band<'a> {
             stats.blocks_rejected += 1;
             return;
         }
-        let (edges, stepper) = scan.get_or_insert_with(|| {
-            let edges = ScanEdges::new(t);
-            let first = edges.rows.0.clamp(ya, u32::from(t.y1) - 1);
-            (edges, Stepper::new(t, &edges, first))
-        });
-        let (ya, yb) = (ya.max(edges.rows.0), yb.min(edges.rows.1));
+        let scan = scan.get_or_insert_with(|| Scan::new(t));
+        let (ya, yb) = (ya.max(scan.edges.rows.0), yb.min(scan.edges.rows.1));
         if ya >= yb {
             return;
         }
-        if stepper.py != ya {
-            // The bands between were skipped (or this is the first).
-            *stepper = Stepper::new(t, edges, ya);
-        }
-        // The spans of the band's rows, (0, 0) outside the triangle's.
-        let mut span = [(0u32, 0u32); (BAND_TILES * MASK_TILE_H) as usize];
-        stepper.rows(&mut span[(ya - band_y0) as usize..(yb - band_y0) as usize]);
+        let x0 = u32::from(t.x0);
         for ty in (ya - band_y0) / MASK_TILE_H..=(yb - 1 - band_y0) / MASK_TILE_H {
-            let rows = &span[(ty * MASK_TILE_H) as usize..][..MASK_TILE_H as usize];
-            let (lo, hi) = rows
-                .iter()
-                .filter(|s| s.0 < s.1)
-                .fold((u32::MAX, 0), |(a, b), s| (a.min(s.0), b.max(s.1)));
-            if lo >= hi {
+            let y_tile0 = band_y0 + ty * MASK_TILE_H;
+            let (ra, rb) = (ya.max(y_tile0), yb.min(y_tile0 + MASK_TILE_H));
+            let spans = scan.tile_row(k, t, y_tile0, ra - y_tile0, rb - y_tile0);
+            if spans.any.0 >= spans.any.1 {
                 continue;
             }
+            let (lo, hi) = ((x0 as i32 + spans.any.0) as u32, (x0 as i32 + spans.any.1) as u32);
             // Columns every row of the tile row covers: the tiles wholly
             // inside take the fast path (no masks to build).
-            let (full_lo, full_hi) = rows.iter().fold((0, u32::MAX), |(a, b), s| (a.max(s.0), b.min(s.1)));
-            let y_tile0 = band_y0 + ty * MASK_TILE_H;
-            let (ra, rb) = (ya.max(y_tile0), yb.min(y_tile0 + MASK_TILE_H) - 1);
+            let (full_lo, full_hi) = (x0 as i32 + spans.all.0, x0 as i32 + spans.all.1);
+            let rb = rb - 1;
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
                 let x_tile0 = tx * MASK_TILE_W;
-                let k = (ty * tiles_x + tx) as usize;
+                let k_tile = (ty * tiles_x + tx) as usize;
                 stats.tiles_drawn += 1;
                 // The covered part of this tile lies in these columns and rows.
                 let (ca, cb) = (lo.max(x_tile0), hi.min(x_tile0 + MASK_TILE_W) - 1);
@@ -244,24 +359,21 @@ impl<'a> Band<'a> {
                     part(ra, rb, r0, r0 + SUB_H - 1)
                 });
                 let zt = t.far_depth_grid(&cols, &subrows);
-                let tile = &mut self.tiles[k];
+                let tile = &mut self.tiles[k_tile];
                 if zt.iter().zip(&tile.z0).all(|(z, z0)| z.is_nan() || z >= z0) {
                     stats.tiles_rejected += 1;
                     continue;
                 }
                 let far = tile.far();
-                let told = if full_lo <= x_tile0 && x_tile0 + MASK_TILE_W <= full_hi {
-                    tile.insert_full(&zt, &self.outside[k])
+                let told = if full_lo <= x_tile0 as i32 && x_tile0 as i32 + MASK_TILE_W as i32 <= full_hi {
+                    tile.insert_full(&zt, &self.outside[k_tile])
                 } else {
-                    let m: [u32; 8] = std::array::from_fn(|j| {
-                        let (a, b) = rows[j];
-                        row_bits(i64::from(a) - i64::from(x_tile0), i64::from(b) - i64::from(x_tile0))
-                    });
-                    tile.insert(&m, &zt, &self.outside[k])
+                    let m = k.masks(&spans, x_tile0 as i32 - x0 as i32);
+                    tile.insert(&m, &zt, &self.outside[k_tile])
                 };
                 if !told {
                     stats.tiles_rejected += 1;
-                } else if self.tiles[k].far() < far {
+                } else if self.tiles[k_tile].far() < far {
                     // A reference depth only falls: the block's falls if this tile held it.
                     let b = (tx / BLOCK_TILES) as usize;
                     if far == self.blocks[b] {
@@ -330,6 +442,81 @@ mod tests {
                 }
             }
         }
+    }
+
+    proptest! {
+        /// One triangle at a time, each span path (row masks, lanes, rows)
+        /// covers exactly the samples the triangle covers, with every backend.
+        #[test]
+        fn one_triangle_covers_exactly_its_samples(seed in any::<u64>(), w in 1u32..300, h in 1u32..150, inner in any::<bool>()) {
+            let mut bits = Vec::new();
+            let wpr = (w as usize).div_ceil(64);
+            for t in soup(seed, 12, w, h, inner) {
+                for backend in RasterBackend::supported() {
+                    let mut zb = MaskedZBuffer::default();
+                    zb.clear(w, h);
+                    MaskedRasterizer::with_backend(backend).render(std::slice::from_ref(&t), &mut zb);
+                    zb.coverage_bits(&mut bits);
+                    for y in 0..h {
+                        for x in 0..w {
+                            let got = bits[y as usize * wpr + x as usize / 64] >> (x % 64) & 1 == 1;
+                            prop_assert_eq!(got, t.covers(x, y), "{:?} sample {},{} of {:?}", backend, x, y, t);
+                        }
+                    }
+                }
+            }
+        }
+
+        /// Every backend draws the same buffer, bit for bit.
+        #[test]
+        fn backends_draw_the_same_buffer(seed in any::<u64>(), n in 1usize..300, w in 1u32..300, h in 1u32..150) {
+            let tris = soup(seed, n, w, h, false);
+            let draw = |backend| {
+                let mut zb = MaskedZBuffer::default();
+                zb.clear(w, h);
+                let stats = MaskedRasterizer::with_backend(backend).render(&tris, &mut zb);
+                let bounds: Vec<u32> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).map(|(x, y)| zb.bound(x, y).to_bits()).collect();
+                (bounds, stats)
+            };
+            let want = draw(RasterBackend::Scalar);
+            for backend in RasterBackend::supported() {
+                prop_assert!(draw(backend) == want, "{:?} differs from scalar", backend);
+            }
+        }
+    }
+
+    #[test]
+    fn slivers_too_steep_for_lanes_step_row_by_row() {
+        // Nearly horizontal edges across a wide box: their column bounds
+        // leave i32 over the rows, so the lanes refuse them and the
+        // row-at-a-time stepper draws them, exactly.
+        let (w, h) = (120u32, 60u32);
+        let at = |sx: f32, sy: f32| Vec4::new(sx / w as f32 * 2.0 - 1.0, 1.0 - sy / h as f32 * 2.0, 0.5, 1.0);
+        let mut refused = 0;
+        for k in 0..8 {
+            let y = 5.0 + k as f32 * 0.37;
+            let v = [at(-3.0e5, y), at(3.0e5, y + 1.0 / 256.0), at(60.0 + k as f32, 55.0)];
+            let mut q = TriangleQueue::default();
+            q.push_clip(&v, &[[0, 1, 2]], |v| v, FaceCull::None).unwrap();
+            let mut tris = Vec::new();
+            q.set_up(&Viewport::new(w, h), false, &mut tris);
+            for t in &tris {
+                let edges = ScanEdges::new(t);
+                refused += usize::from(TileRows::new(t, &edges, edges.rows.0 / 8 * 8, edges.rows.1).is_none());
+                let mut zb = MaskedZBuffer::default();
+                zb.clear(w, h);
+                MaskedRasterizer::default().render(std::slice::from_ref(t), &mut zb);
+                let mut bits = Vec::new();
+                zb.coverage_bits(&mut bits);
+                for y in 0..h {
+                    for x in 0..w {
+                        let got = bits[y as usize * 2 + x as usize / 64] >> (x % 64) & 1 == 1;
+                        assert_eq!(got, t.covers(x, y), "sample {x},{y} of {t:?}");
+                    }
+                }
+            }
+        }
+        assert!(refused > 0, "no sliver was refused by the lanes");
     }
 
     #[test]

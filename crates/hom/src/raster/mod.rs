@@ -32,6 +32,8 @@ pub mod setup;
 #[allow(unsafe_code)]
 mod simd;
 #[allow(unsafe_code)]
+mod simd_masked;
+#[allow(unsafe_code)]
 mod simd_tiles;
 #[forbid(unsafe_code)]
 mod tile_band;

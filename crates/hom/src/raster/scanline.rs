@@ -97,6 +97,20 @@ impl ScanEdges {
         let rows = if ya < yb { (ya as u32, yb as u32) } else { (0, 0) };
         ScanEdges { rows, slopes }
     }
+
+    /// Only the rows (for a triangle whose spans come from elsewhere); its bounds never bind.
+    pub fn rows_only(rows: (u32, u32)) -> ScanEdges {
+        let none = Slope {
+            edge: NO_EDGE,
+            d: 1,
+            sq: 0,
+            sr: 0,
+        };
+        ScanEdges {
+            rows,
+            slopes: [none; 4],
+        }
+    }
 }
 
 /// `(n.div_euclid(d), n.rem_euclid(d))` for `d > 0`, one division. (An
@@ -189,6 +203,188 @@ impl Stepper {
                 r[k] += sr[k] - carry * d[k];
             }
         }
+    }
+
+    /// Moves the bounds down one row.
+    #[inline]
+    fn step(&mut self) {
+        for k in 0..4 {
+            let carry = i64::from(self.r[k] + self.sr[k] >= self.d[k]);
+            self.q[k] += self.sq[k] + carry;
+            self.r[k] += self.sr[k] - carry * self.d[k];
+        }
+        self.py += 1;
+    }
+}
+
+/// Rows a [`TileRows`] steps at once: the eight rows of a masked tile row.
+pub(crate) const LANES: usize = 8;
+
+/// An empty lane's `lo` (and `-EMPTY` its `hi`): beyond every column, and
+/// safe to subtract a column from.
+pub(crate) const EMPTY: i32 = 1 << 30;
+
+/// The covered columns of the eight rows of a tile row, as offsets from the
+/// triangle box's first column: lane `j` covers `lo[j]..hi[j]`; an empty
+/// lane is `(EMPTY, -EMPTY)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct LaneSpans {
+    /// Per lane, the first covered column offset.
+    pub lo: [i32; LANES],
+    /// Per lane, one past the last.
+    pub hi: [i32; LANES],
+    /// The columns some lane covers, `(min lo, max hi)`.
+    pub any: (i32, i32),
+    /// The columns every lane covers, `(max lo, min hi)` (empty when a lane is).
+    pub all: (i32, i32),
+}
+
+impl LaneSpans {
+    /// Lanes from absolute spans (`(0, 0)`: empty) of a box starting at column `x0`.
+    #[inline(always)]
+    pub fn from_spans(spans: &[(u32, u32); LANES], x0: u32) -> LaneSpans {
+        let (mut lo, mut hi) = ([EMPTY; LANES], [-EMPTY; LANES]);
+        for (j, &(a, b)) in spans.iter().enumerate() {
+            if a < b {
+                (lo[j], hi[j]) = (a as i32 - x0 as i32, b as i32 - x0 as i32);
+            }
+        }
+        LaneSpans::reduced(lo, hi)
+    }
+
+    /// Lanes from row masks (bit `k`: column offset `k`; covered columns are contiguous).
+    #[inline(always)]
+    pub fn from_masks(masks: &[u64; LANES]) -> LaneSpans {
+        let (mut lo, mut hi) = ([EMPTY; LANES], [-EMPTY; LANES]);
+        for (j, &m) in masks.iter().enumerate() {
+            if m != 0 {
+                (lo[j], hi[j]) = (m.trailing_zeros() as i32, 64 - m.leading_zeros() as i32);
+            }
+        }
+        LaneSpans::reduced(lo, hi)
+    }
+
+    /// The lanes with their `any` and `all`.
+    #[inline(always)]
+    fn reduced(lo: [i32; LANES], hi: [i32; LANES]) -> LaneSpans {
+        let (mut any, mut all) = ((EMPTY, -EMPTY), (-EMPTY, EMPTY));
+        for j in 0..LANES {
+            any = (any.0.min(lo[j]), any.1.max(hi[j]));
+            all = (all.0.max(lo[j]), all.1.min(hi[j]));
+        }
+        LaneSpans { lo, hi, any, all }
+    }
+
+    /// Lane `j`'s span as absolute columns of a box at `x0` (`(0, 0)`: empty).
+    #[cfg(test)]
+    pub fn span(&self, j: usize, x0: u32) -> (u32, u32) {
+        if self.lo[j] < self.hi[j] {
+            ((x0 as i32 + self.lo[j]) as u32, (x0 as i32 + self.hi[j]) as u32)
+        } else {
+            (0, 0)
+        }
+    }
+
+    /// Per lane, the bits of columns `xt..xt + 32` (offsets) it covers: bit
+    /// `i` is column `xt + i`. The scalar twin of the vector kernels' masks:
+    /// a shift by 32 or more (or by a negative count) gives 0, as `vpsllvd` does.
+    #[inline(always)]
+    pub fn masks(&self, xt: i32) -> [u32; LANES] {
+        let shl = |n: i32| if (n as u32) < 32 { u32::MAX << n } else { 0 };
+        std::array::from_fn(|j| shl((self.lo[j] - xt).max(0)) & !shl((self.hi[j] - xt).max(0)))
+    }
+}
+
+/// A triangle's four row bounds (a [`Stepper`]'s) at the eight rows of a
+/// tile row, one row per `i32` lane, stepped a tile row at a time: where a
+/// [`Stepper`] walks eight rows one after the other, this does the eight in
+/// parallel lanes (the vector kernels' form; the scalar
+/// [`TileRows::next_scalar`] defines them). `i32` holds the quotients and
+/// remainders only for triangles whose bounds stay within `±2^29` columns
+/// over their rows and whose divisors stay below `2^30`;
+/// [`TileRows::new`] refuses the others, which take a [`Stepper`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct TileRows {
+    /// Per bound (two left, two right), per lane, the quotient.
+    pub q: [[i32; LANES]; 4],
+    /// Per bound, per lane, the remainder, `0 <= r < d`.
+    pub r: [[i32; LANES]; 4],
+    /// Per bound, the divisor.
+    pub d: [i32; 4],
+    /// Per bound, the tile-row step of `q`.
+    pub q8: [i32; 4],
+    /// Per bound, the tile-row step of `r`, `0 <= r8 < d`.
+    pub r8: [i32; 4],
+    /// The last column offset in the box.
+    pub last: i32,
+    /// The absolute row of lane 0.
+    pub row: u32,
+}
+
+impl TileRows {
+    /// `t`'s bounds (with its [`ScanEdges`]) at rows `row..row + 8`, to be
+    /// stepped down to rows below `end`; `None` when `i32` lanes cannot hold them.
+    pub fn new(t: &Tri, edges: &ScanEdges, row: u32, end: u32) -> Option<TileRows> {
+        const LIMIT: i64 = 1 << 29;
+        let mut s = Stepper::new(t, edges, row);
+        // Quotients move by at most |sq| + 1 a row: bound them over every row stepped.
+        let rows = i64::from(end.saturating_sub(row)) + 2 * LANES as i64;
+        let fits = (0..4)
+            .all(|k| s.d[k] < 2 * LIMIT && s.q[k].abs().saturating_add(rows.saturating_mul(s.sq[k].abs() + 1)) < LIMIT);
+        if !fits || s.last >= LIMIT {
+            return None;
+        }
+        let (mut q, mut r) = ([[0; LANES]; 4], [[0; LANES]; 4]);
+        let (q0, r0) = (s.q, s.r);
+        for j in 0..LANES {
+            for k in 0..4 {
+                (q[k][j], r[k][j]) = (s.q[k] as i32, s.r[k] as i32);
+            }
+            s.step();
+        }
+        // Eight rows on: the tile-row step, with the remainder brought into 0..d.
+        let (mut q8, mut r8) = ([0; 4], [0; 4]);
+        for k in 0..4 {
+            let (dq, dr) = (s.q[k] - q0[k], s.r[k] - r0[k]);
+            (q8[k], r8[k]) = if dr < 0 { (dq - 1, dr + s.d[k]) } else { (dq, dr) };
+        }
+        Some(TileRows {
+            q,
+            r,
+            d: s.d.map(|d| d as i32),
+            q8: q8.map(|v| v as i32),
+            r8: r8.map(|v| v as i32),
+            last: s.last as i32,
+            row,
+        })
+    }
+
+    /// The spans of the current eight rows, lanes outside `ja..jb` empty,
+    /// then the bounds moved down a tile row. Scalar; the semantics of the
+    /// vector kernels.
+    #[inline(always)]
+    pub fn next_scalar(&mut self, ja: u32, jb: u32) -> LaneSpans {
+        let mut lo = [0; LANES];
+        let mut hi = [0; LANES];
+        for j in 0..LANES {
+            let (q, r) = (&self.q, &self.r);
+            let a = (q[0][j] + i32::from(r[0][j] > 0))
+                .max(q[1][j] + i32::from(r[1][j] > 0))
+                .max(0);
+            let b = q[2][j].min(q[3][j]).min(self.last) + 1;
+            let live = (ja..jb).contains(&(j as u32)) && a < b;
+            (lo[j], hi[j]) = if live { (a, b) } else { (EMPTY, -EMPTY) };
+        }
+        for k in 0..4 {
+            for j in 0..LANES {
+                let t = self.r[k][j] + self.r8[k];
+                let carry = i32::from(t >= self.d[k]);
+                self.q[k][j] += self.q8[k] + carry;
+                self.r[k][j] = t - carry * self.d[k];
+            }
+        }
+        self.row += LANES as u32;
+        LaneSpans::reduced(lo, hi)
     }
 }
 
