@@ -68,8 +68,9 @@ pub(crate) struct MaskTile {
     pub z1: [f32; SUBTILES],
     /// Row `j`, bit `i`: sample `(32·tx + i, 8·ty + j)` is in its subtile's working layer.
     pub mask: [u32; 8],
-    /// The farthest of `z0` (kept by the updates: blocks read it often).
-    far: f32,
+    /// The farthest of `z0`, kept equal to it by every update (blocks read it
+    /// often); the vector kernels of the masked rasterizer keep it too.
+    pub(crate) far: f32,
 }
 
 /// The masked depth buffer; see the module docs.

@@ -360,16 +360,16 @@ impl<'a> Band<'a> {
                 });
                 let zt = t.far_depth_grid(&cols, &subrows);
                 let tile = &mut self.tiles[k_tile];
-                if zt.iter().zip(&tile.z0).all(|(z, z0)| z.is_nan() || z >= z0) {
+                if !k.nearer(tile, &zt) {
                     stats.tiles_rejected += 1;
                     continue;
                 }
                 let far = tile.far();
                 let told = if full_lo <= x_tile0 as i32 && x_tile0 as i32 + MASK_TILE_W as i32 <= full_hi {
-                    tile.insert_full(&zt, &self.outside[k_tile])
+                    k.insert_full(tile, &zt, &self.outside[k_tile])
                 } else {
                     let m = k.masks(&spans, x_tile0 as i32 - x0 as i32);
-                    tile.insert(&m, &zt, &self.outside[k_tile])
+                    k.insert(tile, &m, &zt, &self.outside[k_tile])
                 };
                 if !told {
                     stats.tiles_rejected += 1;

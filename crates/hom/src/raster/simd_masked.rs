@@ -1,22 +1,25 @@
 //! Vector kernels of the masked rasterizer ([`super::masked`]): the eight
-//! rows of a tile row stepped as eight `i32` lanes ([`TileRows`]), and their
-//! 32-column coverage masks. Like [`super::simd`], a place for `unsafe` and
-//! `std::arch`; [`TileRows::next_scalar`] and [`LaneSpans::masks`] define the
-//! results and every kernel here equals them bit for bit (property tests):
-//! the same `i32` sums and compares, lane by lane.
+//! rows of a tile row stepped as eight `i32` lanes ([`TileRows`]), their
+//! 32-column coverage masks, and the tile update with the eight subtiles as
+//! eight `f32` lanes. Like [`super::simd`], a place for `unsafe` and
+//! `std::arch`; [`TileRows::next_scalar`], [`LaneSpans::masks`] and
+//! [`MaskTile::insert`] / [`MaskTile::insert_full`] define the results and
+//! every kernel here equals them bit for bit (property tests): the same
+//! `i32` sums and compares lane by lane, and the same `f32` operations,
+//! every case of the update computed for every subtile, then selected.
 //!
-//! | backend | rows | masks |
-//! |---|---|---|
-//! | [`RasterBackend::Scalar`] | one at a time | one at a time |
-//! | [`RasterBackend::Sse41`] | two vectors of four (`pmaxsd`, `pminsd`, `pblendvb` are SSE4.1) | one at a time (no per-lane shift before AVX2) |
-//! | [`RasterBackend::Avx2`] | one vector of eight | `vpsllvd`: eight rows at once |
-//! | [`RasterBackend::Avx512`] | as AVX2 (a tile row is eight lanes) | as AVX2 |
+//! | backend | rows | masks | tile update |
+//! |---|---|---|---|
+//! | [`RasterBackend::Scalar`] | one at a time | one at a time | subtile by subtile |
+//! | [`RasterBackend::Sse41`] | two vectors of four (`pmaxsd`, `pminsd`, `pblendvb` are SSE4.1) | one at a time (no per-lane shift before AVX2) | subtile by subtile |
+//! | [`RasterBackend::Avx2`] | one vector of eight | `vpsllvd`: eight rows at once | one vector of eight subtiles |
+//! | [`RasterBackend::Avx512`] | as AVX2 (a tile row is eight lanes) | as AVX2 | as AVX2 |
 
-use super::masked::MaskedStats;
-use super::masked::{draw_group, GroupParts};
+use super::masked::{draw_group, GroupParts, MaskedStats};
 use super::scanline::{LaneSpans, TileRows, LANES};
 use super::setup::Tri;
 use super::simd::RasterBackend;
+use crate::depth::masked::{MaskTile, SUBTILES};
 
 /// What the masked rasterizer asks of a backend, per tile row.
 pub(crate) trait RowKernel: Copy {
@@ -26,6 +29,13 @@ pub(crate) trait RowKernel: Copy {
     fn next(self, rows: &mut TileRows, ja: u32, jb: u32) -> LaneSpans;
     /// [`LaneSpans::masks`].
     fn masks(self, spans: &LaneSpans, xt: i32) -> [u32; LANES];
+    /// Whether some `zt[k]` lies nearer than the tile's `z0[k]` (else the
+    /// triangle tells the tile nothing).
+    fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool;
+    /// [`MaskTile::insert`].
+    fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool;
+    /// [`MaskTile::insert_full`].
+    fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool;
 }
 
 /// The scalar kernels: the semantics.
@@ -43,6 +53,21 @@ impl RowKernel for Scalar {
     #[inline(always)]
     fn masks(self, spans: &LaneSpans, xt: i32) -> [u32; LANES] {
         spans.masks(xt)
+    }
+
+    #[inline(always)]
+    fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool {
+        zt.iter().zip(&tile.z0).any(|(z, z0)| z < z0)
+    }
+
+    #[inline(always)]
+    fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+        tile.insert(m, zt, outside)
+    }
+
+    #[inline(always)]
+    fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+        tile.insert_full(zt, outside)
     }
 }
 
@@ -67,7 +92,10 @@ pub(crate) fn render_group(backend: RasterBackend, tris: &[Tri], parts: GroupPar
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x86 {
-    use super::{draw_group, GroupParts, LaneSpans, MaskedStats, RasterBackend, RowKernel, TileRows, Tri, LANES};
+    use super::{
+        draw_group, GroupParts, LaneSpans, MaskTile, MaskedStats, RasterBackend, RowKernel, TileRows, Tri, LANES,
+        SUBTILES,
+    };
     use crate::raster::scanline::EMPTY;
     use std::arch::x86_64::*;
 
@@ -127,6 +155,24 @@ pub(crate) mod x86 {
             // SAFETY: as above.
             unsafe { masks_avx2(spans, xt) }
         }
+
+        #[inline(always)]
+        fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool {
+            // SAFETY: as above.
+            unsafe { nearer_avx2(tile, zt) }
+        }
+
+        #[inline(always)]
+        fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+            // SAFETY: as above.
+            unsafe { insert_avx2(tile, m, zt, outside) }
+        }
+
+        #[inline(always)]
+        fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+            // SAFETY: as above.
+            unsafe { insert_full_avx2(tile, zt, outside) }
+        }
     }
 
     impl RowKernel for Sse41 {
@@ -141,6 +187,21 @@ pub(crate) mod x86 {
         #[inline(always)]
         fn masks(self, spans: &LaneSpans, xt: i32) -> [u32; LANES] {
             spans.masks(xt)
+        }
+
+        #[inline(always)]
+        fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool {
+            super::Scalar.nearer(tile, zt)
+        }
+
+        #[inline(always)]
+        fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+            tile.insert(m, zt, outside)
+        }
+
+        #[inline(always)]
+        fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+            tile.insert_full(zt, outside)
         }
     }
 
@@ -224,6 +285,168 @@ pub(crate) mod x86 {
             let mut out = [0u32; LANES];
             _mm256_storeu_si256(out.as_mut_ptr().cast(), m);
             out
+        }
+    }
+
+    /// Per subtile (lane `k`), whether its bytes of the rows of `v` (row
+    /// `j` in lane `j`; subtile `k` is byte `k % 4` of rows `4·(k / 4)..`)
+    /// are all ones once AND-ed (`all`), or not all zero once OR-ed (`!all`):
+    /// -1 or 0 per lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn per_subtile(v: __m256i, all: bool) -> __m256i {
+        // Fold the four rows of each half (rows 0..4, 4..8) into every lane of it.
+        let fold = |a: __m256i, b: __m256i| {
+            if all {
+                _mm256_and_si256(a, b)
+            } else {
+                _mm256_or_si256(a, b)
+            }
+        };
+        let v = fold(v, _mm256_shuffle_epi32::<0b01_00_11_10>(v));
+        let v = fold(v, _mm256_shuffle_epi32::<0b10_11_00_01>(v));
+        // Lanes 0 and 4 hold the bytes of subtiles 0..4 and 4..8: each byte to a lane.
+        let bytes = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+            v,
+            _mm256_setr_epi32(0, 4, 0, 4, 0, 4, 0, 4),
+        ));
+        let wide = _mm256_cvtepu8_epi32(bytes);
+        if all {
+            _mm256_cmpeq_epi32(wide, _mm256_set1_epi32(0xFF))
+        } else {
+            _mm256_xor_si256(_mm256_cmpeq_epi32(wide, _mm256_setzero_si256()), _mm256_set1_epi32(-1))
+        }
+    }
+
+    /// The inverse of [`per_subtile`]: per row, the bytes of the subtiles
+    /// whose lane of `sel` is -1.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn to_rows(sel: __m256i) -> __m256i {
+        // Byte 0 of lanes 0..4 of each half into every lane of the half.
+        let pick = _mm256_setr_epi8(
+            0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12, 0, 4, 8, 12,
+        );
+        _mm256_shuffle_epi8(sel, pick)
+    }
+
+    /// The largest of eight lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn max8(v: __m256) -> f32 {
+        let m = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
+        let m = _mm_max_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
+        _mm_cvtss_f32(_mm_max_ps(m, _mm_shuffle_ps::<0b10_11_00_01>(m, m)))
+    }
+
+    /// `Scalar::nearer` in one compare.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn nearer_avx2(tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool {
+        // SAFETY: unaligned loads of `[f32; 8]` arrays.
+        unsafe {
+            let lt = _mm256_cmp_ps::<_CMP_LT_OQ>(_mm256_loadu_ps(zt.as_ptr()), _mm256_loadu_ps(tile.z0.as_ptr()));
+            _mm256_movemask_ps(lt) != 0
+        }
+    }
+
+    /// [`MaskTile::insert`] with the eight subtiles as eight lanes: every
+    /// case of the update computed for every subtile, then selected.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn insert_avx2(tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+        // SAFETY: unaligned loads and stores of `[u32; 8]` and `[f32; 8]` arrays.
+        unsafe {
+            let ldi = |a: &[u32; 8]| _mm256_loadu_si256(a.as_ptr().cast());
+            let (m, o, mask) = (ldi(m), ldi(outside), ldi(&tile.mask));
+            let (z, z0, z1) = (
+                _mm256_loadu_ps(zt.as_ptr()),
+                _mm256_loadu_ps(tile.z0.as_ptr()),
+                _mm256_loadu_ps(tile.z1.as_ptr()),
+            );
+            let reach = per_subtile(m, false);
+            let better = _mm256_and_si256(reach, _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(z, z0)));
+            if _mm256_testz_si256(better, better) != 0 {
+                return false;
+            }
+            let held = per_subtile(_mm256_xor_si256(mask, o), false);
+            let alone = per_subtile(_mm256_or_si256(m, o), true);
+            let merged = per_subtile(_mm256_or_si256(mask, m), true);
+            // The four cases, as in `MaskTile::insert`.
+            let a = _mm256_and_si256(better, alone);
+            let rest = _mm256_andnot_si256(alone, better);
+            let b = _mm256_and_si256(rest, merged);
+            let rest = _mm256_andnot_si256(merged, rest);
+            let much_nearer = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(z, z1),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(
+                    _mm256_sub_ps(z1, z),
+                    _mm256_sub_ps(_mm256_min_ps(z0, _mm256_set1_ps(1.0)), z1),
+                ),
+            );
+            let c = _mm256_and_si256(_mm256_and_si256(rest, held), _mm256_castps_si256(much_nearer));
+            let d = _mm256_andnot_si256(c, rest);
+            let far = _mm256_blendv_ps(z, _mm256_max_ps(z1, z), _mm256_castsi256_ps(held));
+            let fz = |v: __m256i| _mm256_castsi256_ps(v);
+            let new_z0 = _mm256_blendv_ps(_mm256_blendv_ps(z0, _mm256_min_ps(z0, far), fz(b)), z, fz(a));
+            let clear_a = _mm256_and_si256(a, _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(z1, z)));
+            let clear = _mm256_or_si256(clear_a, b);
+            let new_z1 = _mm256_blendv_ps(z1, far, fz(d));
+            let new_z1 = _mm256_blendv_ps(new_z1, z, fz(c));
+            let new_z1 = _mm256_blendv_ps(new_z1, _mm256_set1_ps(f32::NEG_INFINITY), fz(clear));
+            let (clear, replace, merge) = (to_rows(clear), to_rows(c), to_rows(d));
+            let kept = _mm256_andnot_si256(_mm256_or_si256(clear, replace), mask);
+            let new_mask = _mm256_or_si256(
+                _mm256_or_si256(kept, _mm256_and_si256(o, clear)),
+                _mm256_or_si256(
+                    _mm256_and_si256(_mm256_or_si256(m, o), replace),
+                    _mm256_and_si256(m, merge),
+                ),
+            );
+            _mm256_storeu_si256(tile.mask.as_mut_ptr().cast(), new_mask);
+            _mm256_storeu_ps(tile.z0.as_mut_ptr(), new_z0);
+            _mm256_storeu_ps(tile.z1.as_mut_ptr(), new_z1);
+            tile.far = max8(new_z0);
+            true
+        }
+    }
+
+    /// [`MaskTile::insert_full`] with the eight subtiles as eight lanes.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn insert_full_avx2(tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
+        // SAFETY: unaligned loads and stores of `[u32; 8]` and `[f32; 8]` arrays.
+        unsafe {
+            let (z, z0, z1) = (
+                _mm256_loadu_ps(zt.as_ptr()),
+                _mm256_loadu_ps(tile.z0.as_ptr()),
+                _mm256_loadu_ps(tile.z1.as_ptr()),
+            );
+            let better = _mm256_cmp_ps::<_CMP_LT_OQ>(z, z0);
+            if _mm256_movemask_ps(better) == 0 {
+                return false;
+            }
+            let clear = _mm256_and_ps(better, _mm256_cmp_ps::<_CMP_GE_OQ>(z1, z));
+            let new_z0 = _mm256_blendv_ps(z0, z, better);
+            let new_z1 = _mm256_blendv_ps(z1, _mm256_set1_ps(f32::NEG_INFINITY), clear);
+            let rows = to_rows(_mm256_castps_si256(clear));
+            let mask = _mm256_loadu_si256(tile.mask.as_ptr().cast());
+            let o = _mm256_loadu_si256(outside.as_ptr().cast());
+            let new_mask = _mm256_or_si256(_mm256_andnot_si256(rows, mask), _mm256_and_si256(o, rows));
+            _mm256_storeu_si256(tile.mask.as_mut_ptr().cast(), new_mask);
+            _mm256_storeu_ps(tile.z0.as_mut_ptr(), new_z0);
+            _mm256_storeu_ps(tile.z1.as_mut_ptr(), new_z1);
+            tile.far = max8(new_z0);
+            true
         }
     }
 
@@ -369,6 +592,61 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Random inserts into random tiles (random masks, depths from a few
+    /// values so ties happen, the edge of the viewport anywhere): every
+    /// kernel leaves the tile exactly as the scalar `MaskTile` update does.
+    #[test]
+    fn kernels_update_tiles_as_the_scalar_code() {
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = x86::Avx2::new();
+        #[cfg(not(target_arch = "x86_64"))]
+        let avx2: Option<Scalar> = None;
+        let Some(avx2) = avx2 else {
+            eprintln!("simd_masked: this CPU has no AVX2; its tile update is untested here");
+            return;
+        };
+        let mut rng = hom_testkit::Rng::new(77);
+        let depths = [0.1f32, 0.25, 0.4, 0.4, 0.7, 0.9, 1.0, 1.5];
+        let mut pick = |rng: &mut hom_testkit::Rng| depths[rng.below(depths.len() as u64) as usize];
+        let (mut inserts, mut told) = (0, 0);
+        for _ in 0..300 {
+            let mut zb = crate::depth::MaskedZBuffer::default();
+            zb.clear(1 + rng.below(32) as u32, 1 + rng.below(8) as u32);
+            let (tiles, outside, _) = zb.rows_mut();
+            let (mut tile, outside) = (tiles[0], outside[0]);
+            for _ in 0..40 {
+                let m: [u32; 8] = std::array::from_fn(|_| match rng.below(4) {
+                    0 => 0,
+                    1 => u32::MAX,
+                    _ => rng.below(1 << 32) as u32,
+                });
+                let m = m.map(|r| r & !outside[0]);
+                let zt: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
+                let full = rng.below(4) == 0;
+                let (mut want, mut got) = (tile, tile);
+                let (a, b) = if full {
+                    (
+                        want.insert_full(&zt, &outside),
+                        avx2.insert_full(&mut got, &zt, &outside),
+                    )
+                } else {
+                    (want.insert(&m, &zt, &outside), avx2.insert(&mut got, &m, &zt, &outside))
+                };
+                assert_eq!(a, b, "told, from {tile:?} with {m:x?} {zt:?} full {full}");
+                assert_eq!(got, want, "from {tile:?} with {m:x?} {zt:?} full {full}");
+                assert_eq!(got.far, want.far);
+                assert_eq!(Scalar.nearer(&tile, &zt), avx2.nearer(&tile, &zt));
+                inserts += 1;
+                told += usize::from(a);
+                tile = want;
+            }
+        }
+        assert!(
+            told > inserts / 4 && told < inserts,
+            "{told} of {inserts} inserts told the tile something"
+        );
     }
 
     #[test]
