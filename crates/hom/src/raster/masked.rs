@@ -23,7 +23,7 @@
 //! so the result does not depend on the thread count or on how bands are
 //! grouped.
 
-use super::scanline::{LaneSpans, ScanEdges, Stepper, TileRows};
+use super::scanline::{LaneSpans, ScanEdges, Stepper, TileRows, EMPTY};
 use super::setup::Tri;
 use super::simd::{row_masks, RasterBackend};
 use super::simd_masked::{render_group, RowKernel};
@@ -215,10 +215,10 @@ impl Scan {
         }
     }
 
-    /// The spans of the tile row at `y` (rows `y + ja .. y + jb` of it), with
-    /// the bounds moved to the next tile row.
+    /// The coverage of the tile row at `y` (rows `y + ja .. y + jb` of it),
+    /// with the bounds moved to the next tile row.
     #[inline(always)]
-    fn tile_row<K: RowKernel>(&mut self, k: K, t: &Tri, y: u32, ja: u32, jb: u32) -> LaneSpans {
+    fn tile_row<K: RowKernel>(&mut self, k: K, t: &Tri, y: u32, ja: u32, jb: u32) -> TileRowCover {
         let at = match &self.bounds {
             Bounds::None => false,
             Bounds::Masks => true,
@@ -234,11 +234,23 @@ impl Scan {
                 None => Bounds::Rows(Stepper::new(t, &self.edges, y + ja)),
             };
         }
-        match &mut self.bounds {
+        let spans = match &mut self.bounds {
             Bounds::Masks => {
                 let mut masks = [0u64; 8];
                 row_masks(K::BACKEND, t, y + ja, &mut masks[ja as usize..jb as usize]);
-                LaneSpans::from_masks(&masks)
+                // Covered columns are contiguous in every row, so in their union and intersection too.
+                let range = |m: u64| {
+                    if m == 0 {
+                        (EMPTY, -EMPTY)
+                    } else {
+                        (m.trailing_zeros() as i32, 64 - m.leading_zeros() as i32)
+                    }
+                };
+                return TileRowCover {
+                    any: range(masks.iter().fold(0, |a, &m| a | m)),
+                    all: range(masks.iter().fold(u64::MAX, |a, &m| a & m)),
+                    rows: RowCover::Masks(masks),
+                };
             }
             Bounds::Lanes(l) => k.next(l, ja, jb),
             Bounds::Rows(s) => {
@@ -247,6 +259,39 @@ impl Scan {
                 LaneSpans::from_spans(&spans, u32::from(t.x0))
             }
             Bounds::None => unreachable!("made above"),
+        };
+        TileRowCover {
+            any: spans.any,
+            all: spans.all,
+            rows: RowCover::Spans(spans),
+        }
+    }
+}
+
+/// A tile row's coverage by a triangle, in column offsets from its box's
+/// first column: the columns some row covers (`any`, empty when
+/// `any.0 >= any.1`), those every row covers (`all`), and each row's.
+struct TileRowCover {
+    any: (i32, i32),
+    all: (i32, i32),
+    rows: RowCover,
+}
+
+/// Each row's covered columns, as spans or as masks (bit `k`: offset `k`).
+enum RowCover {
+    Spans(LaneSpans),
+    Masks([u64; 8]),
+}
+
+impl TileRowCover {
+    /// Per row, the bits of columns `xt..xt + 32` (offsets) it covers.
+    #[inline(always)]
+    fn masks<K: RowKernel>(&self, k: K, xt: i32) -> [u32; 8] {
+        match &self.rows {
+            RowCover::Spans(s) => k.masks(s, xt),
+            // The tile overlaps the box: -32 < xt < 64.
+            RowCover::Masks(m) if xt >= 0 => m.map(|r| (r >> xt) as u32),
+            RowCover::Masks(m) => m.map(|r| (r << -xt) as u32),
         }
     }
 }
@@ -327,14 +372,14 @@ impl<'a> Band<'a> {
         for ty in (ya - band_y0) / MASK_TILE_H..=(yb - 1 - band_y0) / MASK_TILE_H {
             let y_tile0 = band_y0 + ty * MASK_TILE_H;
             let (ra, rb) = (ya.max(y_tile0), yb.min(y_tile0 + MASK_TILE_H));
-            let spans = scan.tile_row(k, t, y_tile0, ra - y_tile0, rb - y_tile0);
-            if spans.any.0 >= spans.any.1 {
+            let cover = scan.tile_row(k, t, y_tile0, ra - y_tile0, rb - y_tile0);
+            if cover.any.0 >= cover.any.1 {
                 continue;
             }
-            let (lo, hi) = ((x0 as i32 + spans.any.0) as u32, (x0 as i32 + spans.any.1) as u32);
+            let (lo, hi) = ((x0 as i32 + cover.any.0) as u32, (x0 as i32 + cover.any.1) as u32);
             // Columns every row of the tile row covers: the tiles wholly
             // inside take the fast path (no masks to build).
-            let (full_lo, full_hi) = (x0 as i32 + spans.all.0, x0 as i32 + spans.all.1);
+            let (full_lo, full_hi) = (x0 as i32 + cover.all.0, x0 as i32 + cover.all.1);
             let rb = rb - 1;
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
                 let x_tile0 = tx * MASK_TILE_W;
@@ -368,7 +413,7 @@ impl<'a> Band<'a> {
                 let told = if full_lo <= x_tile0 as i32 && x_tile0 as i32 + MASK_TILE_W as i32 <= full_hi {
                     k.insert_full(tile, &zt, &self.outside[k_tile])
                 } else {
-                    let m = k.masks(&spans, x_tile0 as i32 - x0 as i32);
+                    let m = cover.masks(k, x_tile0 as i32 - x0 as i32);
                     k.insert(tile, &m, &zt, &self.outside[k_tile])
                 };
                 if !told {

@@ -252,18 +252,6 @@ impl LaneSpans {
         LaneSpans::reduced(lo, hi)
     }
 
-    /// Lanes from row masks (bit `k`: column offset `k`; covered columns are contiguous).
-    #[inline(always)]
-    pub fn from_masks(masks: &[u64; LANES]) -> LaneSpans {
-        let (mut lo, mut hi) = ([EMPTY; LANES], [-EMPTY; LANES]);
-        for (j, &m) in masks.iter().enumerate() {
-            if m != 0 {
-                (lo[j], hi[j]) = (m.trailing_zeros() as i32, 64 - m.leading_zeros() as i32);
-            }
-        }
-        LaneSpans::reduced(lo, hi)
-    }
-
     /// The lanes with their `any` and `all`.
     #[inline(always)]
     fn reduced(lo: [i32; LANES], hi: [i32; LANES]) -> LaneSpans {
