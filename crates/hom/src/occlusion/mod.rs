@@ -411,8 +411,12 @@ impl Front {
     fn set_up_queued(&mut self) -> bool {
         let start = Instant::now();
         let inner = self.options.sampling == Sampling::Conservative;
-        self.queue
-            .set_up(&Viewport::new(self.width, self.height), inner, &mut self.tris);
+        self.queue.set_up_with(
+            self.backend,
+            &Viewport::new(self.width, self.height),
+            inner,
+            &mut self.tris,
+        );
         self.queue.clear();
         self.stats.triangles_drawn += self.tris.len() as u64;
         self.stats.setup_ms += ms(start);

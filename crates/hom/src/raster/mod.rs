@@ -34,6 +34,8 @@ mod simd;
 #[allow(unsafe_code)]
 mod simd_masked;
 #[allow(unsafe_code)]
+mod simd_setup;
+#[allow(unsafe_code)]
 mod simd_tiles;
 #[forbid(unsafe_code)]
 mod tile_band;

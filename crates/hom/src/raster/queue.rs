@@ -3,7 +3,9 @@
 //! setup ([`super::setup`]: clip, snap, edge functions) of everything queued
 //! runs at once, in parallel, in submission order.
 
-use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewport};
+use super::setup::{setup_triangle_with, unclipped, FaceCull, ScreenVertex, SetupRule, Tri, Vertex, Viewport};
+use super::simd::RasterBackend;
+use super::simd_setup::{setup_screen4, SETUP_LANES};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -128,8 +130,16 @@ impl TriangleQueue {
     /// Sets up every queued triangle for `vp` into `out` (cleared first), in
     /// submission order, each fan piece with `item` = its batch's index.
     /// Non-finite vertices, triangles outside the view and culled windings
-    /// produce nothing. Uses the current rayon pool.
+    /// produce nothing. Uses the current rayon pool and
+    /// [`RasterBackend::active`].
+    #[cfg(test)]
     pub fn set_up(&mut self, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
+        self.set_up_with(RasterBackend::active(), vp, inner, out);
+    }
+
+    /// [`TriangleQueue::set_up`] with `backend`'s vector setup for runs of
+    /// triangles that need no clipping (the same triangles, bit for bit).
+    pub fn set_up_with(&mut self, backend: RasterBackend, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
         out.clear();
         self.verts
             .par_iter()
@@ -145,7 +155,8 @@ impl TriangleQueue {
                 // The batch holding the chunk's first triangle, then onwards.
                 let mut b = batches.partition_point(|b| b.first <= first) - 1;
                 let mut out = Vec::with_capacity(chunk.len());
-                for (i, t) in chunk.iter().enumerate() {
+                let mut i = 0;
+                while i < chunk.len() {
                     while b + 1 < batches.len() && batches[b + 1].first <= first + i {
                         b += 1;
                     }
@@ -153,8 +164,22 @@ impl TriangleQueue {
                         cull: batches[b].cull,
                         inner,
                     };
-                    let [a, bb, c] = t.map(|i| &verts[i as usize]);
-                    setup_triangle_with([a, bb, c], vp, rule, b as u32, [0; 4], &mut out);
+                    let tri = |t: &[u32; 3]| t.map(|i| &verts[i as usize]);
+                    // Four of one batch that need no clipping: set up together.
+                    let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
+                    if i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end {
+                        let four: [Option<[ScreenVertex; 3]>; SETUP_LANES] =
+                            std::array::from_fn(|l| unclipped(tri(&chunk[i + l])));
+                        if four.iter().all(Option::is_some) {
+                            let four = four.map(|v| v.expect("checked"));
+                            setup_screen4(backend, &four, vp, rule, [b as u32; SETUP_LANES], &mut out);
+                            i += SETUP_LANES;
+                            continue;
+                        }
+                    }
+                    let [p, q, r] = tri(&chunk[i]);
+                    setup_triangle_with([p, q, r], vp, rule, b as u32, [0; 4], &mut out);
+                    i += 1;
                 }
                 out
             })
