@@ -3,9 +3,9 @@
 //! setup ([`super::setup`]: clip, snap, edge functions) of everything queued
 //! runs at once, in parallel, in submission order.
 
-use super::setup::{setup_triangle_with, unclipped, FaceCull, ScreenVertex, SetupRule, Tri, Vertex, Viewport};
+use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewport};
 use super::simd::RasterBackend;
-use super::simd_setup::{setup_screen4, SETUP_LANES};
+use super::simd_setup::{setup_clip4, SETUP_LANES};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -45,7 +45,6 @@ pub(crate) struct TriangleQueue {
     /// Indices into `verts`.
     tris: Vec<[u32; 3]>,
     batches: Vec<Batch>,
-    prepared: Vec<Vertex>,
 }
 
 impl TriangleQueue {
@@ -138,14 +137,10 @@ impl TriangleQueue {
     }
 
     /// [`TriangleQueue::set_up`] with `backend`'s vector setup for runs of
-    /// triangles that need no clipping (the same triangles, bit for bit).
+    /// four triangles that need no clipping (the same triangles, bit for bit).
     pub fn set_up_with(&mut self, backend: RasterBackend, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
         out.clear();
-        self.verts
-            .par_iter()
-            .map(|&v| Vertex::new(v, vp))
-            .collect_into_vec(&mut self.prepared);
-        let (verts, batches) = (&self.prepared, &self.batches);
+        let (verts, batches) = (&self.verts, &self.batches);
         let chunks: Vec<Vec<Tri>> = self
             .tris
             .par_chunks(SETUP_CHUNK)
@@ -164,22 +159,27 @@ impl TriangleQueue {
                         cull: batches[b].cull,
                         inner,
                     };
-                    let tri = |t: &[u32; 3]| t.map(|i| &verts[i as usize]);
-                    // Four of one batch that need no clipping: set up together.
+                    // Four of one batch at once, unless one of them is clipped.
                     let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
-                    if i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end {
-                        let four: [Option<[ScreenVertex; 3]>; SETUP_LANES] =
-                            std::array::from_fn(|l| unclipped(tri(&chunk[i + l])));
-                        if four.iter().all(Option::is_some) {
-                            let four = four.map(|v| v.expect("checked"));
-                            setup_screen4(backend, &four, vp, rule, [b as u32; SETUP_LANES], &mut out);
-                            i += SETUP_LANES;
-                            continue;
+                    let n = if i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end {
+                        let corners: [[Vec4; 3]; SETUP_LANES] =
+                            std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
+                        let four = setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], &mut out);
+                        if four {
+                            SETUP_LANES
+                        } else {
+                            0
                         }
+                    } else {
+                        0
+                    };
+                    if n == 0 {
+                        let [p, q, r] = chunk[i].map(|v| Vertex::new(verts[v as usize], vp));
+                        setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], &mut out);
+                        i += 1;
+                    } else {
+                        i += n;
                     }
-                    let [p, q, r] = tri(&chunk[i]);
-                    setup_triangle_with([p, q, r], vp, rule, b as u32, [0; 4], &mut out);
-                    i += 1;
                 }
                 out
             })

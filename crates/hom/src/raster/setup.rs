@@ -197,9 +197,9 @@ pub struct Viewport {
     /// Height in pixels.
     pub height: u32,
     /// Guard-band limit on |x / w| (NDC).
-    gx: f32,
+    pub(crate) gx: f32,
     /// Guard-band limit on |y / w| (NDC).
-    gy: f32,
+    pub(crate) gy: f32,
 }
 
 impl Viewport {
@@ -216,13 +216,10 @@ impl Viewport {
 
 /// A projected, snapped vertex.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct ScreenVertex {
-    /// Column in fixed point (`|x| <= 2^28`: [`LIMIT_PX`] pixels).
-    pub x: i64,
-    /// Row in fixed point (`|y| <= 2^28`).
-    pub y: i64,
-    /// Depth, clip `z / w`.
-    pub z: f32,
+struct ScreenVertex {
+    x: i64,
+    y: i64,
+    z: f32,
 }
 
 /// Up to 3 + 5 vertices after clipping against the near plane and four guard planes.
@@ -449,21 +446,9 @@ pub fn setup_triangle_with(
     pushed
 }
 
-/// The snapped vertices of a triangle [`setup_triangle_with`] sets up with
-/// no clipping (straight from its vertices), else `None` (it is clipped,
-/// dropped or unusable).
-#[inline]
-pub(crate) fn unclipped(v: [&Vertex; 3]) -> Option<[ScreenVertex; 3]> {
-    let (c0, c1, c2) = (v[0].code, v[1].code, v[2].code);
-    let reject = (c0 | c1 | c2) & BAD_BIT != 0 || c0 & c1 & c2 & 0x3f != 0;
-    let clip = (c0 | c1 | c2) & (NEAR_BIT | GUARD_BIT) != 0;
-    (!reject && !clip).then_some([v[0].s, v[1].s, v[2].s])
-}
-
 /// Sets up one snapped screen triangle; false if it covers no pixel centre
-/// or `cull` drops it. The scalar twin of the vector setup
-/// ([`super::simd_setup`]), which equals it bit for bit.
-pub(crate) fn setup_screen(
+/// or `cull` drops it.
+fn setup_screen(
     v: [ScreenVertex; 3],
     vp: &Viewport,
     rule: SetupRule,

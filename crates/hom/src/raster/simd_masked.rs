@@ -609,7 +609,7 @@ mod tests {
         };
         let mut rng = hom_testkit::Rng::new(77);
         let depths = [0.1f32, 0.25, 0.4, 0.4, 0.7, 0.9, 1.0, 1.5];
-        let mut pick = |rng: &mut hom_testkit::Rng| depths[rng.below(depths.len() as u64) as usize];
+        let pick = |rng: &mut hom_testkit::Rng| depths[rng.below(depths.len() as u64) as usize];
         let (mut inserts, mut told) = (0, 0);
         for _ in 0..300 {
             let mut zb = crate::depth::MaskedZBuffer::default();

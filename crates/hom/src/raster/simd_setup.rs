@@ -1,7 +1,11 @@
-//! Triangle setup four triangles at a time (structure of arrays): the screen
-//! setup of triangles that need no clipping, one triangle per lane of AVX2's
-//! four 64-bit lanes. [`setup_screen`] is the scalar twin and defines the
-//! result; the kernel equals it bit for bit (property test):
+//! Triangle setup four triangles at a time (structure of arrays), one
+//! triangle per lane: from the clip-space corners, the outcodes, guard band
+//! and projection ([`Vertex::new`]'s) in `f32` lanes, then, when none of the
+//! four needs clipping, the screen setup in AVX2's four 64-bit lanes.
+//! [`Vertex::new`] and [`setup_triangle_with`] are the scalar twin and define
+//! the result; the kernel equals them bit for bit (property test):
+//! - the projection is the same `f32` operations (`vdivps` for `1 / w`), and
+//!   the snap the same truncation and correction;
 //! - fixed-point coordinates fit `i32` (`|x| <= 2^28`), so the box, the
 //!   differences and the top-left rule are `i32` lane arithmetic, and every
 //!   edge-function product is `vpmuldq` (signed 32 × 32 → 64 bits, exact);
@@ -11,41 +15,43 @@
 //!
 //! Like [`super::simd`], a place for `unsafe` and `std::arch`.
 
-use super::setup::{setup_screen, ScreenVertex, SetupRule, Tri, Viewport};
+#[cfg(doc)]
+use super::setup::{setup_triangle_with, Vertex};
+use super::setup::{SetupRule, Tri, Viewport};
 use super::simd::RasterBackend;
+use glam::Vec4;
 
 /// Triangles set up per call of the vector kernel.
 pub(crate) const SETUP_LANES: usize = 4;
 
-/// Sets up `tris` (each needing no clipping) under `rule`, pushing onto `out`
-/// in order what [`setup_screen`] would push for each, with `items[i]` and no
-/// colour; by the vector kernel where `backend` and the CPU have AVX2.
-pub(crate) fn setup_screen4(
+/// Sets up four triangles given by their clip-space corners (hom's
+/// convention) under `rule`, pushing onto `out` in order what
+/// [`setup_triangle_with`] would push for each, with `items[i]` and no
+/// colour — when none of them needs clipping (some may be ones it drops
+/// whole: unusable, or outside one plane) and `backend` and the CPU have
+/// AVX2. Returns false, having pushed nothing, otherwise.
+pub(crate) fn setup_clip4(
     backend: RasterBackend,
-    tris: &[[ScreenVertex; 3]; SETUP_LANES],
+    corners: &[[Vec4; 3]; SETUP_LANES],
     vp: &Viewport,
     rule: SetupRule,
     items: [u32; SETUP_LANES],
     out: &mut Vec<Tri>,
-) {
+) -> bool {
     match backend {
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx2 | RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx2") => {
             // SAFETY: AVX2 is available (checked above; the check is cached by std).
-            unsafe { x86::setup4_avx2(tris, vp, rule, items, out) }
+            unsafe { x86::setup_clip4_avx2(corners, vp, rule, items, out) }
         }
-        _ => {
-            for (v, item) in tris.iter().zip(items) {
-                setup_screen(*v, vp, rule, item, [0; 4], out);
-            }
-        }
+        _ => false,
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 mod x86 {
-    use super::{ScreenVertex, SetupRule, Tri, Viewport, SETUP_LANES};
-    use crate::raster::setup::{FaceCull, HALF, ONE};
+    use super::{SetupRule, Tri, Vec4, Viewport, SETUP_LANES};
+    use crate::raster::setup::{FaceCull, HALF, LIMIT_PX, ONE};
     use std::arch::x86_64::*;
 
     /// Four `i64` lanes as an array.
@@ -85,27 +91,123 @@ mod x86 {
         _mm256_mul_epi32(_mm256_cvtepi32_epi64(a), _mm256_cvtepi32_epi64(b))
     }
 
-    /// `setup_screen` of four triangles, one per lane; see the module docs.
+    /// The four triangles' corner `k`, projected and snapped as
+    /// [`crate::raster::setup::Vertex::new`] does: `(x, y, z)`, whether it is
+    /// unusable (non-finite, or finite and in the view's reach but not
+    /// projectable), whether it needs clipping (near plane or guard band),
+    /// and its frustum outcode bits 0..=5. Lanes not `direct` hold garbage
+    /// coordinates.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn corner(corners: &[[Vec4; 3]; SETUP_LANES], k: usize, vp: &Viewport) -> Corner {
+        let c = |f: fn(&Vec4) -> f32| {
+            _mm_setr_ps(
+                f(&corners[0][k]),
+                f(&corners[1][k]),
+                f(&corners[2][k]),
+                f(&corners[3][k]),
+            )
+        };
+        let (x, y, z, w) = (c(|v| v.x), c(|v| v.y), c(|v| v.z), c(|v| v.w));
+        let zero = _mm_setzero_ps();
+        // Finite iff v - v == 0 (NaN for NaN and infinities).
+        let finite = |v: __m128| _mm_cmpeq_ps(_mm_sub_ps(v, v), zero);
+        let fin = _mm_and_ps(_mm_and_ps(finite(x), finite(y)), _mm_and_ps(finite(z), finite(w)));
+        let neg_w = _mm_sub_ps(zero, w);
+        let bit = |m: __m128, b: i32| _mm_and_si128(_mm_castps_si128(m), _mm_set1_epi32(b));
+        let code = _mm_or_si128(
+            _mm_or_si128(
+                _mm_or_si128(bit(_mm_cmplt_ps(x, neg_w), 1), bit(_mm_cmpgt_ps(x, w), 2)),
+                _mm_or_si128(bit(_mm_cmplt_ps(y, neg_w), 4), bit(_mm_cmpgt_ps(y, w), 8)),
+            ),
+            _mm_or_si128(bit(_mm_cmplt_ps(z, zero), 16), bit(_mm_cmpgt_ps(z, w), 32)),
+        );
+        let abs = |v: __m128| _mm_andnot_ps(_mm_set1_ps(-0.0), v);
+        let in_guard = _mm_and_ps(
+            _mm_cmple_ps(abs(x), _mm_mul_ps(_mm_set1_ps(vp.gx), w)),
+            _mm_cmple_ps(abs(y), _mm_mul_ps(_mm_set1_ps(vp.gy), w)),
+        );
+        let near = _mm_cmplt_ps(z, zero);
+        let clipped = _mm_or_ps(near, _mm_xor_ps(in_guard, _mm_castsi128_ps(_mm_set1_epi32(-1))));
+        // Projection: (x / w · 0.5 + 0.5) · width, (0.5 − y / w · 0.5) · height, z / w.
+        let iw = _mm_div_ps(_mm_set1_ps(1.0), w);
+        let half = _mm_set1_ps(0.5);
+        let sx = _mm_mul_ps(
+            _mm_add_ps(_mm_mul_ps(_mm_mul_ps(x, iw), half), half),
+            _mm_set1_ps(vp.width as f32),
+        );
+        let sy = _mm_mul_ps(
+            _mm_sub_ps(half, _mm_mul_ps(_mm_mul_ps(y, iw), half)),
+            _mm_set1_ps(vp.height as f32),
+        );
+        let zw = _mm_mul_ps(z, iw);
+        let limit = _mm_set1_ps(LIMIT_PX);
+        let projected = _mm_and_ps(
+            _mm_and_ps(_mm_cmpgt_ps(w, zero), finite(zw)),
+            _mm_and_ps(_mm_cmple_ps(abs(sx), limit), _mm_cmple_ps(abs(sy), limit)),
+        );
+        // Unusable: not finite, or needing no clipping and not projectable.
+        let bad = _mm_or_ps(
+            _mm_xor_ps(fin, _mm_castsi128_ps(_mm_set1_epi32(-1))),
+            _mm_andnot_ps(_mm_or_ps(clipped, projected), _mm_castsi128_ps(_mm_set1_epi32(-1))),
+        );
+        // snap(p) = floor(p · ONE + 0.5): truncate, then step down where that rounded up.
+        let snap = |p: __m128| {
+            let f = _mm_add_ps(_mm_mul_ps(p, _mm_set1_ps(ONE as f32)), half);
+            let i = _mm_cvttps_epi32(f);
+            _mm_add_epi32(i, _mm_castps_si128(_mm_cmpgt_ps(_mm_cvtepi32_ps(i), f)))
+        };
+        Corner {
+            x: snap(sx),
+            y: snap(sy),
+            z: zw,
+            bad: _mm_castps_si128(bad),
+            clipped: _mm_castps_si128(clipped),
+            code,
+        }
+    }
+
+    /// One corner of four triangles; see [`corner`].
+    #[derive(Clone, Copy)]
+    struct Corner {
+        x: __m128i,
+        y: __m128i,
+        z: __m128,
+        bad: __m128i,
+        clipped: __m128i,
+        code: __m128i,
+    }
+
+    /// [`super::setup_clip4`] with AVX2; see the module docs.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn setup4_avx2(
-        tris: &[[ScreenVertex; 3]; SETUP_LANES],
+    pub(super) unsafe fn setup_clip4_avx2(
+        corners: &[[Vec4; 3]; SETUP_LANES],
         vp: &Viewport,
         rule: SetupRule,
         items: [u32; SETUP_LANES],
         out: &mut Vec<Tri>,
-    ) {
-        // Structure of arrays: per vertex, its four triangles' coordinates.
-        let coord = |k: usize, f: fn(&ScreenVertex) -> i64| {
-            let c = tris.map(|t| f(&t[k]) as i32);
-            _mm_setr_epi32(c[0], c[1], c[2], c[3])
-        };
-        let (x0, mut x1, mut x2) = (coord(0, |v| v.x), coord(1, |v| v.x), coord(2, |v| v.x));
-        let (y0, mut y1, mut y2) = (coord(0, |v| v.y), coord(1, |v| v.y), coord(2, |v| v.y));
-        let depth = |k: usize| _mm_setr_ps(tris[0][k].z, tris[1][k].z, tris[2][k].z, tris[3][k].z);
-        let (z0, mut z1, mut z2) = (depth(0), depth(1), depth(2));
+    ) -> bool {
+        let [c0, c1, c2] = [0, 1, 2].map(|k| corner(corners, k, vp));
+        // Dropped whole before any clipping: an unusable corner, or all three outside one plane.
+        let outside = _mm_cmpeq_epi32(
+            _mm_and_si128(_mm_and_si128(c0.code, c1.code), c2.code),
+            _mm_setzero_si128(),
+        );
+        let dropped = _mm_or_si128(
+            _mm_or_si128(_mm_or_si128(c0.bad, c1.bad), c2.bad),
+            _mm_xor_si128(outside, _mm_set1_epi32(-1)),
+        );
+        let clipped = _mm_or_si128(_mm_or_si128(c0.clipped, c1.clipped), c2.clipped);
+        if _mm_testz_si128(_mm_andnot_si128(dropped, clipped), _mm_set1_epi32(-1)) == 0 {
+            return false; // one of them is clipped: the scalar setup does all four
+        }
+        let live = _mm_xor_si128(dropped, _mm_set1_epi32(-1));
+        let (x0, mut x1, mut x2) = (c0.x, c1.x, c2.x);
+        let (y0, mut y1, mut y2) = (c0.y, c1.y, c2.y);
+        let (z0, mut z1, mut z2) = (c0.z, c1.z, c2.z);
         let area = _mm256_sub_epi64(
             mul64(_mm_sub_epi32(x1, x0), _mm_sub_epi32(y2, y0)),
             mul64(_mm_sub_epi32(x2, x0), _mm_sub_epi32(y1, y0)),
@@ -121,7 +223,10 @@ mod x86 {
         // The areas' signs as 32-bit lanes (the low half of each 64-bit mask).
         let pick_low = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
         let swap = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(negative, pick_low));
-        let mut kept_lanes = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(kept, pick_low));
+        let mut kept_lanes = _mm_and_si128(
+            live,
+            _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(kept, pick_low)),
+        );
         // Two-sided: where the area is negative, v1 and v2 trade places.
         (x1, x2) = (_mm_blendv_epi8(x1, x2, swap), _mm_blendv_epi8(x2, x1, swap));
         (y1, y2) = (_mm_blendv_epi8(y1, y2, swap), _mm_blendv_epi8(y2, y1, swap));
@@ -156,7 +261,7 @@ mod x86 {
         kept_lanes = _mm_and_si128(kept_lanes, boxed);
         let keep = _mm_movemask_ps(_mm_castsi128_ps(kept_lanes));
         if keep == 0 {
-            return;
+            return true;
         }
         // Inner rule bias, in i64: 3 (W + H) + 4.
         let bias = if rule.inner {
@@ -241,6 +346,7 @@ mod x86 {
                 });
             }
         }
+        true
     }
 }
 
@@ -256,7 +362,8 @@ mod tests {
     proptest! {
         /// Random batches (each with a random face culling) of random
         /// triangles — tiny to screen-sized, some degenerate, some off screen
-        /// or through the near plane, vertices on pixel centres now and then
+        /// or through the near plane, some with non-finite or tiny or
+        /// negative `w` corners, vertices on pixel centres now and then
         /// (top-left ties): every backend sets up the same triangles as the
         /// scalar setup, bit for bit and in order.
         #[test]
@@ -275,7 +382,7 @@ mod tests {
                         (rng.range(-1.2, 1.2), rng.range(-1.2, 1.2))
                     };
                     let wv = rng.range(0.5, 8.0);
-                    let z = if rng.below(20) == 0 { -0.1 } else { rng.range(0.0, 1.0) };
+                    let z = if rng.below(20) == 0 { -0.1 } else { rng.range(0.0, 1.3) };
                     v.push(Vec4::new(x * wv, y * wv, z * wv, wv));
                 }
                 // Some triangles small: pull their vertices towards the first.
@@ -289,6 +396,13 @@ mod tests {
                     }
                     if rng.below(15) == 0 {
                         v[3 * t + 2] = v[3 * t + 1]; // degenerate
+                    }
+                    if rng.below(40) == 0 {
+                        v[3 * t + rng.below(3) as usize][rng.below(4) as usize] =
+                            [f32::NAN, f32::INFINITY, -1.0e30][rng.below(3) as usize];
+                    }
+                    if rng.below(30) == 0 {
+                        v[3 * t + rng.below(3) as usize].w = [0.0, -1.0, 1.0e-30][rng.below(3) as usize];
                     }
                 }
                 let idx: Vec<[u32; 3]> = (0..n as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
