@@ -516,17 +516,16 @@ mod tests {
     use crate::raster::scanline::ScanEdges;
     use proptest::prelude::*;
 
-    /// Every kernel this CPU has, with its name.
-    fn kernels() -> Vec<(
+    /// A backend's name and its row kernels, as closures.
+    type Kernels = (
         &'static str,
         Box<dyn Fn(&mut TileRows, u32, u32) -> LaneSpans>,
         Box<dyn Fn(&LaneSpans, i32) -> [u32; 8]>,
-    )> {
-        let mut v: Vec<(
-            &'static str,
-            Box<dyn Fn(&mut TileRows, u32, u32) -> LaneSpans>,
-            Box<dyn Fn(&LaneSpans, i32) -> [u32; 8]>,
-        )> = vec![(
+    );
+
+    /// Every kernel this CPU has, with its name.
+    fn kernels() -> Vec<Kernels> {
+        let mut v: Vec<Kernels> = vec![(
             "scalar",
             Box::new(|r, a, b| Scalar.next(r, a, b)),
             Box::new(|s, x| Scalar.masks(s, x)),
