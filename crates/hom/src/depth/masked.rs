@@ -201,19 +201,18 @@ impl MaskedZBuffer {
         bits.resize(wpr * self.height as usize, 0);
         for (k, t) in self.tiles.iter().enumerate() {
             let (tx, ty) = (k as u32 % self.tiles_x, k as u32 / self.tiles_x);
+            // Per half of the tile (subtile row), the bytes whose subtile has
+            // a finite reference depth, and those with a finite working layer.
+            let bytes = |z: &[f32; SUBTILES], sy: usize| {
+                (0..4).fold(0u32, |b, sx| {
+                    b | (u32::from(z[sy * 4 + sx].is_finite()) * (0xFF << (sx * 8)))
+                })
+            };
+            let all = [bytes(&t.z0, 0), bytes(&t.z0, 1)];
+            let layer = [bytes(&t.z1, 0), bytes(&t.z1, 1)];
             for j in 0..MASK_TILE_H.min(self.height - ty * MASK_TILE_H) {
-                let inside = !self.outside[k][j as usize];
-                let row = (0..4).fold(0, |row, sx| {
-                    let (sub, byte) = (subtile(sx * SUB_W, j), 0xFFu32 << (sx * SUB_W));
-                    row | byte
-                        & if t.z0[sub].is_finite() {
-                            inside
-                        } else if t.z1[sub].is_finite() {
-                            t.mask[j as usize] & inside
-                        } else {
-                            0
-                        }
-                });
+                let (inside, sy) = (!self.outside[k][j as usize], (j / SUB_H) as usize);
+                let row = inside & (all[sy] | (t.mask[j as usize] & layer[sy]));
                 let (x, y) = (tx * MASK_TILE_W, (ty * MASK_TILE_H + j) as usize);
                 // Tiles are 32 wide: a tile row never straddles two words.
                 bits[y * wpr + x as usize / 64] |= u64::from(row) << (x % 64);
