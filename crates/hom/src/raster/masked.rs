@@ -193,35 +193,40 @@ const LANES_MIN_ROWS: u32 = 16;
 /// A triangle's row bounds, as the masked raster steps them: eight rows at
 /// a time in `i32` lanes where they fit, else a row at a time.
 enum Bounds {
-    /// Not made yet.
-    None,
-    /// A narrow box: row masks from the per-sample edge test ([`row_masks`]), no division.
-    Masks,
     Lanes(TileRows),
     Rows(Stepper),
 }
 
-/// A triangle's scan-line form and its bounds at some row.
-struct Scan {
-    edges: ScanEdges,
-    bounds: Bounds,
+/// Where a triangle's row coverage comes from, made at the first band that
+/// is not skipped.
+// One per triangle on the stack: boxing the large variant would allocate per triangle.
+#[allow(clippy::large_enum_variant)]
+enum Scan {
+    /// A box of at most [`MASKS_MAX_W`] × [`MASKS_MAX_W`] samples: row masks
+    /// from the per-sample edge test ([`row_masks`]), no division.
+    Masks,
+    /// Its scan-line form, and its bounds at some row (`None`: not made yet).
+    Steps { edges: ScanEdges, bounds: Option<Bounds> },
 }
 
 impl Scan {
-    /// `t`'s scan form: for a box at most [`MASKS_MAX_W`] wide, row masks
-    /// (and all its rows); else its [`ScanEdges`], bounds made at the first tile row.
+    /// `t`'s scan form (bounds are made at the first tile row drawn).
     fn new(t: &Tri) -> Scan {
         if u32::from(t.x1 - t.x0) <= MASKS_MAX_W && u32::from(t.y1 - t.y0) <= MASKS_MAX_W {
-            let rows = (u32::from(t.y0), u32::from(t.y1));
-            Scan {
-                edges: ScanEdges::rows_only(rows),
-                bounds: Bounds::Masks,
-            }
+            Scan::Masks
         } else {
-            Scan {
+            Scan::Steps {
                 edges: ScanEdges::new(t),
-                bounds: Bounds::None,
+                bounds: None,
             }
+        }
+    }
+
+    /// The rows `t` may cover, `rows.0..rows.1`.
+    fn rows(&self, t: &Tri) -> (u32, u32) {
+        match self {
+            Scan::Masks => (u32::from(t.y0), u32::from(t.y1)),
+            Scan::Steps { edges, .. } => edges.rows,
         }
     }
 
@@ -229,23 +234,8 @@ impl Scan {
     /// with the bounds moved to the next tile row.
     #[inline(always)]
     fn tile_row<K: RowKernel>(&mut self, k: K, t: &Tri, y: u32, ja: u32, jb: u32) -> TileRowCover {
-        let at = match &self.bounds {
-            Bounds::None => false,
-            Bounds::Masks => true,
-            Bounds::Lanes(l) => l.row == y,
-            Bounds::Rows(s) => s.py == y + ja,
-        };
-        if !at {
-            // The bands between were skipped (or this is the first).
-            let (first, end) = self.edges.rows;
-            let lanes = end - first.max(y) >= LANES_MIN_ROWS;
-            self.bounds = match lanes.then(|| TileRows::new(t, &self.edges, y, end)).flatten() {
-                Some(l) => Bounds::Lanes(l),
-                None => Bounds::Rows(Stepper::new(t, &self.edges, y + ja)),
-            };
-        }
-        let spans = match &mut self.bounds {
-            Bounds::Masks => {
+        let (edges, bounds) = match self {
+            Scan::Masks => {
                 let mut masks = [0u64; 8];
                 row_masks(K::BACKEND, t, y + ja, &mut masks[ja as usize..jb as usize]);
                 // Covered columns are contiguous in every row, so in their union and intersection too.
@@ -262,13 +252,29 @@ impl Scan {
                     rows: RowCover::Masks(masks),
                 };
             }
+            Scan::Steps { edges, bounds } => (edges, bounds),
+        };
+        let at = match bounds {
+            None => false,
+            Some(Bounds::Lanes(l)) => l.row == y,
+            Some(Bounds::Rows(s)) => s.py == y + ja,
+        };
+        if !at {
+            // The bands between were skipped (or this is the first).
+            let (first, end) = edges.rows;
+            let lanes = end - first.max(y) >= LANES_MIN_ROWS;
+            *bounds = Some(match lanes.then(|| TileRows::new(t, edges, y, end)).flatten() {
+                Some(l) => Bounds::Lanes(l),
+                None => Bounds::Rows(Stepper::new(t, edges, y + ja)),
+            });
+        }
+        let spans = match bounds.as_mut().expect("made above") {
             Bounds::Lanes(l) => k.next(l, ja, jb),
             Bounds::Rows(s) => {
                 let mut spans = [(0u32, 0u32); 8];
                 s.rows(&mut spans[ja as usize..jb as usize]);
                 LaneSpans::from_spans(&spans, u32::from(t.x0))
             }
-            Bounds::None => unreachable!("made above"),
         };
         TileRowCover {
             any: spans.any,
@@ -374,7 +380,8 @@ impl<'a> Band<'a> {
             return;
         }
         let scan = scan.get_or_insert_with(|| Scan::new(t));
-        let (ya, yb) = (ya.max(scan.edges.rows.0), yb.min(scan.edges.rows.1));
+        let rows = scan.rows(t);
+        let (ya, yb) = (ya.max(rows.0), yb.min(rows.1));
         if ya >= yb {
             return;
         }

@@ -159,27 +159,24 @@ impl TriangleQueue {
                         cull: batches[b].cull,
                         inner,
                     };
-                    // Four of one batch at once, unless one of them is clipped.
+                    // Four of one batch at once; where one of them is clipped,
+                    // all four by the scalar setup (not tried again from the next).
                     let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
-                    let n = if i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end {
+                    let group = i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end;
+                    let n = if group { SETUP_LANES } else { 1 };
+                    if group {
                         let corners: [[Vec4; 3]; SETUP_LANES] =
                             std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
-                        let four = setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], &mut out);
-                        if four {
-                            SETUP_LANES
-                        } else {
-                            0
+                        if setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], &mut out) {
+                            i += n;
+                            continue;
                         }
-                    } else {
-                        0
-                    };
-                    if n == 0 {
-                        let [p, q, r] = chunk[i].map(|v| Vertex::new(verts[v as usize], vp));
-                        setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], &mut out);
-                        i += 1;
-                    } else {
-                        i += n;
                     }
+                    for t in &chunk[i..i + n] {
+                        let [p, q, r] = t.map(|v| Vertex::new(verts[v as usize], vp));
+                        setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], &mut out);
+                    }
+                    i += n;
                 }
                 out
             })

@@ -97,20 +97,6 @@ impl ScanEdges {
         let rows = if ya < yb { (ya as u32, yb as u32) } else { (0, 0) };
         ScanEdges { rows, slopes }
     }
-
-    /// Only the rows (for a triangle whose spans come from elsewhere); its bounds never bind.
-    pub fn rows_only(rows: (u32, u32)) -> ScanEdges {
-        let none = Slope {
-            edge: NO_EDGE,
-            d: 1,
-            sq: 0,
-            sr: 0,
-        };
-        ScanEdges {
-            rows,
-            slopes: [none; 4],
-        }
-    }
 }
 
 /// `(n.div_euclid(d), n.rem_euclid(d))` for `d > 0`, one division. (An
@@ -177,38 +163,24 @@ impl Stepper {
     /// The covered columns `lo..hi` (absolute) of the next `spans.len()`
     /// rows, into `spans`; an empty row is `(0, 0)`.
     pub fn rows(&mut self, spans: &mut [(u32, u32)]) {
-        self.py += spans.len() as u32;
-        let Stepper {
-            q,
-            r,
-            d,
-            sq,
-            sr,
-            x0,
-            last,
-            ..
-        } = self;
         for span in spans.iter_mut() {
+            let (q, r) = (&self.q, &self.r);
             let lo = (q[0] + i64::from(r[0] > 0)).max(q[1] + i64::from(r[1] > 0)).max(0);
-            let hi = q[2].min(q[3]).min(*last);
+            let hi = q[2].min(q[3]).min(self.last);
             *span = if lo <= hi {
-                (*x0 + lo as u32, *x0 + hi as u32 + 1)
+                (self.x0 + lo as u32, self.x0 + hi as u32 + 1)
             } else {
                 (0, 0)
             };
-            for k in 0..4 {
-                // Branch-free: whether the remainder carries is data, not pattern.
-                let carry = i64::from(r[k] + sr[k] >= d[k]);
-                q[k] += sq[k] + carry;
-                r[k] += sr[k] - carry * d[k];
-            }
+            self.step();
         }
     }
 
     /// Moves the bounds down one row.
-    #[inline]
+    #[inline(always)]
     fn step(&mut self) {
         for k in 0..4 {
+            // Branch-free: whether the remainder carries is data, not pattern.
             let carry = i64::from(self.r[k] + self.sr[k] >= self.d[k]);
             self.q[k] += self.sq[k] + carry;
             self.r[k] += self.sr[k] - carry * self.d[k];
