@@ -1,7 +1,7 @@
 //! The command line: every clap type, and nothing that runs.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hom::cull::DepthMode;
+use hom::cull::{Coherence, DepthMode, PSkip};
 use hom::occluders::SelectionMode;
 use hom_walk::cullers;
 use std::path::PathBuf;
@@ -126,6 +126,14 @@ pub struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     pub no_hole_filling: bool,
+    /// HOM, HZB, masked: how much of last frame's classification the traversal
+    /// reuses (Bittner & Havran 2002).
+    #[arg(long, value_enum)]
+    pub coherence: Option<CoherenceArg>,
+    /// With --coherence skip: the probability that a node visible last frame is
+    /// assumed visible without a test: `auto` (from each node's history) or a number in [0, 1].
+    #[arg(long, value_parser = parse_p_skip)]
+    pub p_skip: Option<PSkip>,
     /// HV: most triangles per octree leaf (default 16).
     #[arg(long)]
     pub hv_threshold: Option<usize>,
@@ -135,6 +143,39 @@ pub struct HomArgs {
     /// HV: keep large triangles at the octree node being split instead of passing them down.
     #[arg(long)]
     pub hv_keep_large: bool,
+}
+
+/// `--coherence`: what the occlusion traversal reuses from the last frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CoherenceArg {
+    /// Classify the hierarchy from the root every frame.
+    Off,
+    /// Hierarchy updating: skip the tests of nodes opened last frame; the same result as off.
+    Exact,
+    /// Also assume nodes visible last frame visible with probability --p-skip: fewer tests, a few more objects drawn.
+    Skip,
+}
+
+impl CoherenceArg {
+    /// The traversal's coherence, with `p_skip` for `skip` (default auto).
+    pub fn mode(self, p_skip: Option<PSkip>) -> Coherence {
+        match self {
+            CoherenceArg::Off => Coherence::Off,
+            CoherenceArg::Exact => Coherence::Exact,
+            CoherenceArg::Skip => Coherence::Skip(p_skip.unwrap_or_default()),
+        }
+    }
+}
+
+/// `--p-skip`: `auto` or a probability.
+pub fn parse_p_skip(s: &str) -> Result<PSkip, String> {
+    if s == "auto" {
+        return Ok(PSkip::Auto);
+    }
+    match s.parse::<f32>() {
+        Ok(p) if (0.0..=1.0).contains(&p) => Ok(PSkip::Fixed(p)),
+        _ => Err(format!("expected `auto` or a probability in [0, 1], got `{s}`")),
+    }
 }
 
 /// `--depth`: how HOM bounds the occluders' depth.

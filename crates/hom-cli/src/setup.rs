@@ -3,7 +3,7 @@
 
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
-use hom::cull::{Culler, Opacity};
+use hom::cull::{Coherence, Culler, Opacity};
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};
@@ -97,6 +97,12 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
     }
     if let Some(s) = args.selection {
         c.occluders.selection.mode = s.mode();
+    }
+    if let Some(m) = args.coherence {
+        c.coherence = m.mode(args.p_skip);
+    }
+    if args.p_skip.is_some() && !matches!(c.coherence, Coherence::Skip(_)) {
+        bail!("--p-skip needs --coherence skip");
     }
     let octree = &mut settings.hv.octree;
     if let Some(t) = args.hv_threshold {

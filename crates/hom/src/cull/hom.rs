@@ -20,7 +20,7 @@
 //! contained in the object they stand for; and transparent occluders.
 
 use super::traversal::{culler_buffer_options, sized, OccluderCulling};
-use super::{CullError, CullOutput, Culler};
+use super::{Coherence, CullError, CullOutput, Culler};
 use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
 use crate::occluders::{OccluderConfig, OccluderDb};
@@ -36,6 +36,8 @@ pub struct HomConfig {
     pub map: MapOptions,
     /// Which objects occlude, and how each frame's are chosen (shared with HZB).
     pub occluders: OccluderConfig,
+    /// How much of last frame's classification the traversal reuses (shared with HZB).
+    pub coherence: Coherence,
 }
 
 impl HomConfig {
@@ -44,6 +46,7 @@ impl HomConfig {
         HomConfig {
             map: MapOptions::default(),
             occluders: OccluderConfig::for_scene(scene),
+            coherence: Coherence::default(),
         }
     }
 }
@@ -59,7 +62,7 @@ impl HomCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
         HomCuller {
-            common: OccluderCulling::new(scene, &config.occluders),
+            common: OccluderCulling::new(scene, &config.occluders, config.coherence),
             config,
             buffer: None,
         }

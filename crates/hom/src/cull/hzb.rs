@@ -35,7 +35,7 @@
 //! ([`crate::map::worst_hole_of_coverage`]).
 
 use super::traversal::{culler_buffer_options, sized, OccluderCulling, Selected};
-use super::{CullError, CullOutput, Culler, HomConfig};
+use super::{Coherence, CullError, CullOutput, Culler, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
@@ -60,6 +60,8 @@ pub struct HzbConfig {
     pub occluders: OccluderConfig,
     /// The occluders' depth: per sample or masked.
     pub depth: ZDepth,
+    /// How much of last frame's classification the traversal reuses (shared with HOM).
+    pub coherence: Coherence,
 }
 
 impl HzbConfig {
@@ -68,6 +70,7 @@ impl HzbConfig {
         HzbConfig {
             occluders: hom.occluders.clone(),
             depth: ZDepth::PerSample,
+            coherence: hom.coherence,
         }
     }
 
@@ -76,6 +79,7 @@ impl HzbConfig {
         HzbConfig {
             occluders: OccluderConfig::for_scene(scene),
             depth: ZDepth::PerSample,
+            coherence: Coherence::default(),
         }
     }
 }
@@ -97,7 +101,7 @@ impl HzbCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
         HzbCuller {
-            common: OccluderCulling::new(scene, &config.occluders),
+            common: OccluderCulling::new(scene, &config.occluders, config.coherence),
             buffer: match config.depth {
                 ZDepth::PerSample => Buffer::PerSample(None),
                 ZDepth::Masked => Buffer::Masked(None),

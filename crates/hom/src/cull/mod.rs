@@ -7,6 +7,7 @@
 //! why, and how long each of its stages took, so the walkthrough harness can
 //! compare cullers on equal terms.
 
+mod coherence;
 mod frustum;
 mod hom;
 mod hv;
@@ -15,6 +16,7 @@ mod model_db;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
+pub use coherence::{Coherence, PSkip, AUTO_P_SKIP_MAX};
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};

@@ -10,6 +10,11 @@
 //!   tree, the BVH is rebuilt: an engine adding or removing a few objects a
 //!   frame pays a list scan, not a rebuild.
 //! - Another scene (or a clone) than the one last seen: rebuilt.
+//!
+//! Each sync also notes what per-node and per-object state kept across
+//! frames (the coherent traversal's) must forget: the nodes whose bounds the
+//! refit changed, the objects whose boxes changed, and a new build number
+//! after every rebuild (node indices then mean other nodes).
 
 use crate::geom::Aabb;
 use crate::scene::{Revision, Scene};
@@ -41,6 +46,12 @@ pub(crate) struct ModelDb {
     /// Objects in the BVH that were removed since its build.
     removed: usize,
     seen: Revision,
+    /// Bumped by every (re)build.
+    build: u32,
+    /// Nodes whose bounds the last sync's refit changed.
+    moved_nodes: Vec<u32>,
+    /// Objects whose boxes the last sync changed (moved, removed or re-flagged).
+    moved_objects: Vec<u32>,
 }
 
 impl ModelDb {
@@ -53,17 +64,30 @@ impl ModelDb {
             extra: Vec::new(),
             removed: 0,
             seen: scene.revision(),
+            build: 0,
+            moved_nodes: Vec::new(),
+            moved_objects: Vec::new(),
+        }
+    }
+
+    /// A fresh database over `scene` whose build number follows this one's.
+    fn rebuilt(&self, scene: &Scene) -> ModelDb {
+        ModelDb {
+            build: self.build.wrapping_add(1),
+            ..ModelDb::new(scene)
         }
     }
 
     /// Brings the database up to `scene` (see the module docs) and says what changed.
     pub fn sync(&mut self, scene: &Scene) -> Change {
         let now = scene.revision();
+        self.moved_nodes.clear();
+        self.moved_objects.clear();
         if now == self.seen {
             return Change::None;
         }
         if now.scene != self.seen.scene {
-            *self = ModelDb::new(scene);
+            *self = self.rebuilt(scene);
             return Change::Structure;
         }
         let structural = now.structure != self.seen.structure;
@@ -85,13 +109,17 @@ impl ModelDb {
                 }
             }
             if self.extra.len() + self.removed > REBUILD_SLACK + in_tree / 8 {
-                *self = ModelDb::new(scene);
+                *self = self.rebuilt(scene);
                 return Change::Structure;
             }
         }
-        self.boxes = current_boxes(scene);
+        let boxes = current_boxes(scene);
+        let moved = (0..boxes.len()).filter(|&i| self.boxes.get(i) != Some(&boxes[i]));
+        self.moved_objects.extend(moved.map(|i| i as u32));
+        self.boxes = boxes;
         let in_tree = self.bvh.items().len();
-        self.bvh.refit(&self.boxes[..in_tree]);
+        let moved_nodes = &mut self.moved_nodes;
+        self.bvh.refit_noting(&self.boxes[..in_tree], |i| moved_nodes.push(i));
         self.seen = now;
         if structural {
             Change::Structure
@@ -108,6 +136,22 @@ impl ModelDb {
     /// Current boxes by object id.
     pub fn boxes(&self) -> &[Aabb] {
         &self.boxes
+    }
+
+    /// Bumped by every (re)build of the hierarchy: node indices from another
+    /// build number mean other nodes.
+    pub fn build(&self) -> u32 {
+        self.build
+    }
+
+    /// Nodes whose bounds the last [`ModelDb::sync`] changed (refit).
+    pub fn moved_nodes(&self) -> &[u32] {
+        &self.moved_nodes
+    }
+
+    /// Objects whose boxes the last [`ModelDb::sync`] changed.
+    pub fn moved_objects(&self) -> &[u32] {
+        &self.moved_objects
     }
 
     /// Live objects outside the hierarchy, to be tested one by one.
@@ -201,5 +245,37 @@ mod tests {
             assert_eq!(found(&db, &scene, &f), linear, "frame {frame}");
         }
         assert!(scene.objects().len() > 100, "the scene grew past rebuilds");
+    }
+
+    #[test]
+    fn sync_notes_what_moved_and_counts_rebuilds() {
+        let mut scene = Scene::new("s");
+        let m = scene.add_mesh(unit());
+        let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, -10.0));
+        for i in 0..40 {
+            scene.add_object(format!("o{i}"), m, at(i as f32 * 2.0)).unwrap();
+        }
+        let mut db = ModelDb::new(&scene);
+        assert_eq!(db.sync(&scene), Change::None);
+        assert!(db.moved_objects().is_empty() && db.moved_nodes().is_empty());
+        scene.set_transform(7, at(200.0)).unwrap();
+        assert_eq!(db.sync(&scene), Change::Structure, "object 7 becomes dynamic");
+        scene.set_transform(7, at(300.0)).unwrap();
+        assert_eq!(db.sync(&scene), Change::Moved);
+        assert_eq!(db.moved_objects(), [7]);
+        // The moved object's leaf and every node above it, the root last.
+        assert!(db.moved_nodes().len() >= 2);
+        assert_eq!(db.moved_nodes().last(), Some(&0));
+        assert_eq!(db.build(), 0);
+        assert_eq!(db.sync(&scene), Change::None);
+        assert!(
+            db.moved_objects().is_empty() && db.moved_nodes().is_empty(),
+            "noted per sync"
+        );
+        for i in 0..30 {
+            scene.add_object(format!("new{i}"), m, at(-(i as f32))).unwrap();
+        }
+        assert_eq!(db.sync(&scene), Change::Structure);
+        assert_eq!(db.build(), 1, "so many additions rebuild the tree");
     }
 }

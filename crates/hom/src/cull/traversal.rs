@@ -7,6 +7,7 @@
 //! subtree; boxes straddling the near plane are never image-tested; this
 //! frame's occluders are always drawn.
 
+use super::coherence::{combine, Coherence, Step, TemporalState, Vis};
 use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
@@ -14,7 +15,8 @@ use crate::map::Hole;
 use crate::occluders::draw_occluders;
 use crate::occluders::{OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
-use crate::scene::Scene;
+use crate::scene::{Object, Scene};
+use crate::spatial::bvh::BvhNode;
 use glam::{Mat4, Vec3};
 
 /// The buffer options of the occluder cullers: hom's own clip convention and
@@ -50,6 +52,8 @@ pub(crate) struct OccluderCulling {
     is_occluder: Vec<bool>,
     /// Last frame's share of triangles culled, for the selection's feedback.
     culled_pct: f32,
+    /// Classifications kept across frames (coherence).
+    temporal: TemporalState,
 }
 
 /// One frame after occluder selection.
@@ -66,14 +70,16 @@ pub(crate) struct Selected {
 }
 
 impl OccluderCulling {
-    /// Builds the BVH over the objects' boxes and the occluder database.
-    pub fn new(scene: &Scene, config: &OccluderConfig) -> OccluderCulling {
+    /// Builds the BVH over the objects' boxes and the occluder database; the
+    /// traversal reuses last frame's classification as `coherence` says.
+    pub fn new(scene: &Scene, config: &OccluderConfig, coherence: Coherence) -> OccluderCulling {
         OccluderCulling {
             model: ModelDb::new(scene),
             db: OccluderDb::build(scene, &config.occluder_db),
             selector: OccluderSelector::new(config.selection.clone()),
             is_occluder: Vec::new(),
             culled_pct: 0.0,
+            temporal: TemporalState::new(coherence),
         }
     }
 
@@ -90,11 +96,14 @@ impl OccluderCulling {
     ) -> Result<Selected, CullError> {
         view.validate()?;
         out.clear();
-        let Self { model, db, .. } = self;
+        let Self {
+            model, db, temporal, ..
+        } = self;
         out.time("refit", || {
             if model.sync(scene) == Change::Structure {
                 db.rebuild(scene);
             }
+            temporal.begin(model, scene.objects().len());
         });
         let world_to_clip = view.world_to_clip();
         let frustum = Frustum::from_view_proj(&world_to_clip).expect("a validated view has a frustum");
@@ -170,23 +179,27 @@ impl OccluderCulling {
             model: &self.model,
             frame: &frame,
         };
-        let is_occluder = &mut self.is_occluder;
-        let box_tests = out.time("traversal", || {
-            traversal.run(is_occluder, is_occluded, &mut visible, &mut occluded)
+        let (is_occluder, temporal) = (&mut self.is_occluder, &mut self.temporal);
+        let stats = out.time("traversal", || {
+            traversal.run(is_occluder, temporal, is_occluded, &mut visible, &mut occluded)
         });
         self.culled_pct = occluded_share(scene, &visible, &occluded);
         out.visible = visible;
         out.occluded = occluded;
         out.occluders = frame.occluders;
-        out.count("box_tests", box_tests);
+        out.count("box_tests", stats.node_tests + stats.object_tests);
+        out.count("node_tests", stats.node_tests);
+        out.count("object_tests", stats.object_tests);
+        out.count("tests_skipped", stats.skipped);
         count_occluders(out, &frame.stats, occluder_triangles);
     }
 
     /// The configuration entries every occluder-based culler reports: its
     /// selection settings and the occluder database's report.
-    pub fn describe(&self) -> [(&'static str, String); 5] {
+    pub fn describe(&self) -> [(&'static str, String); 6] {
         let c = self.selector.config();
         [
+            ("coherence", self.temporal.mode().to_string()),
             ("selection", format!("{:?}", c.mode)),
             ("budget", c.budget.to_string()),
             ("adaptive_budget", c.adaptive.to_string()),
@@ -208,96 +221,233 @@ struct Traversal<'a> {
     frame: &'a Selected,
 }
 
+/// What a traversal did, for the counters.
+#[derive(Clone, Copy, Debug, Default)]
+struct TraversalStats {
+    /// Nodes classified by a test (the frustum's, then the buffer's).
+    node_tests: u64,
+    /// Objects classified by a test.
+    object_tests: u64,
+    /// Nodes opened without a test, and nodes and objects assumed visible.
+    skipped: u64,
+}
+
+/// The mutable side of a traversal: the state kept across frames, the
+/// buffer's test, the output lists and the counters.
+struct Visit<'a, F> {
+    temporal: &'a mut TemporalState,
+    is_occluded: F,
+    visible: &'a mut Vec<u32>,
+    occluded: &'a mut Vec<u32>,
+    stats: TraversalStats,
+}
+
 impl Traversal<'_> {
     /// Fills `visible` and `occluded` (both ascending) using `is_occluded` on
-    /// screen rectangles; `is_occluder` is scratch of one flag per object.
-    /// Returns the number of box tests (nodes and objects).
+    /// screen rectangles, reusing and updating `temporal` as its mode says;
+    /// `is_occluder` is scratch of one flag per object.
     pub fn run(
         &self,
         is_occluder: &mut Vec<bool>,
-        mut is_occluded: impl FnMut(&ScreenRect) -> bool,
+        temporal: &mut TemporalState,
+        is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
-    ) -> u64 {
-        let (bvh, boxes, scene, f) = (self.model.bvh(), self.model.boxes(), self.scene, self.frame);
+    ) -> TraversalStats {
+        let (bvh, scene, f) = (self.model.bvh(), self.scene, self.frame);
         is_occluder.clear();
         is_occluder.resize(scene.objects().len(), false);
         for &id in &f.occluders {
             is_occluder[id as usize] = true;
         }
-        let footprint = |corners: &[Vec3; 8]| project_points(corners, &f.world_to_clip, f.width, f.height);
-        let mut box_tests = 0u64;
-        bvh.traverse_front_to_back(&f.eye, false, |_, node, inside| {
-            box_tests += 1;
-            let containment = if inside {
-                Containment::Inside
-            } else {
-                f.frustum.test_aabb(&node.bounds)
-            };
-            if containment == Containment::Outside {
-                return None;
-            }
-            let inside = containment == Containment::Inside;
-            if let Footprint::Rect(r) = footprint(&node.bounds.corners()) {
-                if is_occluded(&r) {
-                    // Only live objects in the frustum count as occlusion-culled.
-                    let items = bvh.subtree_items(node).iter().copied();
-                    occluded.extend(items.filter(|&id| {
-                        scene.get(id).is_some()
-                            && !is_occluder[id as usize]
-                            && (inside || f.frustum.test_aabb(&boxes[id as usize]) != Containment::Outside)
-                    }));
-                    return None;
+        let on = temporal.is_on();
+        let v = &mut Visit {
+            temporal,
+            is_occluded,
+            visible,
+            occluded,
+            stats: TraversalStats::default(),
+        };
+        bvh.walk_front_to_back(
+            &f.eye,
+            false,
+            v,
+            |v, i, node, inside| self.node(i, node, inside, is_occluder, v),
+            |v, i, node| {
+                if on {
+                    v.temporal.pull_up(i, node.first, node.first + 1);
                 }
-            }
-            for &id in bvh.leaf_items(node) {
-                box_tests += self.object(id, inside, is_occluder, &mut is_occluded, visible, occluded);
-            }
-            Some(inside)
-        });
+            },
+        );
         // Objects added since the BVH was built.
         for &id in self.model.extra() {
-            box_tests += self.object(id, false, is_occluder, &mut is_occluded, visible, occluded);
+            self.object(id, false, is_occluder, v);
         }
         // This frame's occluders are drawn (they were selected in the frustum).
-        visible.extend_from_slice(&f.occluders);
-        visible.sort_unstable();
-        occluded.sort_unstable();
-        box_tests
+        v.visible.extend_from_slice(&f.occluders);
+        v.visible.sort_unstable();
+        v.occluded.sort_unstable();
+        v.stats
     }
 
-    /// Tests one object: frustum (its oriented box when it moves; none when
-    /// its node was wholly `inside`), then its rectangle. Returns the box tests made.
-    fn object(
+    /// Classifies node `i`, wholly inside the frustum when `inside`; returns
+    /// the state for its children when the traversal goes into them.
+    fn node<F: FnMut(&ScreenRect) -> bool>(
+        &self,
+        i: u32,
+        node: &BvhNode,
+        inside: bool,
+        is_occluder: &[bool],
+        v: &mut Visit<'_, F>,
+    ) -> Option<bool> {
+        let (f, bvh) = (self.frame, self.model.bvh());
+        let on = v.temporal.is_on();
+        let step = if on { v.temporal.node_step(i) } else { Step::Test };
+        if step == Step::Open {
+            v.stats.skipped += 1;
+            if node.is_leaf() {
+                self.leaf(i, node, inside, is_occluder, v);
+            }
+            return Some(inside);
+        }
+        v.stats.node_tests += 1;
+        let containment = if inside {
+            Containment::Inside
+        } else {
+            f.frustum.test_aabb(&node.bounds)
+        };
+        if containment == Containment::Outside {
+            if on {
+                v.temporal.set_node(i, Vis::Invisible);
+            }
+            return None;
+        }
+        let inside = containment == Containment::Inside;
+        if step == Step::Assume {
+            v.stats.node_tests -= 1;
+            v.stats.skipped += 1;
+            self.assume_visible(node, inside, is_occluder, v.visible);
+            v.temporal.assume_node(i);
+            return None;
+        }
+        if let Footprint::Rect(r) = self.footprint(&node.bounds.corners()) {
+            if (v.is_occluded)(&r) {
+                // Only live objects in the frustum count as occlusion-culled.
+                let items = bvh.subtree_items(node).iter().copied();
+                v.occluded.extend(items.filter(|&id| {
+                    !is_occluder[id as usize] && self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside))
+                }));
+                if on {
+                    v.temporal.set_node(i, Vis::Invisible);
+                }
+                return None;
+            }
+        }
+        if node.is_leaf() {
+            self.leaf(i, node, inside, is_occluder, v);
+        }
+        Some(inside)
+    }
+
+    /// The objects of leaf `i`, then (coherence on) the leaf's pull-up from them.
+    fn leaf<F: FnMut(&ScreenRect) -> bool>(
+        &self,
+        i: u32,
+        node: &BvhNode,
+        inside: bool,
+        is_occluder: &[bool],
+        v: &mut Visit<'_, F>,
+    ) {
+        let (mut seen, mut unseen) = (0, 0);
+        for &id in self.model.bvh().leaf_items(node) {
+            match self.object(id, inside, is_occluder, v) {
+                Some(Vis::Invisible) => unseen += 1,
+                Some(_) => seen += 1,
+                None => {}
+            }
+        }
+        if v.temporal.is_on() {
+            v.temporal.set_node(i, combine(seen, unseen));
+        }
+    }
+
+    /// Classifies one object: frustum (its oriented box when it moves; none
+    /// when its node was wholly `inside`), then its rectangle, unless assumed
+    /// visible. `None` for a removed object.
+    fn object<F: FnMut(&ScreenRect) -> bool>(
         &self,
         id: u32,
         inside: bool,
         is_occluder: &[bool],
-        is_occluded: &mut impl FnMut(&ScreenRect) -> bool,
-        visible: &mut Vec<u32>,
-        occluded: &mut Vec<u32>,
-    ) -> u64 {
-        let f = self.frame;
-        let Some(o) = self.scene.get(id) else {
-            return 0; // removed
-        };
+        v: &mut Visit<'_, F>,
+    ) -> Option<Vis> {
+        let o = self.scene.get(id)?;
         if is_occluder[id as usize] {
-            return 1; // added at the end, whatever its subtree's fate
+            // Added at the end, whatever its subtree's fate.
+            if v.temporal.is_on() {
+                v.temporal.set_object(id, Vis::Visible);
+            }
+            return Some(Vis::Visible);
         }
-        let (c, corners) = if o.is_dynamic() {
-            (f.frustum.test_obb(&o.obb), o.obb.corners())
-        } else if inside {
-            (Containment::Inside, o.aabb.corners())
+        let on = v.temporal.is_on();
+        let vis = if !self.meets_frustum(o, inside) {
+            Vis::Invisible
+        } else if on && v.temporal.object_assumed(id) {
+            v.stats.skipped += 1;
+            v.temporal.assume_object(id);
+            v.visible.push(id);
+            return Some(Vis::Visible);
         } else {
-            (f.frustum.test_aabb(&o.aabb), o.aabb.corners())
+            let corners = if o.is_dynamic() {
+                o.obb.corners()
+            } else {
+                o.aabb.corners()
+            };
+            match self.footprint(&corners) {
+                Footprint::Rect(r) if (v.is_occluded)(&r) => {
+                    v.occluded.push(id);
+                    Vis::Invisible
+                }
+                _ => {
+                    v.visible.push(id);
+                    Vis::Visible
+                }
+            }
         };
-        if c != Containment::Outside {
-            match project_points(&corners, &f.world_to_clip, f.width, f.height) {
-                Footprint::Rect(r) if is_occluded(&r) => occluded.push(id),
-                _ => visible.push(id),
+        v.stats.object_tests += 1;
+        if on {
+            v.temporal.set_object(id, vis);
+        }
+        Some(vis)
+    }
+
+    /// Conservative hierarchy updating: every live object of `node`'s subtree
+    /// that is not an occluder and meets the frustum (all of them when the
+    /// node is wholly `inside`) into `visible`, without an occlusion test.
+    fn assume_visible(&self, node: &BvhNode, inside: bool, is_occluder: &[bool], visible: &mut Vec<u32>) {
+        for &id in self.model.bvh().subtree_items(node) {
+            let Some(o) = self.scene.get(id) else { continue };
+            if !is_occluder[id as usize] && self.meets_frustum(o, inside) {
+                visible.push(id);
             }
         }
-        1
+    }
+
+    /// The frustum test of an object: its oriented box when it moves, else
+    /// its box, which needs no test when its node was wholly `inside`.
+    fn meets_frustum(&self, o: &Object, inside: bool) -> bool {
+        let frustum = &self.frame.frustum;
+        if o.is_dynamic() {
+            frustum.test_obb(&o.obb) != Containment::Outside
+        } else {
+            inside || frustum.test_aabb(&o.aabb) != Containment::Outside
+        }
+    }
+
+    /// The screen footprint of a box's corners.
+    fn footprint(&self, corners: &[Vec3; 8]) -> Footprint {
+        let f = self.frame;
+        project_points(corners, &f.world_to_clip, f.width, f.height)
     }
 }
 

@@ -378,7 +378,18 @@ impl Bvh {
     ///
     /// # Panics
     /// If `boxes` does not have one box per item.
+    #[cfg(test)]
     pub fn refit(&mut self, boxes: &[Aabb]) {
+        self.refit_noting(boxes, |_| {});
+    }
+
+    /// [`Bvh::refit`], calling `changed(index)` for every node whose bounds
+    /// changed (children before their parents): what per-node state kept
+    /// across frames must forget.
+    ///
+    /// # Panics
+    /// If `boxes` does not have one box per item.
+    pub fn refit_noting(&mut self, boxes: &[Aabb], mut changed: impl FnMut(u32)) {
         assert_eq!(boxes.len(), self.items.len(), "refit needs one box per BVH item");
         // Children come after their parents, so a reverse pass sees children first.
         for i in (0..self.nodes.len()).rev() {
@@ -391,8 +402,16 @@ impl Bvh {
                 let c = node.first as usize;
                 self.nodes[c].bounds.union(self.nodes[c + 1].bounds)
             };
+            if bounds != node.bounds {
+                changed(i as u32);
+            }
             self.nodes[i].bounds = bounds;
         }
+    }
+
+    /// Number of nodes (node 0 is the root; children come after their parents).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
     }
 
     /// All nodes; node 0 is the root. Children come after their parents.
@@ -530,22 +549,52 @@ impl Bvh {
     /// state carries what a parent learnt for its children (a frustum
     /// culler's "wholly inside"). For a leaf, the return value is ignored;
     /// use [`Bvh::leaf_items`] to reach its items.
+    #[cfg(test)]
     pub fn traverse_front_to_back<S: Copy>(
         &self,
         eye: &Eye,
         root: S,
         mut visit: impl FnMut(u32, &BvhNode, S) -> Option<S>,
     ) {
+        self.walk_front_to_back(eye, root, &mut (), |_, i, n, s| visit(i, n, s), |_, _, _| {});
+    }
+
+    /// [`Bvh::traverse_front_to_back`] that also calls `leave(context, index,
+    /// node)` on every inner node it opened (`enter` returned `Some`), once
+    /// both of its subtrees are done: a post-order step for state that
+    /// children pull up into their parent. Both callbacks get `context`.
+    pub fn walk_front_to_back<S: Copy, C>(
+        &self,
+        eye: &Eye,
+        root: S,
+        context: &mut C,
+        mut enter: impl FnMut(&mut C, u32, &BvhNode, S) -> Option<S>,
+        mut leave: impl FnMut(&mut C, u32, &BvhNode),
+    ) {
         if self.nodes.is_empty() {
             return;
         }
-        let mut stack = [(0u32, root); MAX_DEPTH];
+        /// A node to enter, or an opened one to leave.
+        #[derive(Clone, Copy)]
+        enum Step<S> {
+            Enter(u32, S),
+            Leave(u32),
+        }
+        // Per level at most a pending sibling and a parent to leave.
+        let mut stack = [Step::Leave(0); 2 * MAX_DEPTH + 1];
+        stack[0] = Step::Enter(0, root);
         let mut len = 1;
         while len > 0 {
             len -= 1;
-            let (index, state) = stack[len];
+            let (index, state) = match stack[len] {
+                Step::Enter(index, state) => (index, state),
+                Step::Leave(index) => {
+                    leave(context, index, &self.nodes[index as usize]);
+                    continue;
+                }
+            };
             let node = &self.nodes[index as usize];
-            let Some(child) = visit(index, node, state) else {
+            let Some(child) = enter(context, index, node, state) else {
                 continue;
             };
             if node.is_leaf() {
@@ -557,9 +606,10 @@ impl Bvh {
             } else {
                 (a, b)
             };
-            stack[len] = (far, child);
-            stack[len + 1] = (near, child);
-            len += 2;
+            stack[len] = Step::Leave(index);
+            stack[len + 1] = Step::Enter(far, child);
+            stack[len + 2] = Step::Enter(near, child);
+            len += 3;
         }
     }
 
@@ -762,7 +812,8 @@ mod tests {
         (out, tests)
     }
 
-    /// Checks the front-to-back contract with an always-true visitor.
+    /// Checks the front-to-back contract with an always-true visitor, and
+    /// that the walk leaves each inner node once, after its whole subtree.
     fn check_front_to_back(bvh: &Bvh, eye: Vec3) {
         let mut order = Vec::new();
         let mut seen_items = Vec::new();
@@ -772,6 +823,34 @@ mod tests {
             seen_items.extend_from_slice(bvh.leaf_items(node));
             Some(())
         });
+        // (entered, left) per node, in the order of events.
+        let mut events = Vec::new();
+        bvh.walk_front_to_back(
+            &Eye::Point(eye),
+            (),
+            &mut events,
+            |e, i, _, ()| {
+                e.push((i, true));
+                Some(())
+            },
+            |e, i, node| {
+                assert!(!node.is_leaf(), "leaves are not left");
+                e.push((i, false));
+            },
+        );
+        let entered: Vec<u32> = events.iter().filter(|e| e.1).map(|e| e.0).collect();
+        assert_eq!(entered, order, "the walk enters in the traversal's order");
+        let at = |i: u32, entering: bool| events.iter().position(|&e| e == (i, entering));
+        for (i, node) in bvh.nodes().iter().enumerate() {
+            let left = at(i as u32, false);
+            assert_eq!(left.is_some(), !node.is_leaf(), "node {i}");
+            if let Some(left) = left {
+                for c in [node.first, node.first + 1] {
+                    let last_below = at(c, false).or(at(c, true)).unwrap();
+                    assert!(last_below < left, "node {i} left before its child {c}");
+                }
+            }
+        }
         assert_eq!(order.len(), bvh.nodes().len(), "every node visited once");
         seen_items.sort_unstable();
         assert_eq!(seen_items, (0..bvh.items().len() as u32).collect::<Vec<_>>());
@@ -859,8 +938,15 @@ mod tests {
                     Aabb::new(c - h, c + h)
                 })
                 .collect();
-            bvh.refit(&moved);
+            let before = bvh.nodes().to_vec();
+            let mut changed = Vec::new();
+            bvh.refit_noting(&moved, |i| changed.push(i));
             bvh.assert_well_formed(&moved);
+            changed.sort_unstable();
+            let differ: Vec<u32> = (0..before.len() as u32)
+                .filter(|&i| before[i as usize].bounds != bvh.nodes()[i as usize].bounds)
+                .collect();
+            prop_assert_eq!(changed, differ, "refit notes exactly the nodes it changed");
             prop_assert_eq!(bvh.items(), &items[..], "refit keeps the topology");
             if let Some(root) = bvh.nodes().first() {
                 let all = moved.iter().fold(Aabb::EMPTY, |a, b| a.union(*b));
