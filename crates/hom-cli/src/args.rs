@@ -134,6 +134,10 @@ pub struct HomArgs {
     /// assumed visible without a test: `auto` (from each node's history) or a number in [0, 1].
     #[arg(long, value_parser = parse_p_skip)]
     pub p_skip: Option<PSkip>,
+    /// HOM, HZB, masked: never rest, even where occlusion culling costs more than it saves
+    /// (by default, frames are frustum culled only while it does not pay).
+    #[arg(long)]
+    pub no_cost_model: bool,
     /// HV: most triangles per octree leaf (default 16).
     #[arg(long)]
     pub hv_threshold: Option<usize>,
@@ -294,6 +298,13 @@ pub struct BenchArgs {
     /// Walk only the first N frames of each path.
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Comma-separated traversal coherence modes to walk HOM, HZB and masked with, a row each:
+    /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
+    #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]
+    pub coherence: Vec<Coherence>,
+    /// HOM, HZB, masked: never rest where occlusion culling costs more than it saves.
+    #[arg(long)]
+    pub no_cost_model: bool,
     /// Image width (default: each path's).
     #[arg(long)]
     pub width: Option<u32>,

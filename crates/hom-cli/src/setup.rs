@@ -101,6 +101,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
     if let Some(m) = args.coherence {
         c.coherence = m.mode(args.p_skip);
     }
+    c.cost_model = !args.no_cost_model;
     if args.p_skip.is_some() && !matches!(c.coherence, Coherence::Skip(_)) {
         bail!("--p-skip needs --coherence skip");
     }

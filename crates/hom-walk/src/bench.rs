@@ -9,6 +9,7 @@
 use crate::pictures::StageBar;
 use crate::report::{median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
+use hom::cull::{Coherence, PSkip};
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
 use serde::Serialize;
@@ -20,7 +21,7 @@ use thiserror::Error;
 pub const ORACLE_ROW: &str = "oracle-visible-set";
 
 /// How to bench.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct BenchOptions {
     /// Walk only the first `n` frames of each path (all when `None`).
     pub frames: Option<usize>,
@@ -30,6 +31,63 @@ pub struct BenchOptions {
     pub height: Option<u32>,
     /// Renderer threads (0 = one per core).
     pub threads: usize,
+    /// The traversal coherence modes to walk each of HOM, HZB and masked
+    /// with, one row each; empty: their default only.
+    #[serde(serialize_with = "coherence_labels")]
+    pub coherence: Vec<Coherence>,
+    /// Whether HOM, HZB and masked rest while occlusion culling does not pay.
+    pub cost_model: bool,
+}
+
+impl Default for BenchOptions {
+    /// Every frame, each path's viewport, all cores, each culler's defaults.
+    fn default() -> Self {
+        BenchOptions {
+            frames: None,
+            width: None,
+            height: None,
+            threads: 0,
+            coherence: Vec::new(),
+            cost_model: true,
+        }
+    }
+}
+
+/// The cullers whose traversal takes a [`Coherence`].
+const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked"];
+
+/// A coherence mode as `hom bench --coherence` spells it: `off`, `exact`,
+/// `skip` (adaptive p_skip) or `skip:P`.
+pub fn coherence_label(c: &Coherence) -> String {
+    match c {
+        Coherence::Off => "off".into(),
+        Coherence::Exact => "exact".into(),
+        Coherence::Skip(PSkip::Auto) => "skip".into(),
+        Coherence::Skip(PSkip::Fixed(p)) => format!("skip:{p}"),
+    }
+}
+
+/// The inverse of [`coherence_label`] (also `skip:auto`).
+pub fn parse_coherence(s: &str) -> Result<Coherence, String> {
+    let p_skip = |p: &str| match p.parse::<f32>() {
+        Ok(p) if (0.0..=1.0).contains(&p) => Ok(PSkip::Fixed(p)),
+        _ => Err(format!(
+            "expected `auto` or a probability in [0, 1] after `skip:`, got `{p}`"
+        )),
+    };
+    match s {
+        "off" => Ok(Coherence::Off),
+        "exact" => Ok(Coherence::Exact),
+        "skip" | "skip:auto" => Ok(Coherence::Skip(PSkip::Auto)),
+        _ => match s.strip_prefix("skip:") {
+            Some(p) => p_skip(p).map(Coherence::Skip),
+            None => Err(format!("expected off, exact, skip or skip:P, got `{s}`")),
+        },
+    }
+}
+
+fn coherence_labels<S: serde::Serializer>(modes: &[Coherence], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(modes.iter().map(coherence_label))
 }
 
 /// Why a bench could not run.
@@ -108,6 +166,14 @@ pub struct BenchRow {
     pub scene: String,
     /// Culler name, or [`ORACLE_ROW`].
     pub culler: String,
+    /// The traversal's coherence ([`coherence_label`]) when the bench was
+    /// given modes and the culler takes one.
+    pub coherence: Option<String>,
+    /// Mean node and object tests per frame (`node_tests + object_tests`),
+    /// for the cullers that count them.
+    pub tests_per_frame: Option<f64>,
+    /// Mean tests skipped per frame by coherence (`tests_skipped`).
+    pub tests_skipped_per_frame: Option<f64>,
     /// Frames walked.
     pub frames: usize,
     /// Median frame time (cull + render), ms.
@@ -209,17 +275,35 @@ pub fn run_bench(
             source,
         })?;
         let frame_count = walk_options.frame_count(&path);
-        let mut walks: Vec<(String, WalkResult)> = Vec::new();
-        for (i, &name) in culler_names.iter().enumerate() {
+        // One run per culler, and per coherence mode for the cullers that take one.
+        let runs: Vec<(&str, Option<Coherence>)> = culler_names
+            .iter()
+            .flat_map(|&name| {
+                let modes: Vec<Option<Coherence>> = if options.coherence.is_empty() || !COHERENT_CULLERS.contains(&name)
+                {
+                    vec![None]
+                } else {
+                    options.coherence.iter().copied().map(Some).collect()
+                };
+                modes.into_iter().map(move |m| (name, m))
+            })
+            .collect();
+        let mut walks: Vec<(String, Option<Coherence>, WalkResult)> = Vec::new();
+        for (i, &(name, coherence)) in runs.iter().enumerate() {
+            let label = row_label(name, coherence.as_ref());
             progress(&format!(
-                "{} ({}/{}): {name} ({}/{}), {frame_count} frames",
+                "{} ({}/{}): {label} ({}/{}), {frame_count} frames",
                 scene.name(),
                 report.scenes.len() + 1,
                 scenes.len(),
                 i + 1,
-                culler_names.len()
+                runs.len()
             ));
-            let settings = cullers::CullerSettings::for_scene(&scene);
+            let mut settings = cullers::CullerSettings::for_scene(&scene);
+            if let Some(c) = coherence {
+                settings.hom.coherence = c;
+            }
+            settings.hom.cost_model = options.cost_model;
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
                 &mut scene,
@@ -235,11 +319,13 @@ pub fn run_bench(
                 culler: name.to_string(),
                 source,
             })?;
-            walks.push((name.to_string(), result));
+            walks.push((name.to_string(), coherence, result));
         }
         let oracle_speedup = scene_oracle_speedup(&walks);
-        for (name, w) in &walks {
-            report.rows.push(culler_row(scene.name(), name, w, oracle_speedup));
+        for (name, coherence, w) in &walks {
+            report
+                .rows
+                .push(culler_row(scene.name(), name, coherence.as_ref(), w, oracle_speedup));
         }
         report.rows.push(oracle_row(&scene, &walks, oracle_speedup));
         report.scenes.push(BenchScene {
@@ -258,20 +344,58 @@ pub fn run_bench(
 }
 
 /// Σ baseline ÷ Σ oracle-set render time over every frame of every walk.
-fn scene_oracle_speedup(walks: &[(String, WalkResult)]) -> Option<f64> {
+fn scene_oracle_speedup(walks: &[(String, Option<Coherence>, WalkResult)]) -> Option<f64> {
     let (mut base, mut oracle) = (0.0, 0.0);
-    for f in walks.iter().flat_map(|(_, w)| &w.frames) {
+    for f in walks.iter().flat_map(|(_, _, w)| &w.frames) {
         base += f.baseline_frame_ms?;
         oracle += f.oracle.as_ref()?.oracle_set_render_ms;
     }
     (oracle > 0.0).then(|| base / oracle)
 }
 
-fn culler_row(scene: &str, culler: &str, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
+/// `culler`, or `culler/mode` when walked with a coherence mode.
+fn row_label(culler: &str, coherence: Option<&Coherence>) -> String {
+    match coherence {
+        Some(c) => format!("{culler}/{}", coherence_label(c)),
+        None => culler.to_string(),
+    }
+}
+
+impl BenchRow {
+    /// The row's name in the table: `culler`, or `culler/mode` with a coherence mode.
+    pub fn label(&self) -> String {
+        match &self.coherence {
+            Some(c) => format!("{}/{c}", self.culler),
+            None => self.culler.clone(),
+        }
+    }
+}
+
+/// The mean per frame of the sum of `counters` (`None` when no frame has any of them).
+fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
+    let sums: Vec<u64> = w
+        .frames
+        .iter()
+        .filter(|f| counters.iter().any(|c| f.counters.contains_key(*c)))
+        .map(|f| counters.iter().filter_map(|c| f.counters.get(*c)).sum())
+        .collect();
+    (!sums.is_empty()).then(|| sums.iter().sum::<u64>() as f64 / sums.len() as f64)
+}
+
+fn culler_row(
+    scene: &str,
+    culler: &str,
+    coherence: Option<&Coherence>,
+    w: &WalkResult,
+    oracle_speedup: Option<f64>,
+) -> BenchRow {
     let s: &Summary = &w.summary;
     BenchRow {
         scene: scene.to_string(),
         culler: culler.to_string(),
+        coherence: coherence.map(coherence_label),
+        tests_per_frame: mean_counter(w, &["node_tests", "object_tests"]),
+        tests_skipped_per_frame: mean_counter(w, &["tests_skipped"]),
         frames: s.frames,
         median_frame_ms: s.median_frame_ms,
         median_cull_ms: Some(s.median_stage_ms.get("cull").copied().unwrap_or(0.0)),
@@ -297,8 +421,12 @@ fn share(speedup: Option<f64>, oracle_speedup: Option<f64>) -> Option<f64> {
 }
 
 /// The pseudo-row: render only what the oracle saw, with a perfect zero-cost culler.
-fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_speedup: Option<f64>) -> BenchRow {
-    let frames: Vec<_> = walks.iter().flat_map(|(_, w)| &w.frames).collect();
+fn oracle_row(
+    scene: &hom::scene::Scene,
+    walks: &[(String, Option<Coherence>, WalkResult)],
+    oracle_speedup: Option<f64>,
+) -> BenchRow {
+    let frames: Vec<_> = walks.iter().flat_map(|(_, _, w)| &w.frames).collect();
     let objects = scene.objects();
     let total = scene.triangle_count().max(1) as f64;
     let oracle_frames: Vec<_> = frames
@@ -328,7 +456,10 @@ fn oracle_row(scene: &hom::scene::Scene, walks: &[(String, WalkResult)], oracle_
     BenchRow {
         scene: scene.name().to_string(),
         culler: ORACLE_ROW.to_string(),
-        frames: walks.first().map_or(0, |(_, w)| w.frames.len()),
+        coherence: None,
+        tests_per_frame: None,
+        tests_skipped_per_frame: None,
+        frames: walks.first().map_or(0, |(_, _, w)| w.frames.len()),
         median_frame_ms: median_ms,
         median_cull_ms: None,
         median_render_ms: median_ms,
@@ -363,7 +494,7 @@ impl BenchReport {
         let culler_w = self
             .rows
             .iter()
-            .map(|r| r.culler.chars().count())
+            .map(|r| r.label().chars().count())
             .max()
             .unwrap_or(0)
             .max(6);
@@ -377,7 +508,7 @@ impl BenchReport {
         }
         let _ = writeln!(
             s,
-            "{:<scene_w$} {:<culler_w$} {:>6} {:>9} {:>8} {:>9} {:>8} {:>8} {:>6} {:>8} {:>8}",
+            "{:<scene_w$} {:<culler_w$} {:>6} {:>9} {:>8} {:>9} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8}",
             "scene",
             "culler",
             "frames",
@@ -388,14 +519,15 @@ impl BenchReport {
             "effic.%",
             "false",
             "speedup",
-            "% oracle"
+            "% oracle",
+            "tests/fr"
         );
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "{:<scene_w$} {:<culler_w$} {:>6} {:>9.2} {:>8} {:>9.2} {:>8.1} {:>8} {:>6} {:>8} {:>8}",
+                "{:<scene_w$} {:<culler_w$} {:>6} {:>9.2} {:>8} {:>9.2} {:>8.1} {:>8} {:>6} {:>8} {:>8} {:>8}",
                 r.scene,
-                r.culler,
+                r.label(),
                 r.frames,
                 r.median_frame_ms,
                 fmt_opt(r.median_cull_ms, 2),
@@ -405,11 +537,13 @@ impl BenchReport {
                 r.false_culls.map_or_else(|| "-".to_string(), |n| n.to_string()),
                 fmt_opt(r.speedup, 2),
                 fmt_opt(r.share_of_oracle.map(|x| 100.0 * x), 1),
+                fmt_opt(r.tests_per_frame, 0),
             );
         }
         s.push_str(
             "(medians over frames; speedup = Σ frustum-only frame time ÷ Σ frame time; \
-             % oracle = speedup ÷ the speedup of rendering only the oracle's visible set)\n",
+             % oracle = speedup ÷ the speedup of rendering only the oracle's visible set; \
+             tests/fr = mean node and object tests per frame)\n",
         );
         s
     }
@@ -422,9 +556,9 @@ impl BenchReport {
             .iter()
             .map(|r| StageBar {
                 label: if self.scenes.len() > 1 {
-                    format!("{} / {}", r.scene, r.culler)
+                    format!("{} / {}", r.scene, r.label())
                 } else {
-                    r.culler.clone()
+                    r.label()
                 },
                 stages_ms: r.median_stage_ms.clone(),
                 baseline_ms: r.median_baseline_frame_ms.unwrap_or(0.0),
@@ -448,7 +582,42 @@ mod tests {
             width: Some(64),
             height: Some(64),
             threads: 1,
+            ..BenchOptions::default()
         }
+    }
+
+    #[test]
+    fn coherence_modes_get_a_row_each_for_the_cullers_that_take_them() {
+        let modes = ["off", "exact", "skip", "skip:0.5"].map(|m| parse_coherence(m).unwrap());
+        let options = BenchOptions {
+            frames: Some(6),
+            coherence: modes.to_vec(),
+            ..small()
+        };
+        let report = run_bench(&["city"], &["frustum", "hom"], &options, |_| {}).unwrap();
+        let labels: Vec<String> = report.rows.iter().map(|r| r.label()).collect();
+        assert_eq!(
+            labels,
+            [
+                "frustum",
+                "hom/off",
+                "hom/exact",
+                "hom/skip",
+                "hom/skip:0.5",
+                ORACLE_ROW
+            ]
+        );
+        let (off, exact) = (&report.rows[1], &report.rows[2]);
+        assert_eq!(off.median_pct_triangles_culled, exact.median_pct_triangles_culled);
+        assert!(exact.tests_per_frame.unwrap() < off.tests_per_frame.unwrap());
+        assert_eq!(off.tests_skipped_per_frame, Some(0.0));
+        assert_eq!(
+            report.rows[0].tests_skipped_per_frame, None,
+            "frustum culling keeps no state"
+        );
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["options"]["coherence"][3], "skip:0.5");
+        assert!(parse_coherence("skip:2").is_err() && parse_coherence("sometimes").is_err());
     }
 
     #[test]

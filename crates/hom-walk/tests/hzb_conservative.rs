@@ -3,7 +3,7 @@
 //! depth representation (per sample, or masked), and the occluder
 //! rasterizer's per-sample depth is the reference renderer's depth.
 
-use hom::cull::{Coherence, Culler, HzbConfig, HzbCuller, OccluderConfig, ZDepth};
+use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig, ZDepth};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occlusion::HzBuffer;
@@ -22,7 +22,7 @@ fn permissive(depth: ZDepth) -> HzbConfig {
             ..OccluderConfig::default()
         },
         depth,
-        coherence: Coherence::default(),
+        ..HzbConfig::default()
     };
     c.occluders.selection.budget = 60;
     c

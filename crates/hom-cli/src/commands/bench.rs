@@ -23,6 +23,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         width: a.width,
         height: a.height,
         threads: a.threads,
+        coherence: a.coherence.clone(),
+        cost_model: !a.no_cost_model,
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());

@@ -2,7 +2,7 @@
 
 use super::model_db::ModelDb;
 use super::{CullError, CullOutput, Culler};
-use crate::geom::{Containment, View};
+use crate::geom::{Containment, Frustum, View};
 use crate::scene::Scene;
 
 /// Draws every object: the reference for "no culling at all".
@@ -50,22 +50,26 @@ impl Culler for FrustumCuller {
         out.time("refit", || model.sync(scene));
         let frustum = view.frustum().expect("a validated view has a frustum");
         let mut visible = std::mem::take(&mut out.visible);
-        let tests = out.time("frustum", || {
-            let (bvh, boxes) = (model.bvh(), model.boxes());
-            let mut n = bvh.frustum_cull(&boxes[..bvh.items().len()], &frustum, &mut visible);
-            // Removed objects have empty boxes: a wholly inside subtree still lists them.
-            visible.retain(|&id| scene.get(id).is_some());
-            for &id in model.extra() {
-                n += 1;
-                if frustum.test_aabb(&boxes[id as usize]) != Containment::Outside {
-                    visible.push(id);
-                }
-            }
-            visible.sort_unstable();
-            n
-        });
+        let tests = out.time("frustum", || frustum_visible(model, scene, &frustum, &mut visible));
         out.visible = visible;
         out.count("node_tests", tests);
         Ok(())
     }
+}
+
+/// Appends to `visible`, ascending, every live object of `model` whose box
+/// meets `frustum`; returns the box tests made.
+pub(crate) fn frustum_visible(model: &ModelDb, scene: &Scene, frustum: &Frustum, visible: &mut Vec<u32>) -> u64 {
+    let (bvh, boxes) = (model.bvh(), model.boxes());
+    let mut n = bvh.frustum_cull(&boxes[..bvh.items().len()], frustum, visible);
+    // Removed objects have empty boxes: a wholly inside subtree still lists them.
+    visible.retain(|&id| scene.get(id).is_some());
+    for &id in model.extra() {
+        n += 1;
+        if frustum.test_aabb(&boxes[id as usize]) != Containment::Outside {
+            visible.push(id);
+        }
+    }
+    visible.sort_unstable();
+    n
 }

@@ -30,7 +30,7 @@ use crate::scene::Scene;
 pub use crate::occlusion::{DepthMode, Opacity};
 
 /// Settings of the HOM culler.
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct HomConfig {
     /// The occlusion map: resolution, opacity thresholds, depth test.
     pub map: MapOptions,
@@ -38,15 +38,29 @@ pub struct HomConfig {
     pub occluders: OccluderConfig,
     /// How much of last frame's classification the traversal reuses (shared with HZB).
     pub coherence: Coherence,
+    /// Rest (frustum culling only) while occlusion culling costs more than it
+    /// saves, learnt from the frame times given to [`Culler::frame_done`] (shared with HZB).
+    pub cost_model: bool,
+}
+
+impl Default for HomConfig {
+    /// The default map and occluders, no coherence, the cost model on.
+    fn default() -> Self {
+        HomConfig {
+            map: MapOptions::default(),
+            occluders: OccluderConfig::default(),
+            coherence: Coherence::default(),
+            cost_model: true,
+        }
+    }
 }
 
 impl HomConfig {
     /// The default map with [`OccluderConfig::for_scene`]'s occluders.
     pub fn for_scene(scene: &Scene) -> HomConfig {
         HomConfig {
-            map: MapOptions::default(),
             occluders: OccluderConfig::for_scene(scene),
-            coherence: Coherence::default(),
+            ..HomConfig::default()
         }
     }
 }
@@ -62,7 +76,7 @@ impl HomCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
         HomCuller {
-            common: OccluderCulling::new(scene, &config.occluders, config.coherence),
+            common: OccluderCulling::new(scene, &config.occluders, config.coherence, config.cost_model),
             config,
             buffer: None,
         }
@@ -114,6 +128,9 @@ impl Culler for HomCuller {
     }
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        if self.common.rest(scene, view, out)? {
+            return Ok(()); // occlusion culling does not pay now: frustum culling only
+        }
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole_opacity = self.config.occluders.selection.hole_opacity;
         let last = &self.buffer;

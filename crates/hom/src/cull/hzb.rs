@@ -54,7 +54,7 @@ pub enum ZDepth {
 }
 
 /// Settings of the HZB culler: HOM's occluder selection and database, and the depth representation.
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct HzbConfig {
     /// Which objects occlude, and how each frame's are chosen (shared with HOM).
     pub occluders: OccluderConfig,
@@ -62,6 +62,15 @@ pub struct HzbConfig {
     pub depth: ZDepth,
     /// How much of last frame's classification the traversal reuses (shared with HOM).
     pub coherence: Coherence,
+    /// Rest while occlusion culling does not pay (shared with HOM; see [`HomConfig::cost_model`]).
+    pub cost_model: bool,
+}
+
+impl Default for HzbConfig {
+    /// Default occluders, per-sample depth, no coherence, the cost model on.
+    fn default() -> Self {
+        HzbConfig::from_hom(&HomConfig::default())
+    }
 }
 
 impl HzbConfig {
@@ -71,16 +80,13 @@ impl HzbConfig {
             occluders: hom.occluders.clone(),
             depth: ZDepth::PerSample,
             coherence: hom.coherence,
+            cost_model: hom.cost_model,
         }
     }
 
     /// [`OccluderConfig::for_scene`]'s occluders, per-sample depth.
     pub fn for_scene(scene: &Scene) -> HzbConfig {
-        HzbConfig {
-            occluders: OccluderConfig::for_scene(scene),
-            depth: ZDepth::PerSample,
-            coherence: Coherence::default(),
-        }
+        HzbConfig::from_hom(&HomConfig::for_scene(scene))
     }
 }
 
@@ -101,7 +107,7 @@ impl HzbCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
         HzbCuller {
-            common: OccluderCulling::new(scene, &config.occluders, config.coherence),
+            common: OccluderCulling::new(scene, &config.occluders, config.coherence, config.cost_model),
             buffer: match config.depth {
                 ZDepth::PerSample => Buffer::PerSample(None),
                 ZDepth::Masked => Buffer::Masked(None),
@@ -167,6 +173,9 @@ impl Culler for HzbCuller {
     }
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        if self.common.rest(scene, view, out)? {
+            return Ok(()); // occlusion culling does not pay now: frustum culling only
+        }
         // 1. Occluder selection (with last frame's worst hole when culling was poor).
         let hole_opacity = self.config.occluders.selection.hole_opacity;
         let last = &self.buffer;

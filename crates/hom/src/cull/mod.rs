@@ -9,6 +9,7 @@
 
 mod coherence;
 mod frustum;
+mod governor;
 mod hom;
 mod hv;
 mod hzb;
@@ -18,6 +19,7 @@ mod traversal;
 pub use crate::occluders::OccluderConfig;
 pub use coherence::{Coherence, PSkip, AUTO_P_SKIP_MAX};
 pub use frustum::{FrustumCuller, NoCuller};
+pub use governor::MAX_REST;
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};

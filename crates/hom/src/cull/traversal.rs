@@ -8,6 +8,8 @@
 //! frame's occluders are always drawn.
 
 use super::coherence::{combine, Coherence, Step, TemporalState, Vis};
+use super::frustum::frustum_visible;
+use super::governor::{FrameFacts, Governor};
 use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
@@ -54,6 +56,10 @@ pub(crate) struct OccluderCulling {
     culled_pct: f32,
     /// Classifications kept across frames (coherence).
     temporal: TemporalState,
+    /// Whether occlusion culling pays this frame (the cost model).
+    governor: Governor,
+    /// Whether the last frame ran the occlusion work (it did not rest).
+    culled_last: bool,
 }
 
 /// One frame after occluder selection.
@@ -71,8 +77,10 @@ pub(crate) struct Selected {
 
 impl OccluderCulling {
     /// Builds the BVH over the objects' boxes and the occluder database; the
-    /// traversal reuses last frame's classification as `coherence` says.
-    pub fn new(scene: &Scene, config: &OccluderConfig, coherence: Coherence) -> OccluderCulling {
+    /// traversal reuses last frame's classification as `coherence` says, and
+    /// with `cost_model` frames rest (frustum culling only) while occlusion
+    /// culling does not pay for itself.
+    pub fn new(scene: &Scene, config: &OccluderConfig, coherence: Coherence, cost_model: bool) -> OccluderCulling {
         OccluderCulling {
             model: ModelDb::new(scene),
             db: OccluderDb::build(scene, &config.occluder_db),
@@ -80,7 +88,45 @@ impl OccluderCulling {
             is_occluder: Vec::new(),
             culled_pct: 0.0,
             temporal: TemporalState::new(coherence),
+            governor: Governor::new(cost_model),
+            culled_last: false,
         }
+    }
+
+    /// A resting frame, when the cost model says occlusion culling does not
+    /// pay for itself now: frustum culling alone into `out` (stages `refit`,
+    /// `frustum`; counter `rested`). Returns `false`, doing nothing, on a
+    /// frame that culls.
+    pub fn rest(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<bool, CullError> {
+        if !self.governor.rests() {
+            self.culled_last = true;
+            return Ok(false);
+        }
+        self.culled_last = false;
+        view.validate()?;
+        out.clear();
+        let Self {
+            model, db, temporal, ..
+        } = self;
+        out.time("refit", || {
+            if model.sync(scene) == Change::Structure {
+                db.rebuild(scene);
+            }
+            temporal.begin(model, scene.objects().len());
+        });
+        let frustum = view.frustum().expect("a validated view has a frustum");
+        let mut visible = std::mem::take(&mut out.visible);
+        let tests = out.time("frustum", || frustum_visible(model, scene, &frustum, &mut visible));
+        self.governor.record(FrameFacts {
+            culled: false,
+            cull_ms: out.total_ms(),
+            drawn: triangles(scene, &visible),
+            occluded: 0,
+        });
+        out.visible = visible;
+        out.count("node_tests", tests);
+        out.count("rested", 1);
+        Ok(true)
     }
 
     /// Starts a frame: validates the view, clears `out`, follows the scene's
@@ -183,7 +229,18 @@ impl OccluderCulling {
         let stats = out.time("traversal", || {
             traversal.run(is_occluder, temporal, is_occluded, &mut visible, &mut occluded)
         });
-        self.culled_pct = occluded_share(scene, &visible, &occluded);
+        let (drawn, hidden) = (triangles(scene, &visible), triangles(scene, &occluded));
+        self.culled_pct = if drawn + hidden > 0 {
+            100.0 * hidden as f32 / (drawn + hidden) as f32
+        } else {
+            0.0
+        };
+        self.governor.record(FrameFacts {
+            culled: true,
+            cull_ms: out.total_ms(),
+            drawn,
+            occluded: hidden,
+        });
         out.visible = visible;
         out.occluded = occluded;
         out.occluders = frame.occluders;
@@ -196,10 +253,11 @@ impl OccluderCulling {
 
     /// The configuration entries every occluder-based culler reports: its
     /// selection settings and the occluder database's report.
-    pub fn describe(&self) -> [(&'static str, String); 6] {
+    pub fn describe(&self) -> [(&'static str, String); 7] {
         let c = self.selector.config();
         [
             ("coherence", self.temporal.mode().to_string()),
+            ("cost_model", self.governor.is_enabled().to_string()),
             ("selection", format!("{:?}", c.mode)),
             ("budget", c.budget.to_string()),
             ("adaptive_budget", c.adaptive.to_string()),
@@ -208,9 +266,13 @@ impl OccluderCulling {
         ]
     }
 
-    /// Feeds the frame's outcome back into occluder selection.
+    /// Feeds the frame's outcome back into the cost model and (after a frame
+    /// that culled) occluder selection.
     pub fn feedback(&mut self, frame_ms: Option<f64>) {
-        self.selector.feedback(self.culled_pct, frame_ms);
+        self.governor.feedback(frame_ms);
+        if self.culled_last {
+            self.selector.feedback(self.culled_pct, frame_ms);
+        }
     }
 }
 
@@ -451,16 +513,9 @@ impl Traversal<'_> {
     }
 }
 
-/// Percentage of the triangles in `visible` and `occluded` that are occluded:
-/// the culling rate the occluder selection's feedback learns from.
-fn occluded_share(scene: &Scene, visible: &[u32], occluded: &[u32]) -> f32 {
-    let tris = |ids: &[u32]| ids.iter().map(|&i| scene.object(i).triangles as u64).sum::<u64>();
-    let (tv, to) = (tris(visible), tris(occluded));
-    if tv + to > 0 {
-        100.0 * to as f32 / (tv + to) as f32
-    } else {
-        0.0
-    }
+/// The triangles of the objects `ids`.
+fn triangles(scene: &Scene, ids: &[u32]) -> u64 {
+    ids.iter().map(|&i| scene.object(i).triangles as u64).sum()
 }
 
 /// The counters every occluder-based culler reports about its occluders.
