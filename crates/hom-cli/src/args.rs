@@ -75,6 +75,12 @@ pub struct View {
     /// Image height (default: the path's).
     #[arg(long)]
     pub height: Option<u32>,
+    /// Walk the path K times as fast (2, 8: frames skipped; 0.25, 0.5: frames interpolated).
+    #[arg(long, value_parser = parse_speed)]
+    pub speed: Option<f32>,
+    /// A cut every N frames: jump a third of the path ahead, turning 180° at every other cut.
+    #[arg(long)]
+    pub cuts: Option<usize>,
     /// The culler's name (help from `cullers::CULLERS`).
     // A plain string checked by `cullers::make`, not a clap value parser: its
     // error stays the app's one line naming the choices.
@@ -168,6 +174,14 @@ impl CoherenceArg {
             CoherenceArg::Exact => Coherence::Exact,
             CoherenceArg::Skip => Coherence::Skip(p_skip.unwrap_or_default()),
         }
+    }
+}
+
+/// `--speed`: a finite number above 0.
+pub fn parse_speed(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(k) if k.is_finite() && k > 0.0 && k <= 1000.0 => Ok(k),
+        _ => Err(format!("expected a speed above 0 and at most 1000, got `{s}`")),
     }
 }
 
@@ -298,6 +312,12 @@ pub struct BenchArgs {
     /// Walk only the first N frames of each path.
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Walk each path K times as fast (2, 8: frames skipped; 0.25, 0.5: frames interpolated).
+    #[arg(long, value_parser = parse_speed)]
+    pub speed: Option<f32>,
+    /// A cut every N frames: jump a third of the path ahead, turning 180° at every other cut.
+    #[arg(long)]
+    pub cuts: Option<usize>,
     /// Comma-separated traversal coherence modes to walk HOM, HZB and masked with, a row each:
     /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]

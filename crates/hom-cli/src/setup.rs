@@ -33,7 +33,7 @@ pub fn open(view: &View) -> Result<Walkthrough> {
     if let Some(file) = &view.camera_path {
         path = CameraPath::load(file)?;
     }
-    override_viewport(view, &mut path);
+    adjust_path(view, &mut path);
     path.validate(&view.scene)?;
     Ok(Walkthrough { scene, path, animation })
 }
@@ -48,7 +48,7 @@ pub fn open_map_view(view: &View, map: &BspMap) -> Result<Walkthrough> {
             None => bail!("{} has no spawn points to walk; give --camera-path", view.scene),
         },
     };
-    override_viewport(view, &mut path);
+    adjust_path(view, &mut path);
     path.validate(&view.scene)?;
     Ok(Walkthrough {
         scene: map.scene.clone(),
@@ -57,7 +57,14 @@ pub fn open_map_view(view: &View, map: &BspMap) -> Result<Walkthrough> {
     })
 }
 
-fn override_viewport(view: &View, path: &mut CameraPath) {
+/// The viewport overrides, then the speed and cuts variants of the path.
+fn adjust_path(view: &View, path: &mut CameraPath) {
+    if let Some(k) = view.speed {
+        *path = path.at_speed(k);
+    }
+    if let Some(n) = view.cuts {
+        *path = path.with_cuts(n);
+    }
     if let Some(w) = view.width {
         path.width = w;
     }

@@ -157,6 +157,59 @@ impl CameraPath {
         Ok(())
     }
 
+    /// The same path walked `speed` times as fast: frame `i` of the result is
+    /// the original at `i × speed`, interpolated linearly between frames
+    /// (`0.25` and `0.5` walk slower, `2` and `8` skip frames). The last
+    /// original frame ends it. A speed that is not finite and positive gives
+    /// the path unchanged.
+    pub fn at_speed(&self, speed: f32) -> CameraPath {
+        let n = self.frames.len();
+        if !(speed.is_finite() && speed > 0.0) || n < 2 {
+            return self.clone();
+        }
+        let last = (n - 1) as f64;
+        let count = (last / speed as f64).floor() as usize + 1;
+        let lerp = |a: [f32; 3], b: [f32; 3], t: f32| std::array::from_fn(|k| a[k] + (b[k] - a[k]) * t);
+        let frames = (0..count)
+            .map(|i| {
+                let at = (i as f64 * speed as f64).min(last);
+                let (k, t) = (at.floor() as usize, (at - at.floor()) as f32);
+                let (a, b) = (&self.frames[k], &self.frames[(k + 1).min(n - 1)]);
+                PathFrame {
+                    eye: lerp(a.eye, b.eye, t),
+                    target: lerp(a.target, b.target, t),
+                }
+            })
+            .collect();
+        CameraPath { frames, ..self.clone() }
+    }
+
+    /// The same number of frames with a cut every `every` frames: at the
+    /// `k`-th cut the walk jumps `k` thirds of the path ahead (wrapping), and
+    /// at every other cut it also turns 180° (looks back the way it came).
+    /// The stress for per-frame state reused from the last frame. `every` 0
+    /// gives the path unchanged.
+    pub fn with_cuts(&self, every: usize) -> CameraPath {
+        let n = self.frames.len();
+        if every == 0 || n == 0 {
+            return self.clone();
+        }
+        let frames = (0..n)
+            .map(|i| {
+                let cut = i / every;
+                let f = &self.frames[(i + cut * n.div_ceil(3)) % n];
+                if cut % 2 == 1 {
+                    // Look the other way: the target mirrored through the eye.
+                    let target = std::array::from_fn(|k| 2.0 * f.eye[k] - f.target[k]);
+                    PathFrame { eye: f.eye, target }
+                } else {
+                    *f
+                }
+            })
+            .collect();
+        CameraPath { frames, ..self.clone() }
+    }
+
     /// The same path at another viewport size.
     pub fn with_viewport(mut self, width: u32, height: u32) -> CameraPath {
         self.width = width;
@@ -280,5 +333,41 @@ mod tests {
             .frames
             .iter()
             .all(|f| f.target[0] > f.eye[0] - 1e-3 || f.eye[0] >= 10.0));
+    }
+
+    fn straight(n: usize) -> CameraPath {
+        CameraPath::new(
+            (0..n)
+                .map(|i| PathFrame {
+                    eye: [i as f32, 0.0, 0.0],
+                    target: [i as f32, 0.0, -1.0],
+                })
+                .collect(),
+        )
+    }
+
+    #[test]
+    fn speed_subsamples_or_interpolates_and_ends_on_the_last_frame() {
+        let p = straight(9);
+        let eyes = |q: &CameraPath| q.frames.iter().map(|f| f.eye[0]).collect::<Vec<_>>();
+        assert_eq!(eyes(&p.at_speed(2.0)), [0.0, 2.0, 4.0, 6.0, 8.0]);
+        assert_eq!(eyes(&p.at_speed(8.0)), [0.0, 8.0]);
+        assert_eq!(p.at_speed(0.25).frames.len(), 33);
+        assert_eq!(eyes(&p.at_speed(0.5))[..4], [0.0, 0.5, 1.0, 1.5]);
+        assert_eq!(p.at_speed(1.0), p);
+        assert_eq!(p.at_speed(f32::NAN), p);
+        assert_eq!(p.at_speed(0.25).width, p.width, "the lens and viewport stay");
+    }
+
+    #[test]
+    fn cuts_jump_a_third_ahead_and_turn_at_every_other_cut() {
+        let p = straight(9).with_cuts(4);
+        assert_eq!(p.frames.len(), 9);
+        let eyes: Vec<f32> = p.frames.iter().map(|f| f.eye[0]).collect();
+        assert_eq!(eyes, [0.0, 1.0, 2.0, 3.0, 7.0, 8.0, 0.0, 1.0, 5.0]);
+        // Cut 1 looks back (+z), cuts 0 and 2 ahead (-z).
+        let z: Vec<f32> = p.frames.iter().map(|f| f.target[2]).collect();
+        assert_eq!(z, [-1.0, -1.0, -1.0, -1.0, 1.0, 1.0, 1.0, 1.0, -1.0]);
+        assert_eq!(straight(9).with_cuts(0), straight(9));
     }
 }

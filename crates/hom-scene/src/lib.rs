@@ -19,7 +19,7 @@ pub mod motion;
 pub mod obj;
 pub mod split;
 
-pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED};
+pub use builtin::{builtin, builtin_with_seed, Builtin, BUILTIN_SCENES, DEFAULT_SEED, SCALE_SCENES};
 pub use camera_path::{CameraPath, CameraPathError, PathFrame};
 pub use error::LoadError;
 pub use motion::{Animation, Motion};

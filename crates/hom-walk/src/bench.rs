@@ -37,6 +37,10 @@ pub struct BenchOptions {
     pub coherence: Vec<Coherence>,
     /// Whether HOM, HZB and masked rest while occlusion culling does not pay.
     pub cost_model: bool,
+    /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
+    pub speed: Option<f32>,
+    /// A cut every this many frames ([`hom_scene::CameraPath::with_cuts`]).
+    pub cuts: Option<usize>,
 }
 
 impl Default for BenchOptions {
@@ -49,6 +53,8 @@ impl Default for BenchOptions {
             threads: 0,
             coherence: Vec::new(),
             cost_model: true,
+            speed: None,
+            cuts: None,
         }
     }
 }
@@ -269,6 +275,12 @@ pub fn run_bench(
         }
         if let Some(h) = options.height {
             path.height = h;
+        }
+        if let Some(k) = options.speed {
+            path = path.at_speed(k);
+        }
+        if let Some(n) = options.cuts {
+            path = path.with_cuts(n);
         }
         path.validate(spec).map_err(|source| BenchError::Path {
             scene: spec.to_string(),

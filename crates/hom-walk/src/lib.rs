@@ -41,13 +41,14 @@ use std::path::Path;
 /// spawn, see [`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3),
 /// else [`CameraPath::orbit`] around their bounds.
 pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath, Animation), LoadError> {
-    if hom_scene::BUILTIN_SCENES.iter().any(|(n, _)| *n == spec) {
+    let builtins = || hom_scene::BUILTIN_SCENES.iter().chain(hom_scene::SCALE_SCENES);
+    if builtins().any(|(n, _)| *n == spec) {
         let b = hom_scene::builtin(spec)?;
         return Ok((b.scene, b.path, b.animation));
     }
     let path = Path::new(spec);
     if !hom_scene::split_map_spec(path).0.exists() {
-        let known: Vec<&str> = hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| *n).collect();
+        let known: Vec<&str> = builtins().map(|(n, _)| *n).collect();
         return Err(LoadError::UnknownBuiltin {
             name: spec.to_string(),
             known: known.join(", "),

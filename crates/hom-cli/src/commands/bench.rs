@@ -25,6 +25,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         threads: a.threads,
         coherence: a.coherence.clone(),
         cost_model: !a.no_cost_model,
+        speed: a.speed,
+        cuts: a.cuts,
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());

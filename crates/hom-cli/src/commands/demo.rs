@@ -19,6 +19,8 @@ pub fn run(a: DemoArgs) -> Result<()> {
         camera_path: None,
         width: Some(a.width),
         height: Some(a.height),
+        speed: None,
+        cuts: None,
         culler: cullers::BEST.into(),
         threads: 0,
         hom: HomArgs::default(),

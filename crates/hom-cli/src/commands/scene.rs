@@ -9,7 +9,7 @@ pub fn list() -> Result<()> {
         "{:<14} {:>8} {:>10} {:>8}  description",
         "name", "objects", "triangles", "frames"
     );
-    for (name, description) in hom_scene::BUILTIN_SCENES {
+    for (name, description) in hom_scene::BUILTIN_SCENES.iter().chain(hom_scene::SCALE_SCENES) {
         let b = hom_scene::builtin(name)?;
         println!(
             "{:<14} {:>8} {:>10} {:>8}  {}",

@@ -25,17 +25,17 @@ const CURB: f32 = 0.15;
 const EYE: f32 = 1.7;
 
 /// Shared street furniture meshes.
-struct Props {
-    lamp: MeshId,
-    tree: [MeshId; 2],
-    bench: MeshId,
-    bin: MeshId,
-    hydrant: MeshId,
-    cars: [MeshId; 4],
-    bus_stop: MeshId,
+pub(super) struct Props {
+    pub(super) lamp: MeshId,
+    pub(super) tree: [MeshId; 2],
+    pub(super) bench: MeshId,
+    pub(super) bin: MeshId,
+    pub(super) hydrant: MeshId,
+    pub(super) cars: [MeshId; 4],
+    pub(super) bus_stop: MeshId,
 }
 
-fn props(b: &mut SceneBuilder) -> Props {
+pub(super) fn props(b: &mut SceneBuilder) -> Props {
     let mut lamp = MeshBuilder::new();
     lamp.add_cone(Vec3::ZERO, Vec3::new(0.0, 0.4, 0.0), 0.18, 0.14, 6, false);
     lamp.add_cone(Vec3::new(0.0, 0.4, 0.0), Vec3::new(0.0, 6.5, 0.0), 0.09, 0.06, 6, false);
@@ -132,7 +132,7 @@ fn props(b: &mut SceneBuilder) -> Props {
 /// A building mesh with its footprint centred on the origin, standing on y = 0:
 /// a recessed core, vertical piers and floor ledges framing window bays, a plinth,
 /// a parapet and roof structures. `style` varies the facade rhythm.
-fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
+pub(super) fn building(rng: &mut Rng, w: f32, d: f32, h: f32) -> MeshBuilder {
     let mut m = MeshBuilder::new();
     let (hw, hd) = (w * 0.5, d * 0.5);
     let floor = rng.range(3.2, 4.0);

@@ -13,10 +13,18 @@
 //! | `dynamic` | moving Utah teapots, tori, spheres and boxes | ≈1M |
 //! | `office` | a building floor of rooms, corridors and furnished offices | ≈270k |
 //! | `terrain` | rolling height-field hills with villages and forests, low flight | ≈480k |
+//!
+//! [`SCALE_SCENES`] are generated the same way but too big for the walk
+//! suite every test and `hom bench` runs by default:
+//!
+//! | name | what | triangles |
+//! |------|------|-----------|
+//! | `metropolis` | 40 × 40 city blocks, over 100,000 objects, shared meshes, street-level walk | ≈11M |
 
 mod city;
 mod dynamic;
 mod machine_room;
+mod metropolis;
 mod office;
 mod rng;
 mod shapes;
@@ -70,6 +78,14 @@ pub const BUILTIN_SCENES: &[(&str, &str)] = &[
     ),
 ];
 
+/// Built-in scenes for measuring at scale, made by [`builtin`] like the others
+/// but not in [`BUILTIN_SCENES`] (the walk suite the tests and `hom bench` run
+/// by default).
+pub const SCALE_SCENES: &[(&str, &str)] = &[(
+    "metropolis",
+    "40 x 40 city blocks: over 100,000 objects and 10M triangles of shared meshes; street-level walk",
+)];
+
 /// Generates the built-in scene `name` with [`DEFAULT_SEED`].
 pub fn builtin(name: &str) -> Result<Builtin, LoadError> {
     builtin_with_seed(name, DEFAULT_SEED)
@@ -86,10 +102,16 @@ pub fn builtin_with_seed(name: &str, seed: u64) -> Result<Builtin, LoadError> {
         "dynamic" => dynamic::generate(seed),
         "office" => office::generate(seed),
         "terrain" => terrain::generate(seed),
+        "metropolis" => metropolis::generate(seed),
         _ => {
             return Err(LoadError::UnknownBuiltin {
                 name: name.to_string(),
-                known: BUILTIN_SCENES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+                known: BUILTIN_SCENES
+                    .iter()
+                    .chain(SCALE_SCENES)
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", "),
             })
         }
     };
@@ -226,6 +248,27 @@ mod tests {
     }
 
     #[test]
+    fn metropolis_is_at_scale_shares_its_meshes_and_walks_free_streets() {
+        let start = std::time::Instant::now();
+        let b = builtin("metropolis").unwrap();
+        let made = start.elapsed();
+        let s = &b.scene;
+        assert!(s.objects().len() >= 100_000, "{} objects", s.objects().len());
+        assert!(s.triangle_count() >= 10_000_000, "{} triangles", s.triangle_count());
+        assert!(s.meshes().len() < 100, "instanced: {} meshes", s.meshes().len());
+        assert!(made.as_secs() < 20, "generated in {made:?}");
+        b.path.validate("metropolis").unwrap();
+        assert!((300..=500).contains(&b.path.frames.len()));
+        let bad = eyes_inside(&b);
+        assert!(bad.is_empty(), "eye inside {:?}", &bad[..bad.len().min(10)]);
+        assert_eq!(fingerprint(&b), fingerprint(&builtin("metropolis").unwrap()));
+        assert_ne!(
+            fingerprint(&b).2,
+            fingerprint(&builtin_with_seed("metropolis", 3).unwrap()).2
+        );
+    }
+
+    #[test]
     fn dynamic_objects_never_reach_the_camera_lanes() {
         let mut b = builtin("dynamic").unwrap();
         for t in [0.0, 1.7, 5.3, 9.9, 31.0] {
@@ -265,7 +308,10 @@ mod tests {
             panic!("expected UnknownBuiltin")
         };
         assert_eq!(name, "nope");
-        assert_eq!(known, "city, spheres, machine-room, dynamic, office, terrain");
+        assert_eq!(
+            known,
+            "city, spheres, machine-room, dynamic, office, terrain, metropolis"
+        );
         assert!(builtin("Machine_Room").is_ok());
     }
 

@@ -56,10 +56,11 @@ pub const AUTO_P_SKIP_MAX: f32 = 0.9;
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Coherence {
     /// Classify from the root every frame (the classical traversal).
-    #[default]
     Off,
     /// Hierarchy updating: skip the tests of nodes opened last frame. The
-    /// visible and occluded sets are the classical ones.
+    /// visible and occluded sets are the classical ones. The default: 41-48 %
+    /// fewer tests on the built-in walks, nothing drawn in excess.
+    #[default]
     Exact,
     /// Hierarchy updating, and nodes and objects visible last frame assumed
     /// visible without a test with probability `p_skip`: fewer tests, a few

@@ -44,7 +44,7 @@ pub struct HomConfig {
 }
 
 impl Default for HomConfig {
-    /// The default map and occluders, no coherence, the cost model on.
+    /// The default map and occluders, exact coherence, the cost model on.
     fn default() -> Self {
         HomConfig {
             map: MapOptions::default(),

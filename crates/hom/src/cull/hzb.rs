@@ -67,7 +67,7 @@ pub struct HzbConfig {
 }
 
 impl Default for HzbConfig {
-    /// Default occluders, per-sample depth, no coherence, the cost model on.
+    /// Default occluders, per-sample depth, exact coherence, the cost model on.
     fn default() -> Self {
         HzbConfig::from_hom(&HomConfig::default())
     }

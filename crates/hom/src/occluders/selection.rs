@@ -183,7 +183,8 @@ impl OccluderSelector {
             self.candidates.push((key, occ.object, occ.triangles));
         }
         stats.candidates = self.candidates.len() as u32;
-        self.candidates.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        self.candidates
+            .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
         let mut chosen = vec![false; objects.len()];
         let mut spent: u64 = 0;
