@@ -41,6 +41,8 @@ pub(crate) struct ModelDb {
     bvh: Bvh,
     /// Current box per object id: [`Aabb::EMPTY`] for removed objects.
     boxes: Vec<Aabb>,
+    /// Whether each object id moves (is tested by its oriented box).
+    dynamic: Vec<bool>,
     /// Live objects not in the BVH (added since its build), ascending.
     extra: Vec<u32>,
     /// Objects in the BVH that were removed since its build.
@@ -61,6 +63,7 @@ impl ModelDb {
         ModelDb {
             bvh: Bvh::build(&boxes, &BvhConfig::default()),
             boxes,
+            dynamic: dynamic_flags(scene),
             extra: Vec::new(),
             removed: 0,
             seen: scene.revision(),
@@ -117,6 +120,9 @@ impl ModelDb {
         let moved = (0..boxes.len()).filter(|&i| self.boxes.get(i) != Some(&boxes[i]));
         self.moved_objects.extend(moved.map(|i| i as u32));
         self.boxes = boxes;
+        if structural {
+            self.dynamic = dynamic_flags(scene);
+        }
         let in_tree = self.bvh.items().len();
         let moved_nodes = &mut self.moved_nodes;
         self.bvh.refit_noting(&self.boxes[..in_tree], |i| moved_nodes.push(i));
@@ -136,6 +142,12 @@ impl ModelDb {
     /// Current boxes by object id.
     pub fn boxes(&self) -> &[Aabb] {
         &self.boxes
+    }
+
+    /// Whether each object id moves, as [`crate::scene::Object::is_dynamic`]
+    /// (compact, for scans over many objects).
+    pub fn dynamic(&self) -> &[bool] {
+        &self.dynamic
     }
 
     /// Bumped by every (re)build of the hierarchy: node indices from another
@@ -158,6 +170,11 @@ impl ModelDb {
     pub fn extra(&self) -> &[u32] {
         &self.extra
     }
+}
+
+/// Every object's dynamic flag.
+fn dynamic_flags(scene: &Scene) -> Vec<bool> {
+    scene.objects().iter().map(|o| o.is_dynamic()).collect()
 }
 
 /// Every object's current box; removed objects get [`Aabb::EMPTY`].

@@ -15,7 +15,7 @@ use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
 use crate::map::Hole;
 use crate::occluders::draw_occluders;
-use crate::occluders::{OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
+use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
 use crate::scene::{Object, Scene};
 use crate::spatial::bvh::BvhNode;
@@ -164,6 +164,10 @@ impl OccluderCulling {
             self.selector.select(
                 &self.db,
                 scene,
+                ObjectBoxes {
+                    boxes: self.model.boxes(),
+                    dynamic: self.model.dynamic(),
+                },
                 &world_to_clip,
                 &eye,
                 &frustum,

