@@ -9,8 +9,8 @@ use hom::glam::{Mat4, Vec3};
 use hom::scene::{Scene, SceneBuilder};
 use hom_testkit::cube;
 
-/// A row of boxes side by side, none behind another; with `wall`, a wall in
-/// front hides those behind it.
+/// A row of boxes apart, none behind another; with `wall`, a wall in front
+/// hides them all.
 fn scene(wall: bool) -> Scene {
     let mut b = SceneBuilder::new("row");
     let m = b.add_mesh(cube());
@@ -18,8 +18,9 @@ fn scene(wall: bool) -> Scene {
         let t = Mat4::from_scale_rotation_translation(Vec3::new(30.0, 8.0, 0.5), Default::default(), Vec3::ZERO);
         b.add_object("wall", m, t).unwrap();
     }
-    for i in 0..40 {
-        let at = Vec3::new(i as f32 - 20.0, 0.0, -4.0);
+    // In view from every camera of the walk, 1.5 m apart: nothing can hide a box.
+    for i in 0..9 {
+        let at = Vec3::new((i as f32 - 4.0) * 2.5, 0.0, -4.0);
         b.add_object(format!("box{i}"), m, Mat4::from_translation(at)).unwrap();
     }
     b.build().unwrap()
@@ -44,7 +45,8 @@ fn cullers(scene: &Scene) -> Vec<Box<dyn Culler>> {
 }
 
 /// Walks 60 frames, feeding back the culler's time plus a renderer costing
-/// 1 ms and 10 µs per triangle drawn; returns the frames that rested.
+/// 1 ms and 0.1 ms per triangle drawn (the wall saves 10.8 ms a frame, far
+/// above any cull time); returns the frames that rested.
 fn walk(scene: &Scene, culler: &mut dyn Culler, frustum: &mut FrustumCuller) -> Vec<usize> {
     let (mut out, mut reference) = (CullOutput::default(), CullOutput::default());
     let mut rested = Vec::new();
@@ -68,7 +70,7 @@ fn walk(scene: &Scene, culler: &mut dyn Culler, frustum: &mut FrustumCuller) -> 
             rested.push(frame);
         }
         let drawn: u64 = out.visible.iter().map(|&id| scene.object(id).triangles as u64).sum();
-        culler.frame_done(Some(out.total_ms() + 1.0 + drawn as f64 * 0.01));
+        culler.frame_done(Some(out.total_ms() + 1.0 + drawn as f64 * 0.1));
     }
     rested
 }

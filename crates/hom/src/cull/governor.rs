@@ -190,8 +190,9 @@ impl Governor {
             Some(last) if !probe => f.occluded.max(last),
             _ => f.occluded,
         } as f64;
-        let cost = cull - self.rest_ms.get().unwrap_or(0.0);
-        if per_triangle * occluded < cost {
+        // Culling nothing never pays, even when the work costs no measurable time.
+        let cost = (cull - self.rest_ms.get().unwrap_or(0.0)).max(0.0);
+        if per_triangle * occluded <= cost {
             self.rest_left = self.rest_len;
             self.rest_len = (self.rest_len * 2).min(MAX_REST);
         } else {

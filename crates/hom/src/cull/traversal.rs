@@ -290,11 +290,13 @@ struct Traversal<'a> {
 /// What a traversal did, for the counters.
 #[derive(Clone, Copy, Debug, Default)]
 struct TraversalStats {
-    /// Nodes classified by a test (the frustum's, then the buffer's).
+    /// Nodes classified by a test: found outside the frustum, or tested
+    /// against the buffer.
     node_tests: u64,
     /// Objects classified by a test.
     object_tests: u64,
-    /// Nodes opened without a test, and nodes and objects assumed visible.
+    /// Nodes in view opened without their buffer test, and nodes and objects
+    /// assumed visible.
     skipped: u64,
 }
 
@@ -369,6 +371,22 @@ impl Traversal<'_> {
         let (f, bvh) = (self.frame, self.model.bvh());
         let on = v.temporal.is_on();
         let step = if on { v.temporal.node_step(i) } else { Step::Test };
+        // The frustum first, in every step: it is cheap, and after a turn or
+        // a cut it ends, at the top, a subtree opened last frame that is now
+        // out of view (without it a cut frame made up to 2x the classical tests).
+        let containment = if inside {
+            Containment::Inside
+        } else {
+            f.frustum.test_aabb(&node.bounds)
+        };
+        if containment == Containment::Outside {
+            v.stats.node_tests += 1;
+            if on {
+                v.temporal.set_node(i, Vis::Invisible);
+            }
+            return None;
+        }
+        let inside = containment == Containment::Inside;
         if step == Step::Open {
             v.stats.skipped += 1;
             if node.is_leaf() {
@@ -376,26 +394,13 @@ impl Traversal<'_> {
             }
             return Some(inside);
         }
-        v.stats.node_tests += 1;
-        let containment = if inside {
-            Containment::Inside
-        } else {
-            f.frustum.test_aabb(&node.bounds)
-        };
-        if containment == Containment::Outside {
-            if on {
-                v.temporal.set_node(i, Vis::Invisible);
-            }
-            return None;
-        }
-        let inside = containment == Containment::Inside;
         if step == Step::Assume {
-            v.stats.node_tests -= 1;
             v.stats.skipped += 1;
             self.assume_visible(node, inside, is_occluder, v.visible);
             v.temporal.assume_node(i);
             return None;
         }
+        v.stats.node_tests += 1;
         if let Footprint::Rect(r) = self.footprint(&node.bounds.corners()) {
             if (v.is_occluded)(&r) {
                 // Only live objects in the frustum count as occlusion-culled.
