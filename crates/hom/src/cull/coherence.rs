@@ -194,8 +194,11 @@ impl TemporalState {
         }
     }
 
-    /// Node `i`'s step this frame.
+    /// Node `i`'s step this frame ([`Step::Test`] with coherence off).
     pub fn node_step(&self, i: u32) -> Step {
+        if !self.is_on() {
+            return Step::Test;
+        }
         let s = self.nodes[i as usize];
         if s.frame != self.frame - 1 {
             return Step::Test; // below last frame's termination nodes, or new
@@ -209,13 +212,11 @@ impl TemporalState {
 
     /// Whether object `id`, inside the frustum, is assumed visible without its occlusion test.
     pub fn object_assumed(&self, id: u32) -> bool {
+        let Coherence::Skip(p) = self.mode else {
+            return false;
+        };
         let s = self.objects[id as usize];
-        match self.mode {
-            Coherence::Skip(p) if s.frame == self.frame - 1 && s.vis == Vis::Visible => {
-                self.skips(p, s.run, (1 << 32) | id as u64)
-            }
-            _ => false,
-        }
+        s.frame == self.frame - 1 && s.vis == Vis::Visible && self.skips(p, s.run, (1 << 32) | id as u64)
     }
 
     /// The coin of conservative hierarchy updating, from a hash of (`key`, frame, seed).
@@ -228,10 +229,13 @@ impl TemporalState {
         ((h >> 40) as f32) < p * (1u64 << 24) as f32
     }
 
-    /// Node `i` classified `vis` this frame by a test (or its objects').
+    /// Node `i` classified `vis` this frame by a test (or its objects');
+    /// nothing is kept with coherence off.
     pub fn set_node(&mut self, i: u32, vis: Vis) {
-        let frame = self.frame;
-        classify(&mut self.nodes[i as usize], vis, frame);
+        if self.is_on() {
+            let frame = self.frame;
+            classify(&mut self.nodes[i as usize], vis, frame);
+        }
     }
 
     /// Node `i` assumed visible this frame: its history is kept, not extended.
@@ -239,10 +243,13 @@ impl TemporalState {
         self.nodes[i as usize].frame = self.frame;
     }
 
-    /// Object `id` classified `vis` this frame by a test.
+    /// Object `id` classified `vis` this frame by a test; nothing is kept
+    /// with coherence off.
     pub fn set_object(&mut self, id: u32, vis: Vis) {
-        let frame = self.frame;
-        classify(&mut self.objects[id as usize], vis, frame);
+        if self.is_on() {
+            let frame = self.frame;
+            classify(&mut self.objects[id as usize], vis, frame);
+        }
     }
 
     /// Object `id` assumed visible this frame.
@@ -252,6 +259,9 @@ impl TemporalState {
 
     /// The pull-up: inner node `i` after its children `a` and `b` were classified this frame.
     pub fn pull_up(&mut self, i: u32, a: u32, b: u32) {
+        if !self.is_on() {
+            return;
+        }
         let (a, b) = (self.nodes[a as usize].vis, self.nodes[b as usize].vis);
         self.set_node(i, if a == b { a } else { Vis::Partial });
     }

@@ -103,19 +103,10 @@ impl OccluderCulling {
             return Ok(false);
         }
         self.culled_last = false;
-        view.validate()?;
-        out.clear();
-        let Self {
-            model, db, temporal, ..
-        } = self;
-        out.time("refit", || {
-            if model.sync(scene) == Change::Structure {
-                db.rebuild(scene);
-            }
-            temporal.begin(model, scene.objects().len());
-        });
+        self.start(scene, view, out)?;
         let frustum = view.frustum().expect("a validated view has a frustum");
         let mut visible = std::mem::take(&mut out.visible);
+        let model = &self.model;
         let tests = out.time("frustum", || frustum_visible(model, scene, &frustum, &mut visible));
         self.governor.record(FrameFacts {
             culled: false,
@@ -129,17 +120,11 @@ impl OccluderCulling {
         Ok(true)
     }
 
-    /// Starts a frame: validates the view, clears `out`, follows the scene's
-    /// changes (refit, or a rebuilt occluder database keeping its stand-ins),
-    /// finds last frame's worst hole with `worst_hole` (only when the
-    /// selection asks for one) and selects this frame's occluders; each step timed.
-    pub fn select(
-        &mut self,
-        scene: &Scene,
-        view: &View,
-        out: &mut CullOutput,
-        worst_hole: impl FnOnce() -> Option<Hole>,
-    ) -> Result<Selected, CullError> {
+    /// What every frame starts with, resting or not: validates the view,
+    /// clears `out`, and (timed as `refit`) follows the scene's changes (refit,
+    /// or a rebuilt occluder database keeping its stand-ins) and starts the
+    /// frame's temporal state.
+    fn start(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
         view.validate()?;
         out.clear();
         let Self {
@@ -151,6 +136,20 @@ impl OccluderCulling {
             }
             temporal.begin(model, scene.objects().len());
         });
+        Ok(())
+    }
+
+    /// Starts a frame ([`OccluderCulling::start`]), finds last frame's worst
+    /// hole with `worst_hole` (only when the selection asks for one) and
+    /// selects this frame's occluders; each step timed.
+    pub fn select(
+        &mut self,
+        scene: &Scene,
+        view: &View,
+        out: &mut CullOutput,
+        worst_hole: impl FnOnce() -> Option<Hole>,
+    ) -> Result<Selected, CullError> {
+        self.start(scene, view, out)?;
         let world_to_clip = view.world_to_clip();
         let frustum = Frustum::from_view_proj(&world_to_clip).expect("a validated view has a frustum");
         let eye = view.eye();
@@ -328,7 +327,6 @@ impl Traversal<'_> {
         for &id in &f.occluders {
             is_occluder[id as usize] = true;
         }
-        let on = temporal.is_on();
         let v = &mut Visit {
             temporal,
             is_occluded,
@@ -341,11 +339,7 @@ impl Traversal<'_> {
             false,
             v,
             |v, i, node, inside| self.node(i, node, inside, is_occluder, v),
-            |v, i, node| {
-                if on {
-                    v.temporal.pull_up(i, node.first, node.first + 1);
-                }
-            },
+            |v, i, node| v.temporal.pull_up(i, node.first, node.first + 1),
         );
         // Objects added since the BVH was built.
         for &id in self.model.extra() {
@@ -369,8 +363,7 @@ impl Traversal<'_> {
         v: &mut Visit<'_, F>,
     ) -> Option<bool> {
         let (f, bvh) = (self.frame, self.model.bvh());
-        let on = v.temporal.is_on();
-        let step = if on { v.temporal.node_step(i) } else { Step::Test };
+        let step = v.temporal.node_step(i);
         // The frustum first, in every step: it is cheap, and after a turn or
         // a cut it ends, at the top, a subtree opened last frame that is now
         // out of view (without it a cut frame made up to 2x the classical tests).
@@ -381,9 +374,7 @@ impl Traversal<'_> {
         };
         if containment == Containment::Outside {
             v.stats.node_tests += 1;
-            if on {
-                v.temporal.set_node(i, Vis::Invisible);
-            }
+            v.temporal.set_node(i, Vis::Invisible);
             return None;
         }
         let inside = containment == Containment::Inside;
@@ -408,9 +399,7 @@ impl Traversal<'_> {
                 v.occluded.extend(items.filter(|&id| {
                     !is_occluder[id as usize] && self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside))
                 }));
-                if on {
-                    v.temporal.set_node(i, Vis::Invisible);
-                }
+                v.temporal.set_node(i, Vis::Invisible);
                 return None;
             }
         }
@@ -437,9 +426,7 @@ impl Traversal<'_> {
                 None => {}
             }
         }
-        if v.temporal.is_on() {
-            v.temporal.set_node(i, combine(seen, unseen));
-        }
+        v.temporal.set_node(i, combine(seen, unseen));
     }
 
     /// Classifies one object: frustum (its oriented box when it moves; none
@@ -455,15 +442,12 @@ impl Traversal<'_> {
         let o = self.scene.get(id)?;
         if is_occluder[id as usize] {
             // Added at the end, whatever its subtree's fate.
-            if v.temporal.is_on() {
-                v.temporal.set_object(id, Vis::Visible);
-            }
+            v.temporal.set_object(id, Vis::Visible);
             return Some(Vis::Visible);
         }
-        let on = v.temporal.is_on();
         let vis = if !self.meets_frustum(o, inside) {
             Vis::Invisible
-        } else if on && v.temporal.object_assumed(id) {
+        } else if v.temporal.object_assumed(id) {
             v.stats.skipped += 1;
             v.temporal.assume_object(id);
             v.visible.push(id);
@@ -486,9 +470,7 @@ impl Traversal<'_> {
             }
         };
         v.stats.object_tests += 1;
-        if on {
-            v.temporal.set_object(id, vis);
-        }
+        v.temporal.set_object(id, vis);
         Some(vis)
     }
 
