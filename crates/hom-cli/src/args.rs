@@ -138,7 +138,7 @@ pub struct HomArgs {
     pub coherence: Option<CoherenceArg>,
     /// With --coherence skip: the probability that a node visible last frame is
     /// assumed visible without a test: `auto` (from each node's history) or a number in [0, 1].
-    #[arg(long, value_parser = parse_p_skip)]
+    #[arg(long, value_parser = hom_walk::bench::parse_p_skip)]
     pub p_skip: Option<PSkip>,
     /// HOM, HZB, masked: never rest, even where occlusion culling costs more than it saves
     /// (by default, frames are frustum culled only while it does not pay).
@@ -182,17 +182,6 @@ pub fn parse_speed(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(k) if k.is_finite() && k > 0.0 && k <= 1000.0 => Ok(k),
         _ => Err(format!("expected a speed above 0 and at most 1000, got `{s}`")),
-    }
-}
-
-/// `--p-skip`: `auto` or a probability.
-pub fn parse_p_skip(s: &str) -> Result<PSkip, String> {
-    if s == "auto" {
-        return Ok(PSkip::Auto);
-    }
-    match s.parse::<f32>() {
-        Ok(p) if (0.0..=1.0).contains(&p) => Ok(PSkip::Fixed(p)),
-        _ => Err(format!("expected `auto` or a probability in [0, 1], got `{s}`")),
     }
 }
 

@@ -13,7 +13,7 @@
 //!   of that crate (the one without `cfg(test)`); there use [`Rng`] only.
 #![forbid(unsafe_code)]
 
-use hom::cull::{CullOutput, Culler};
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller, HzbConfig, HzbCuller, ZDepth};
 use hom::geom::{Aabb, Camera};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occluders::OccluderDbConfig;
@@ -94,6 +94,23 @@ pub fn permissive_occluders() -> OccluderDbConfig {
         min_fill: 0.0,
         redundancy_margin: -1.0,
     }
+}
+
+/// The three occluder cullers built for `scene` from one HOM configuration:
+/// HOM, the HZB with per-sample depth, and the masked buffer (HZB with
+/// [`ZDepth::Masked`]), which take its occluder, coherence and cost settings.
+pub fn occluder_cullers(scene: &Scene, hom: &HomConfig) -> Vec<Box<dyn Culler>> {
+    vec![
+        Box::new(HomCuller::new(scene, hom.clone())),
+        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(hom))),
+        Box::new(HzbCuller::new(
+            scene,
+            HzbConfig {
+                depth: ZDepth::Masked,
+                ..HzbConfig::from_hom(hom)
+            },
+        )),
+    ]
 }
 
 /// Culls `scene` from `camera` with `culler` and panics if an object the

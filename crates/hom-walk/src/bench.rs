@@ -73,20 +73,27 @@ pub fn coherence_label(c: &Coherence) -> String {
     }
 }
 
+/// A `p_skip` as `--p-skip` and `skip:P` spell it: `auto` or a probability in [0, 1].
+pub fn parse_p_skip(s: &str) -> Result<PSkip, String> {
+    if s == "auto" {
+        return Ok(PSkip::Auto);
+    }
+    match s.parse::<f32>() {
+        Ok(p) if (0.0..=1.0).contains(&p) => Ok(PSkip::Fixed(p)),
+        _ => Err(format!("expected `auto` or a probability in [0, 1], got `{s}`")),
+    }
+}
+
 /// The inverse of [`coherence_label`] (also `skip:auto`).
 pub fn parse_coherence(s: &str) -> Result<Coherence, String> {
-    let p_skip = |p: &str| match p.parse::<f32>() {
-        Ok(p) if (0.0..=1.0).contains(&p) => Ok(PSkip::Fixed(p)),
-        _ => Err(format!(
-            "expected `auto` or a probability in [0, 1] after `skip:`, got `{p}`"
-        )),
-    };
     match s {
         "off" => Ok(Coherence::Off),
         "exact" => Ok(Coherence::Exact),
-        "skip" | "skip:auto" => Ok(Coherence::Skip(PSkip::Auto)),
+        "skip" => Ok(Coherence::Skip(PSkip::Auto)),
         _ => match s.strip_prefix("skip:") {
-            Some(p) => p_skip(p).map(Coherence::Skip),
+            Some(p) => parse_p_skip(p)
+                .map(Coherence::Skip)
+                .map_err(|e| format!("after `skip:`, {e}")),
             None => Err(format!("expected off, exact, skip or skip:P, got `{s}`")),
         },
     }
@@ -302,7 +309,7 @@ pub fn run_bench(
             .collect();
         let mut walks: Vec<(String, Option<Coherence>, WalkResult)> = Vec::new();
         for (i, &(name, coherence)) in runs.iter().enumerate() {
-            let label = row_label(name, coherence.as_ref());
+            let label = row_label(name, coherence.as_ref().map(coherence_label).as_deref());
             progress(&format!(
                 "{} ({}/{}): {label} ({}/{}), {frame_count} frames",
                 scene.name(),
@@ -365,10 +372,10 @@ fn scene_oracle_speedup(walks: &[(String, Option<Coherence>, WalkResult)]) -> Op
     (oracle > 0.0).then(|| base / oracle)
 }
 
-/// `culler`, or `culler/mode` when walked with a coherence mode.
-fn row_label(culler: &str, coherence: Option<&Coherence>) -> String {
+/// `culler`, or `culler/mode` when walked with a coherence mode ([`coherence_label`]).
+fn row_label(culler: &str, coherence: Option<&str>) -> String {
     match coherence {
-        Some(c) => format!("{culler}/{}", coherence_label(c)),
+        Some(c) => format!("{culler}/{c}"),
         None => culler.to_string(),
     }
 }
@@ -376,10 +383,7 @@ fn row_label(culler: &str, coherence: Option<&Coherence>) -> String {
 impl BenchRow {
     /// The row's name in the table: `culler`, or `culler/mode` with a coherence mode.
     pub fn label(&self) -> String {
-        match &self.coherence {
-            Some(c) => format!("{}/{c}", self.culler),
-            None => self.culler.clone(),
-        }
+        row_label(&self.culler, self.coherence.as_deref())
     }
 }
 

@@ -5,13 +5,11 @@
 //! what the oracle sees and draws a superset of `Exact`; an object that comes
 //! out from behind a wall is drawn in the frame it does, in every mode.
 
-use hom::cull::{
-    Coherence, CullOutput, Culler, HomConfig, HomCuller, HzbConfig, HzbCuller, OccluderConfig, PSkip, ZDepth,
-};
+use hom::cull::{Coherence, CullOutput, Culler, HomConfig, HomCuller, OccluderConfig, PSkip};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Vec3};
 use hom::scene::{Scene, SceneBuilder};
-use hom_testkit::{assert_no_false_culls, cube, permissive_occluders, random_moving_scene, Rng};
+use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_occluders, random_moving_scene, Rng};
 use proptest::prelude::*;
 
 /// HOM, HZB and masked with every object an occluder candidate, `budget`
@@ -26,17 +24,7 @@ fn cullers(scene: &Scene, coherence: Coherence, budget: u32) -> Vec<Box<dyn Cull
         ..HomConfig::default()
     };
     hom.occluders.selection.budget = budget;
-    vec![
-        Box::new(HomCuller::new(scene, hom.clone())),
-        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&hom))),
-        Box::new(HzbCuller::new(
-            scene,
-            HzbConfig {
-                depth: ZDepth::Masked,
-                ..HzbConfig::from_hom(&hom)
-            },
-        )),
-    ]
+    occluder_cullers(scene, &hom)
 }
 
 /// A camera path of `frames` frames: small steps and turns, with a jump to

@@ -3,7 +3,7 @@
 //! (frustum culling only, the frustum culler's exact answer), and one whose
 //! occlusion work pays never does.
 
-use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HzbConfig, HzbCuller, ZDepth};
+use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Vec3};
 use hom::scene::{Scene, SceneBuilder};
@@ -31,17 +31,7 @@ fn cullers(scene: &Scene) -> Vec<Box<dyn Culler>> {
     let mut hom = HomConfig::for_scene(scene);
     hom.occluders.selection.budget = 12;
     hom.occluders.occluder_db = hom_testkit::permissive_occluders();
-    vec![
-        Box::new(HomCuller::new(scene, hom.clone())),
-        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&hom))),
-        Box::new(HzbCuller::new(
-            scene,
-            HzbConfig {
-                depth: ZDepth::Masked,
-                ..HzbConfig::from_hom(&hom)
-            },
-        )),
-    ]
+    hom_testkit::occluder_cullers(scene, &hom)
 }
 
 /// Walks 60 frames, feeding back the culler's time plus a renderer costing

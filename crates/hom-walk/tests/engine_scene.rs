@@ -3,14 +3,11 @@
 //! no object the oracle sees is ever culled, no removed object is ever
 //! reported, and frustum culling equals a linear scan of the live objects.
 
-use hom::cull::{
-    CullOutput, Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, OccluderConfig,
-    ZDepth,
-};
+use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HvConfig, HvCuller, OccluderConfig};
 use hom::geom::{Camera, Containment};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::scene::Scene;
-use hom_testkit::{assert_no_false_culls, cube, permissive_occluders, random_scene, Rng};
+use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_occluders, random_scene, Rng};
 use proptest::prelude::*;
 
 /// The cullers under test, built for `scene`, with an occluder budget of `budget` triangles.
@@ -23,19 +20,10 @@ fn cullers(scene: &Scene, budget: u32) -> Vec<Box<dyn Culler>> {
         ..HomConfig::default()
     };
     hom.occluders.selection.budget = budget;
-    vec![
-        Box::new(FrustumCuller::new(scene)),
-        Box::new(HomCuller::new(scene, hom.clone())),
-        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&hom))),
-        Box::new(HzbCuller::new(
-            scene,
-            HzbConfig {
-                depth: ZDepth::Masked,
-                ..HzbConfig::from_hom(&hom)
-            },
-        )),
-        Box::new(HvCuller::new(scene, HvConfig::default())),
-    ]
+    let mut all: Vec<Box<dyn Culler>> = vec![Box::new(FrustumCuller::new(scene))];
+    all.extend(occluder_cullers(scene, &hom));
+    all.push(Box::new(HvCuller::new(scene, HvConfig::default())));
+    all
 }
 
 /// A random change: move, add or remove objects.
