@@ -132,7 +132,7 @@ pub struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     pub no_hole_filling: bool,
-    /// HOM, HZB, masked: how much of last frame's classification the traversal
+    /// HOM, HZB, masked, HV: how much of last frame's classification the traversal
     /// reuses (Bittner & Havran 2002).
     #[arg(long, value_enum)]
     pub coherence: Option<CoherenceArg>,
@@ -153,6 +153,9 @@ pub struct HomArgs {
     /// HV: keep large triangles at the octree node being split instead of passing them down.
     #[arg(long)]
     pub hv_keep_large: bool,
+    /// HV: no temporal priming (by default last frame's visible objects are drawn first).
+    #[arg(long)]
+    pub hv_no_priming: bool,
 }
 
 /// `--coherence`: what the occlusion traversal reuses from the last frame.
@@ -307,7 +310,7 @@ pub struct BenchArgs {
     /// A cut every N frames: jump a third of the path ahead, turning 180° at every other cut.
     #[arg(long)]
     pub cuts: Option<usize>,
-    /// Comma-separated traversal coherence modes to walk HOM, HZB and masked with, a row each:
+    /// Comma-separated traversal coherence modes to walk HOM, HZB, masked and HV with, a row each:
     /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]
     pub coherence: Vec<Coherence>,

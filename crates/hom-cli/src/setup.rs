@@ -107,6 +107,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
     }
     if let Some(m) = args.coherence {
         c.coherence = m.mode(args.p_skip);
+        settings.hv.coherence = c.coherence;
     }
     c.cost_model = !args.no_cost_model;
     if args.p_skip.is_some() && !matches!(c.coherence, Coherence::Skip(_)) {
@@ -123,6 +124,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         octree.max_depth = d;
     }
     octree.keep_large = args.hv_keep_large;
+    settings.hv.priming = !args.hv_no_priming;
     Ok(settings)
 }
 

@@ -60,7 +60,7 @@ impl Default for BenchOptions {
 }
 
 /// The cullers whose traversal takes a [`Coherence`].
-const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked"];
+const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked", "hv"];
 
 /// A coherence mode as `hom bench --coherence` spells it: `off`, `exact`,
 /// `skip` (adaptive p_skip) or `skip:P`.
@@ -321,6 +321,7 @@ pub fn run_bench(
             let mut settings = cullers::CullerSettings::for_scene(&scene);
             if let Some(c) = coherence {
                 settings.hom.coherence = c;
+                settings.hv.coherence = c;
             }
             settings.hom.cost_model = options.cost_model;
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;

@@ -7,7 +7,7 @@
 //! that owns a sample is drawn, with the renderer's setup, depth and
 //! tie-breaking (see `hom::cull::hv`).
 
-use hom::cull::{CullOutput, Culler, HvConfig, HvCuller};
+use hom::cull::{Coherence, CullOutput, Culler, HvConfig, HvCuller, PSkip};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::scene::Scene;
@@ -53,6 +53,7 @@ fn config(threshold: usize, max_depth: u32, keep_large: bool, triangle_tests: bo
         },
         triangle_tests,
         count_zbuffer: true,
+        ..HvConfig::default()
     }
 }
 
@@ -74,6 +75,49 @@ proptest! {
         // A later frame: dynamic objects have moved, the octree is unchanged.
         animation.apply(&mut scene, time);
         assert_exact(&scene, &camera, &mut hv);
+    }
+}
+
+fn mode(k: u8) -> Coherence {
+    match k % 4 {
+        0 => Coherence::Off,
+        1 => Coherence::Exact,
+        2 => Coherence::Skip(PSkip::Auto),
+        _ => Coherence::Skip(PSkip::Fixed(0.9)),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+    /// Coherence and temporal priming reuse last frame's state; the visible
+    /// set stays exact on every frame of a random walk with jumps and moving
+    /// objects, in every mode, with and without priming.
+    #[test]
+    fn hv_stays_exact_over_frames_with_coherence_and_priming(
+        seed in any::<u64>(), n in 1usize..40, dynamic in any::<bool>(), k in 0u8..4, priming in any::<bool>(),
+        steps in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0, 0u8..6), 2..6),
+    ) {
+        let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
+        let config = HvConfig { coherence: mode(k), priming, ..config(4, 6, seed % 2 == 0, true) };
+        let mut hv = HvCuller::new(&scene, config);
+        let mut eye = Vec3::new(0.0, 0.5, 12.0);
+        let mut look = Vec3::ZERO;
+        for (t, &(dx, dz, jump)) in steps.iter().enumerate() {
+            if jump == 0 {
+                // A cut: the other side of the scene, looking back.
+                eye = Vec3::new(-eye.x, eye.y, -eye.z);
+            } else {
+                eye += Vec3::new(dx, 0.0, dz) * 0.5;
+            }
+            look += Vec3::new(dz, 0.0, dx) * 0.3;
+            let camera = Camera::new(eye, look + Vec3::new(0.0, 0.0, 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 64, 48);
+            prop_assume!(camera.validate().is_ok());
+            animation.apply(&mut scene, t as f32 * 0.3);
+            let out = assert_exact(&scene, &camera, &mut hv);
+            if !priming || t == 0 {
+                prop_assert_eq!(counter(&out, "nodes_primed") + counter(&out, "objects_primed"), 0);
+            }
+        }
     }
 }
 
@@ -128,4 +172,63 @@ fn sampled_builtin_walks_are_exact() {
             assert!(f.counters["depth_comparisons"] > 0, "{name} frame {}", f.frame);
         }
     }
+}
+
+/// Hierarchy updating saves pyramid tests on a walk without changing the
+/// visible set, and priming (drawing last frame's visible nodes first) saves
+/// more without drawing much more.
+#[test]
+fn coherence_and_priming_save_work_on_the_city_walk() {
+    let renderer = Renderer::new(0).unwrap();
+    let built = hom_scene::builtin("city").unwrap();
+    let path = {
+        let mut p = built.path.with_viewport(320, 240);
+        p.frames.truncate(40);
+        p
+    };
+    let run = |coherence, priming| {
+        let mut scene = built.scene.clone();
+        let config = HvConfig {
+            coherence,
+            priming,
+            count_zbuffer: false,
+            ..HvConfig::default()
+        };
+        let mut culler = HvCuller::new(&scene, config);
+        let options = WalkOptions {
+            oracle: false,
+            baseline: false,
+            ..WalkOptions::default()
+        };
+        walk(
+            &mut scene,
+            &built.animation,
+            &path,
+            &mut culler,
+            &renderer,
+            &options,
+            |_| {},
+        )
+        .unwrap()
+    };
+    let sum = |w: &hom_walk::WalkResult, c: &str| w.frames.iter().map(|f| f.counters[c]).sum::<u64>();
+    let classical = run(Coherence::Off, false);
+    let exact = run(Coherence::Exact, false);
+    let primed = run(Coherence::Exact, true);
+    for ((a, b), c) in classical.frames.iter().zip(&exact.frames).zip(&primed.frames) {
+        assert_eq!(a.visible, b.visible, "frame {}", a.frame);
+        assert_eq!(a.visible, c.visible, "frame {}", a.frame);
+    }
+    let (off, on) = (sum(&classical, "node_tests"), sum(&exact, "node_tests"));
+    assert!(on * 100 < off * 95, "exact made {on} node tests, classical {off}");
+    // Primed leaves are drawn without a test, and their triangles are not drawn twice.
+    assert!(sum(&primed, "nodes_primed") > 0);
+    assert!(sum(&primed, "node_tests") < on, "priming saved no node tests");
+    let submitted = |w| sum(w, "triangles_submitted");
+    assert!(
+        submitted(&primed) <= submitted(&exact) * 21 / 20,
+        "priming drew {} triangles, exact {}",
+        submitted(&primed),
+        submitted(&exact)
+    );
 }

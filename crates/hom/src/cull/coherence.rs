@@ -170,19 +170,9 @@ impl TemporalState {
     /// Starts a frame over `model` (synced this frame) and `objects` object
     /// ids: forgets everything after a rebuild, demotes what moved.
     pub fn begin(&mut self, model: &ModelDb, objects: usize) {
-        if !self.is_on() {
+        if !self.start(model.build(), model.bvh().node_count(), objects) {
             return;
         }
-        self.frame += 1;
-        let nodes = model.bvh().node_count();
-        if model.build() != self.build || self.frame == u32::MAX {
-            self.build = model.build();
-            self.frame = 2;
-            self.nodes.clear();
-            self.objects.clear();
-        }
-        self.nodes.resize(nodes, Temporal::NEVER);
-        self.objects.resize(objects, Temporal::NEVER);
         for &i in model.moved_nodes() {
             let s = &mut self.nodes[i as usize];
             if s.vis == Vis::Visible {
@@ -192,6 +182,37 @@ impl TemporalState {
         for &id in model.moved_objects() {
             self.objects[id as usize] = Temporal::NEVER;
         }
+    }
+
+    /// Starts a frame over a hierarchy of `nodes` nodes without objects (HV's
+    /// octree: its leaves are the termination nodes), from its `build`: a new
+    /// build forgets everything.
+    pub fn begin_tree(&mut self, build: u32, nodes: usize) {
+        self.start(build, nodes, 0);
+    }
+
+    /// The next frame over `nodes` nodes and `objects` objects of hierarchy
+    /// `build`; `false` (nothing kept) with coherence off.
+    fn start(&mut self, build: u32, nodes: usize, objects: usize) -> bool {
+        if !self.is_on() {
+            return false;
+        }
+        self.frame += 1;
+        if build != self.build || self.frame == u32::MAX {
+            self.build = build;
+            self.frame = 2;
+            self.nodes.clear();
+            self.objects.clear();
+        }
+        self.nodes.resize(nodes, Temporal::NEVER);
+        self.objects.resize(objects, Temporal::NEVER);
+        true
+    }
+
+    /// Node `i`'s classification this frame, if it has one yet (coherence on).
+    pub fn node_now(&self, i: u32) -> Option<Vis> {
+        let s = self.nodes.get(i as usize)?;
+        (self.is_on() && s.frame == self.frame).then_some(s.vis)
     }
 
     /// Node `i`'s step this frame ([`Step::Test`] with coherence off).

@@ -9,20 +9,34 @@
 //! 1. **reset**: the depth buffer (the [`ZPyramid`]'s level 0, one sample per
 //!    pixel centre) is cleared to 1.0 and the item buffer to [`NO_OBJECT`],
 //!    exactly as the reference renderer clears its framebuffer.
-//! 2. **traversal** of the [`Octree`] (static objects' triangles) depth first,
+//! 2. **priming** (`HvConfig::priming`; Greene et al.'s temporal coherence,
+//!    as Bittner and Havran 2002 recall it: last frame's visible set
+//!    initialises the Z-pyramid): last frame's visible nodes still in the frustum
+//!    — nodes whose triangles were drawn and whose box was not behind the
+//!    final pyramid — are drawn first, node by node in last frame's order, and
+//!    so are last frame's visible moving objects. The traversal then tests
+//!    nodes against a pyramid that already holds most of this frame's
+//!    occluders; a primed node's triangles are not drawn again, and a primed
+//!    leaf is not tested (nothing is left to save).
+//! 3. **traversal** of the [`Octree`] (static objects' triangles) depth first,
 //!    children in front-to-back octant order ([`Octree::child_order`]): a node
 //!    outside the frustum is skipped; a node whose loose box is wholly in
 //!    front of the near plane has its screen rectangle, at the box's nearest
 //!    depth, tested against the pyramid ([`ZPyramid::is_behind`]: coarse to
 //!    fine) and is skipped when behind; a node straddling the near plane is
-//!    never image-tested. Dynamic objects are not in the octree: each one in
+//!    never image-tested. With coherence (`HvConfig::coherence`, Bittner and
+//!    Havran 2002, see [`super::Coherence`]) an inner node opened last frame
+//!    is not tested — its children are — and after its children its state is
+//!    pulled up (invisible when every non-empty child is); leaves, the
+//!    termination nodes, are tested, unless `Skip`'s coin assumes a leaf
+//!    visible last frame visible. Dynamic objects are not in the octree: each one in
 //!    the frustum is handled like a leaf of its own (its oriented box tested
 //!    against the pyramid, then its triangles drawn), interleaved with the
 //!    octree nodes by the distance of its box from the eye. So are objects
 //!    added since the octree was built, and static objects that started to
 //!    move (their triangles in the tree are skipped); removed objects are
 //!    skipped. When such changes pile up, the octree is rebuilt.
-//! 3. **raster** of a visible node's own triangles (all of a leaf's, the
+//! 4. **raster** of a visible node's own triangles (all of a leaf's, the
 //!    large ones an inner node keeps: `OctreeConfig::keep_large`), before
 //!    its children are visited: each triangle is set up by
 //!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
@@ -35,10 +49,12 @@
 //!    cases cost more texel reads than sample tests they could save),
 //!    and every covered sample of the tiles not rejected is depth-tested with
 //!    the renderer's depth ([`Tri::depth_at`]).
-//! 4. **pyramid**: after each node's triangles (or dynamic object) the texels above the
+//! 5. **pyramid**: after each node's triangles (or dynamic object) the texels above the
 //!    samples it changed are recomputed ([`ZPyramid::update_rect`]), so later
 //!    nodes are tested against everything drawn so far.
-//! 5. **visible set**: from the final item buffer.
+//! 6. **visible set**: from the final item buffer; then (priming on) next
+//!    frame's primed nodes, each drawn node's box tested against the final
+//!    pyramid (stage `priming`).
 //!
 //! # Which objects are visible
 //! A sample's owner is the object the reference renderer leaves there when it
@@ -50,6 +66,10 @@
 //! drawing order. **An object is visible iff it owns at least one sample of
 //! HV's final item buffer.** In-frustum objects (by their box, as the frustum
 //! culler tests them) that own none are reported occluded.
+//!
+//! Neither coherence nor priming changes the visible set: a skipped test
+//! only draws more, and a triangle drawn early (primed) or twice leaves the
+//! buffers as the owner rule says, whatever the order.
 //!
 //! Why this is the oracle's visible set exactly: the depth buffer only ever
 //! holds depths of drawn triangles, so at every sample it is at least the
@@ -86,6 +106,7 @@
 //!
 //! The work is single-threaded.
 
+use super::coherence::{Coherence, Step, TemporalState, Vis};
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{ZPyramid, ZTestStats};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, View};
@@ -112,6 +133,16 @@ pub struct HvConfig {
     /// (counter `zbuffer_depth_comparisons`; untimed, costs about a setup of
     /// every in-frustum triangle).
     pub count_zbuffer: bool,
+    /// How much of last frame's node classification the traversal reuses
+    /// (hierarchy updating skips the tests of inner nodes opened last frame;
+    /// `Skip` also those of nodes visible last frame, leaves included). The
+    /// visible set is exact in every mode: a skipped test only draws more.
+    pub coherence: Coherence,
+    /// Temporal priming (Greene et al.'s temporal coherence): last frame's visible
+    /// nodes (and visible moving objects) are drawn first, so the traversal
+    /// tests nodes against a pyramid that already holds most of this frame's
+    /// occluders.
+    pub priming: bool,
 }
 
 impl Default for HvConfig {
@@ -120,6 +151,8 @@ impl Default for HvConfig {
             octree: OctreeConfig::default(),
             triangle_tests: true,
             count_zbuffer: true,
+            coherence: Coherence::Exact,
+            priming: true,
         }
     }
 }
@@ -138,6 +171,22 @@ pub struct HvCuller {
     /// Objects that changed structurally since the octree was built.
     changed: usize,
     seen: Revision,
+    /// Octree builds so far: node states belong to one.
+    build: u32,
+    /// Node classifications kept across frames (coherence).
+    temporal: TemporalState,
+    /// Frames culled, for the stamps in `node_primed`.
+    frame: u32,
+    /// Last frame's visible nodes: drawn, and not behind the final pyramid.
+    prime_nodes: Vec<u32>,
+    /// Per octree node: the frame it was drawn by priming.
+    node_primed: Vec<u32>,
+    /// Nodes whose own triangles this frame drew.
+    drawn_nodes: Vec<u32>,
+    /// Last frame's visible set (its moving objects are drawn first with priming).
+    last_visible: Vec<u32>,
+    /// Per object: drawn by this frame's priming (moving objects only).
+    primed: Vec<bool>,
     pyramid: ZPyramid,
     items: Vec<u32>,
     /// `view_proj * transform` per object, this frame.
@@ -146,14 +195,29 @@ pub struct HvCuller {
     owned: Vec<bool>,
     tris: Vec<Tri>,
     spans: Vec<Option<(u32, u32)>>,
-    stack: Vec<(u32, bool)>,
+    stack: Vec<Walk>,
     pending: Vec<(f32, u32)>,
+}
+
+/// A step of the depth-first octree walk.
+#[derive(Clone, Copy, Debug)]
+enum Walk {
+    /// Classify node `.0`, wholly inside the frustum when `.1`.
+    Visit(u32, bool),
+    /// Node `.0`'s children are classified: pull their state up.
+    Leave(u32),
 }
 
 /// Work counts of one frame.
 #[derive(Clone, Copy, Debug, Default)]
 struct Stats {
     nodes_visited: u64,
+    /// Nodes classified by a test: outside the frustum, or against the pyramid.
+    node_tests: u64,
+    /// Nodes in view whose pyramid test coherence skipped.
+    tests_skipped: u64,
+    objects_primed: u64,
+    nodes_primed: u64,
     node_box_tests: u64,
     nodes_occluded: u64,
     nodes_drawn: u64,
@@ -223,7 +287,10 @@ impl Drawing<'_> {
     }
 
     /// A dynamic object: frustum test, box test against the pyramid, then its triangles.
-    fn dynamic(&mut self, id: u32, frustum: &Frustum, world_to_clip: &Mat4) {
+    fn dynamic(&mut self, id: u32, frustum: &Frustum, world_to_clip: &Mat4, primed: &[bool]) {
+        if primed[id as usize] {
+            return; // drawn already
+        }
         let o = self.scene.object(id);
         if frustum.test_obb(&o.obb) == Containment::Outside {
             return;
@@ -244,6 +311,7 @@ impl Drawing<'_> {
 impl HvCuller {
     /// Builds the octree over `scene`'s static triangles.
     pub fn new(scene: &Scene, config: HvConfig) -> HvCuller {
+        let temporal = TemporalState::new(config.coherence);
         let mut hv = HvCuller {
             config,
             octree: Octree::default(),
@@ -251,6 +319,14 @@ impl HvCuller {
             in_tree: Vec::new(),
             changed: 0,
             seen: scene.revision(),
+            build: 0,
+            frame: 0,
+            prime_nodes: Vec::new(),
+            node_primed: Vec::new(),
+            drawn_nodes: Vec::new(),
+            temporal,
+            last_visible: Vec::new(),
+            primed: Vec::new(),
             pyramid: ZPyramid::default(),
             items: Vec::new(),
             mvp: Vec::new(),
@@ -280,6 +356,10 @@ impl HvCuller {
             .collect();
         self.changed = 0;
         self.seen = scene.revision();
+        self.build = self.build.wrapping_add(1);
+        self.prime_nodes.clear();
+        self.node_primed.clear();
+        self.node_primed.resize(self.octree.nodes().len(), 0);
     }
 
     /// Follows the scene's structural changes since the last frame (see the module docs).
@@ -364,9 +444,9 @@ impl HvCuller {
         } = self;
         stack.clear();
         if !octree.is_empty() {
-            stack.push((0, false));
+            stack.push(Walk::Visit(0, false));
         }
-        while let Some((i, inside)) = stack.pop() {
+        while let Some(Walk::Visit(i, inside)) = stack.pop() {
             let node = &octree.nodes()[i as usize];
             let c = if inside {
                 Containment::Inside
@@ -381,7 +461,7 @@ impl HvCuller {
             }
             if !node.is_leaf() {
                 let first = node.children;
-                stack.extend((first..first + 8).map(|k| (k, c == Containment::Inside)));
+                stack.extend((first..first + 8).map(|k| Walk::Visit(k, c == Containment::Inside)));
             }
         }
         for &id in dynamic.iter() {
@@ -394,6 +474,22 @@ impl HvCuller {
         }
         total
     }
+}
+
+/// Hierarchy updating's pull-up at inner node `i` after its children: the
+/// common classification of its non-empty children (and of its own drawn
+/// triangles, which count as visible), else partially visible.
+fn pull_up(temporal: &mut TemporalState, octree: &Octree, i: u32) {
+    if !temporal.is_on() {
+        return;
+    }
+    let node = &octree.nodes()[i as usize];
+    let children = (node.children..node.children + 8).filter(|&k| octree.nodes()[k as usize].count > 0);
+    let mut votes = children.filter_map(|k| temporal.node_now(k));
+    let own = (node.own > 0).then_some(Vis::Visible);
+    let first = own.or_else(|| votes.next()).unwrap_or(Vis::Invisible);
+    let vis = if votes.all(|v| v == first) { first } else { Vis::Partial };
+    temporal.set_node(i, vis);
 }
 
 impl Culler for HvCuller {
@@ -420,6 +516,8 @@ impl Culler for HvCuller {
             ),
             ("triangle_tests", c.triangle_tests.to_string()),
             ("count_zbuffer", c.count_zbuffer.to_string()),
+            ("coherence", c.coherence.to_string()),
+            ("priming", c.priming.to_string()),
         ]
     }
 
@@ -452,9 +550,14 @@ impl Culler for HvCuller {
             self.passed.clear();
             self.passed.resize(n, false);
             self.owned.resize(n, false);
+            self.primed.clear();
+            self.primed.resize(n, false);
+            self.frame += 1;
+            self.drawn_nodes.clear();
+            self.temporal.begin_tree(self.build, self.octree.nodes().len());
         });
 
-        // 2-4. Front-to-back traversal, drawing visible leaves.
+        // 2-4. Priming, then the front-to-back traversal drawing visible nodes.
         let start = Instant::now();
         let Self {
             config,
@@ -469,8 +572,16 @@ impl Culler for HvCuller {
             stack,
             pending,
             in_tree,
+            temporal,
+            last_visible,
+            primed,
+            frame,
+            prime_nodes,
+            node_primed,
+            drawn_nodes,
             ..
         } = self;
+        let frame = *frame;
         pending.clear();
         pending.extend(
             dynamic
@@ -500,16 +611,51 @@ impl Culler for HvCuller {
             raster_s: 0.0,
             pyramid_s: 0.0,
         };
+        if config.priming {
+            // Last frame's visible nodes and moving objects still in view,
+            // then the pyramid once over what they changed.
+            prime_nodes.retain(|&i| frustum.test_aabb(&octree.nodes()[i as usize].bounds) != Containment::Outside);
+            for &i in prime_nodes.iter() {
+                node_primed[i as usize] = frame;
+            }
+            for &id in last_visible.iter() {
+                let Some(o) = scene.get(id) else { continue };
+                primed[id as usize] =
+                    dynamic.binary_search(&id).is_ok() && frustum.test_obb(&o.obb) != Containment::Outside;
+            }
+            let moving = last_visible.iter().copied().filter(|&id| primed[id as usize]);
+            d.stats.objects_primed = moving.clone().count() as u64;
+            d.stats.nodes_primed = prime_nodes.len() as u64;
+            // Node by node, nearest first as last frame drew them, so each
+            // node's triangles meet the pyramid of those before (its tile tests).
+            for &i in prime_nodes.iter() {
+                let own = octree.own_triangles(&octree.nodes()[i as usize]);
+                d.draw(own.iter().copied().filter(|t| in_tree[t.object as usize]));
+            }
+            for id in moving {
+                let n = scene.mesh_of(scene.object(id)).triangle_count() as u32;
+                d.draw((0..n).map(|triangle| TriRef { object: id, triangle }));
+            }
+            drawn_nodes.extend_from_slice(prime_nodes);
+        }
+        let primed: &[bool] = primed;
         stack.clear();
         if !octree.is_empty() {
-            stack.push((0, false));
+            stack.push(Walk::Visit(0, false));
         }
-        while let Some((i, inside)) = stack.pop() {
+        while let Some(walk) = stack.pop() {
+            let (i, inside) = match walk {
+                Walk::Visit(i, inside) => (i, inside),
+                Walk::Leave(i) => {
+                    pull_up(temporal, octree, i);
+                    continue;
+                }
+            };
             let node = &octree.nodes()[i as usize];
             let dist = View::nearness(&eye, &node.bounds);
             while pending.last().is_some_and(|p| p.0 <= dist) {
                 let (_, id) = pending.pop().expect("checked");
-                d.dynamic(id, &frustum, &view_proj);
+                d.dynamic(id, &frustum, &view_proj, primed);
             }
             d.stats.nodes_visited += 1;
             let c = if inside {
@@ -518,19 +664,39 @@ impl Culler for HvCuller {
                 frustum.test_aabb(&node.bounds)
             };
             if c == Containment::Outside {
+                d.stats.node_tests += 1;
+                temporal.set_node(i, Vis::Invisible);
                 continue;
             }
-            if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
-                d.stats.node_box_tests += 1;
-                if d.z.pyramid.is_behind(&r, &mut d.z.zstats) {
-                    d.stats.nodes_occluded += 1;
-                    continue;
+            // Hierarchy updating skips an inner node opened last frame (its
+            // children are tested; leaves are the termination nodes and are
+            // tested); conservative hierarchy updating also skips, by its
+            // coin, a node visible last frame, leaves too.
+            let is_primed = node_primed[i as usize] == frame;
+            let skip = match temporal.node_step(i) {
+                _ if is_primed && node.is_leaf() => true, // drawn already: a test cannot save anything
+                Step::Test => false,
+                Step::Open => !node.is_leaf(),
+                Step::Assume => true,
+            };
+            if skip {
+                d.stats.tests_skipped += 1;
+            } else {
+                d.stats.node_tests += 1;
+                if let Footprint::Rect(r) = project_points(&node.bounds.corners(), &view_proj, w, h) {
+                    d.stats.node_box_tests += 1;
+                    if d.z.pyramid.is_behind(&r, &mut d.z.zstats) {
+                        d.stats.nodes_occluded += 1;
+                        temporal.set_node(i, Vis::Invisible);
+                        continue;
+                    }
                 }
             }
             // The node's own triangles (a leaf's all, an inner node's large
-            // ones) before its children.
-            if node.own > 0 {
+            // ones) before its children, unless priming drew them.
+            if node.own > 0 && !is_primed {
                 d.stats.nodes_drawn += 1;
+                drawn_nodes.push(i);
                 d.draw(
                     octree
                         .own_triangles(node)
@@ -539,18 +705,21 @@ impl Culler for HvCuller {
                         .filter(|t| in_tree[t.object as usize]),
                 );
             }
-            if !node.is_leaf() {
+            if node.is_leaf() {
+                temporal.set_node(i, Vis::Visible);
+            } else {
+                stack.push(Walk::Leave(i));
                 let order = octree.child_order(node, order_eye);
                 let inside = c == Containment::Inside;
                 for &k in order.iter().rev() {
                     if octree.nodes()[k as usize].count > 0 {
-                        stack.push((k, inside));
+                        stack.push(Walk::Visit(k, inside));
                     }
                 }
             }
         }
         while let Some((_, id)) = pending.pop() {
-            d.dynamic(id, &frustum, &view_proj);
+            d.dynamic(id, &frustum, &view_proj, primed);
         }
         let (stats, raster, zstats, raster_s, pyramid_s) = (d.stats, d.z.stats, d.z.zstats, d.raster_s, d.pyramid_s);
         let total_s = start.elapsed().as_secs_f64();
@@ -587,6 +756,23 @@ impl Culler for HvCuller {
                 }
             }
         });
+        self.last_visible.clone_from(&visible);
+        if self.config.priming {
+            // Next frame's priming: the nodes drawn whose box is not behind
+            // the final pyramid (the others' triangles own no sample now).
+            let (pyramid, octree, nodes) = (&self.pyramid, &self.octree, &mut self.prime_nodes);
+            out.time("priming", || {
+                let mut zstats = ZTestStats::default();
+                nodes.clear();
+                nodes.extend(self.drawn_nodes.iter().copied().filter(|&i| {
+                    let b = &octree.nodes()[i as usize].bounds;
+                    match project_points(&b.corners(), &view_proj, w, h) {
+                        Footprint::Rect(r) => !pyramid.is_behind(&r, &mut zstats),
+                        _ => true,
+                    }
+                }));
+            });
+        }
         out.visible = visible;
         out.occluded = occluded;
 
@@ -595,6 +781,11 @@ impl Culler for HvCuller {
             .count_zbuffer
             .then(|| self.zbuffer_comparisons(scene, &frustum, &viewport));
         out.count("nodes_visited", stats.nodes_visited);
+        out.count("node_tests", stats.node_tests);
+        out.count("object_tests", stats.dynamic_tested);
+        out.count("tests_skipped", stats.tests_skipped);
+        out.count("objects_primed", stats.objects_primed);
+        out.count("nodes_primed", stats.nodes_primed);
         out.count("node_box_tests", stats.node_box_tests);
         out.count("nodes_occluded", stats.nodes_occluded);
         out.count("nodes_drawn", stats.nodes_drawn);
