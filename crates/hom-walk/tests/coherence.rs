@@ -200,3 +200,28 @@ fn on_the_city_walk_exact_saves_tests_and_skip_saves_more_drawing_a_superset() {
     assert!(t_exact * 10 < t_off * 7, "exact {t_exact} of {t_off}");
     assert!(t_skip * 10 < t_exact * 9, "skip {t_skip} of exact {t_exact}");
 }
+
+/// hom's own state (model and occluder databases, selection, temporal state;
+/// the occlusion buffer apart) stays within the bound of 256 bytes per
+/// object, and the temporal state is 8 bytes per BVH node and per object (a
+/// binary BVH has fewer than two nodes per object).
+#[test]
+fn state_per_object_stays_small() {
+    let (scene, _) = random_moving_scene(7, 400, false);
+    let n = scene.objects().len() as u64;
+    let camera = Camera::new(Vec3::new(0.0, 0.5, 14.0), Vec3::ZERO, Vec3::Y, 1.1, 0.1, 100.0, 64, 48);
+    for mut culler in cullers(&scene, Coherence::Exact, 2000) {
+        let mut out = CullOutput::default();
+        for _ in 0..2 {
+            culler.cull(&scene, &camera.to_view(), &mut out).unwrap();
+        }
+        let count = |name| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();
+        let (state, temporal) = (count("state_bytes"), count("temporal_bytes"));
+        assert!(state <= 256 * n, "{}: {state} bytes for {n} objects", culler.name());
+        assert!(
+            temporal >= 8 * n && temporal < 8 * 3 * n,
+            "{}: {temporal} temporal bytes",
+            culler.name()
+        );
+    }
+}

@@ -92,3 +92,8 @@ pub mod scene;
 pub mod spatial;
 
 pub use glam;
+
+/// Bytes a vector holds on the heap (its capacity), for the memory counters.
+pub(crate) fn vec_bytes<T>(v: &Vec<T>) -> usize {
+    v.capacity() * std::mem::size_of::<T>()
+}

@@ -145,6 +145,11 @@ pub(crate) struct TemporalState {
 }
 
 impl TemporalState {
+    /// Bytes of state kept across frames: 8 per node and 8 per object.
+    pub fn heap_bytes(&self) -> usize {
+        crate::vec_bytes(&self.nodes) + crate::vec_bytes(&self.objects)
+    }
+
     /// No state yet; `mode` decides what is kept.
     pub fn new(mode: Coherence) -> TemporalState {
         TemporalState {

@@ -57,6 +57,17 @@ pub(crate) struct ModelDb {
 }
 
 impl ModelDb {
+    /// Bytes held on the heap: the BVH, the boxes and the per-object lists.
+    pub fn heap_bytes(&self) -> usize {
+        use crate::vec_bytes;
+        self.bvh.heap_bytes()
+            + vec_bytes(&self.boxes)
+            + vec_bytes(&self.dynamic)
+            + vec_bytes(&self.extra)
+            + vec_bytes(&self.moved_nodes)
+            + vec_bytes(&self.moved_objects)
+    }
+
     /// The BVH over `scene`'s live objects.
     pub fn new(scene: &Scene) -> ModelDb {
         let boxes = current_boxes(scene);

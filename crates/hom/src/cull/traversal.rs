@@ -252,6 +252,18 @@ impl OccluderCulling {
         out.count("object_tests", stats.object_tests);
         out.count("tests_skipped", stats.skipped);
         count_occluders(out, &frame.stats, occluder_triangles);
+        out.count("temporal_bytes", self.temporal.heap_bytes() as u64);
+        out.count("state_bytes", self.state_bytes() as u64);
+    }
+
+    /// Bytes of the culler's own state, the occlusion buffer excluded: the
+    /// model and occluder databases, selection, flags and the temporal state.
+    fn state_bytes(&self) -> usize {
+        self.model.heap_bytes()
+            + self.db.heap_bytes()
+            + self.selector.heap_bytes()
+            + crate::vec_bytes(&self.is_occluder)
+            + self.temporal.heap_bytes()
     }
 
     /// The configuration entries every occluder-based culler reports: its

@@ -96,6 +96,12 @@ fn second_largest(v: glam::Vec3) -> f32 {
 }
 
 impl OccluderDb {
+    /// Bytes held on the heap, stand-in meshes excluded (they are the
+    /// caller's, shared through `Arc`).
+    pub(crate) fn heap_bytes(&self) -> usize {
+        crate::vec_bytes(&self.occluders) + crate::vec_bytes(&self.verdicts)
+    }
+
     /// Preprocesses `scene` with `config`.
     pub fn build(scene: &Scene, config: &OccluderDbConfig) -> OccluderDb {
         // Per-mesh fill ratio, computed once for meshes shared by many objects.

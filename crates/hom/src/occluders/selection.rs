@@ -116,6 +116,15 @@ pub struct OccluderSelector {
 }
 
 impl OccluderSelector {
+    /// Bytes held on the heap (per-object flags, queue, candidates).
+    pub(crate) fn heap_bytes(&self) -> usize {
+        use crate::vec_bytes;
+        vec_bytes(&self.last_selected)
+            + self.queue.capacity() * std::mem::size_of::<(u32, u32)>()
+            + vec_bytes(&self.hole_fillers)
+            + vec_bytes(&self.candidates)
+    }
+
     /// A selector with `config`.
     pub fn new(config: SelectionConfig) -> OccluderSelector {
         OccluderSelector {

@@ -414,6 +414,11 @@ impl Bvh {
         self.nodes.len()
     }
 
+    /// Bytes the tree holds on the heap (nodes and item list).
+    pub(crate) fn heap_bytes(&self) -> usize {
+        crate::vec_bytes(&self.nodes) + crate::vec_bytes(&self.items)
+    }
+
     /// All nodes; node 0 is the root. Children come after their parents.
     #[cfg(test)]
     pub fn nodes(&self) -> &[BvhNode] {
