@@ -153,9 +153,10 @@ pub struct HomArgs {
     /// HV: keep large triangles at the octree node being split instead of passing them down.
     #[arg(long)]
     pub hv_keep_large: bool,
-    /// HV: no temporal priming (by default last frame's visible objects are drawn first).
+    /// HV: temporal priming: draw last frame's visible nodes first (off by default: it saves
+    /// node tests but not raster work, BENCHMARKS "HV: coherence and priming").
     #[arg(long)]
-    pub hv_no_priming: bool,
+    pub hv_priming: bool,
 }
 
 /// `--coherence`: what the occlusion traversal reuses from the last frame.
@@ -317,6 +318,9 @@ pub struct BenchArgs {
     /// HOM, HZB, masked: never rest where occlusion culling costs more than it saves.
     #[arg(long)]
     pub no_cost_model: bool,
+    /// HV: temporal priming (last frame's visible nodes drawn first).
+    #[arg(long)]
+    pub hv_priming: bool,
     /// Image width (default: each path's).
     #[arg(long)]
     pub width: Option<u32>,

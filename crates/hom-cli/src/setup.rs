@@ -124,7 +124,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         octree.max_depth = d;
     }
     octree.keep_large = args.hv_keep_large;
-    settings.hv.priming = !args.hv_no_priming;
+    settings.hv.priming = args.hv_priming;
     Ok(settings)
 }
 

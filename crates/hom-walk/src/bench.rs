@@ -41,6 +41,8 @@ pub struct BenchOptions {
     pub speed: Option<f32>,
     /// A cut every this many frames ([`hom_scene::CameraPath::with_cuts`]).
     pub cuts: Option<usize>,
+    /// Whether HV primes its pyramid with last frame's visible nodes.
+    pub hv_priming: bool,
 }
 
 impl Default for BenchOptions {
@@ -55,6 +57,7 @@ impl Default for BenchOptions {
             cost_model: true,
             speed: None,
             cuts: None,
+            hv_priming: false,
         }
     }
 }
@@ -324,6 +327,7 @@ pub fn run_bench(
                 settings.hv.coherence = c;
             }
             settings.hom.cost_model = options.cost_model;
+            settings.hv.priming = options.hv_priming;
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
                 &mut scene,
