@@ -170,26 +170,33 @@ impl TemporalState {
     /// Starts a frame over `model` (synced this frame) and `objects` object
     /// ids: forgets everything after a rebuild, demotes what moved.
     pub fn begin(&mut self, model: &ModelDb, objects: usize) {
+        let bvh = model.bvh().node_count();
+        self.begin_over(model.build(), bvh, model.moved_nodes(), model.moved_objects(), objects);
+    }
+
+    /// [`TemporalState::begin`] over any hierarchy: `nodes` nodes of build
+    /// `build`, of which `moved_nodes` changed bounds; `moved_objects`
+    /// changed boxes; `objects` object ids.
+    pub fn begin_over(&mut self, build: u32, nodes: usize, moved_nodes: &[u32], moved_objects: &[u32], objects: usize) {
         if !self.is_on() {
             return;
         }
         self.frame += 1;
-        let nodes = model.bvh().node_count();
-        if model.build() != self.build || self.frame == u32::MAX {
-            self.build = model.build();
+        if build != self.build || self.frame == u32::MAX {
+            self.build = build;
             self.frame = 2;
             self.nodes.clear();
             self.objects.clear();
         }
         self.nodes.resize(nodes, Temporal::NEVER);
         self.objects.resize(objects, Temporal::NEVER);
-        for &i in model.moved_nodes() {
+        for &i in moved_nodes {
             let s = &mut self.nodes[i as usize];
             if s.vis == Vis::Visible {
                 s.vis = Vis::Partial;
             }
         }
-        for &id in model.moved_objects() {
+        for &id in moved_objects {
             self.objects[id as usize] = Temporal::NEVER;
         }
     }
@@ -287,7 +294,7 @@ pub(crate) fn combine(visible: usize, invisible: usize) -> Vis {
 }
 
 /// SplitMix64's finalizer: a well-mixed 64-bit hash of `x`.
-fn mix(mut x: u64) -> u64 {
+pub(crate) fn mix(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
     x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

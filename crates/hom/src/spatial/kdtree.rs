@@ -27,7 +27,6 @@
 //! references are one contiguous (duplicate-holding) range of [`KdTree::items`].
 
 use crate::geom::{Aabb, Eye};
-use glam::Vec3;
 
 /// No node: a rope at the scene's boundary, the root's parent.
 pub(crate) const NONE: u32 = u32::MAX;
@@ -478,6 +477,7 @@ fn best_split(bounds: &Aabb, items: &[Item], leaf_size: usize) -> Option<(usize,
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
     use proptest::prelude::*;
 
     fn arb_box() -> impl Strategy<Value = Aabb> {
