@@ -672,6 +672,28 @@ mod tests {
     }
 
     #[test]
+    fn hierarchies_are_parsed_and_labelled_as_the_flag_spells_them() {
+        for h in ["bvh", "kd", "kd-propagate"] {
+            assert_eq!(parse_hierarchy(h).unwrap().to_string(), h);
+        }
+        assert_eq!(
+            parse_hierarchy("kd-propagate"),
+            Ok(Hierarchy::KdTree { propagation: true })
+        );
+        assert!(parse_hierarchy("octree").is_err());
+        let mode = Mode {
+            coherence: Some(Coherence::Exact),
+            hierarchy: Some(Hierarchy::KdTree { propagation: false }),
+        };
+        assert_eq!(row_label("hom", mode.labels()), "hom/kd/exact");
+        let plain = Mode {
+            coherence: None,
+            hierarchy: None,
+        };
+        assert_eq!(row_label("hom", plain.labels()), "hom");
+    }
+
+    #[test]
     fn coherence_modes_get_a_row_each_for_the_cullers_that_take_them() {
         let modes = ["off", "exact", "skip", "skip:0.5"].map(|m| parse_coherence(m).unwrap());
         let options = BenchOptions {

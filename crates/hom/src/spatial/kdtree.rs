@@ -434,7 +434,7 @@ fn best_split(bounds: &Aabb, items: &[Item], leaf_size: usize) -> Option<(usize,
     for axis in 0..3 {
         let (lo, hi) = (bounds.min[axis], bounds.max[axis]);
         let extent = hi - lo;
-        if !(extent > 0.0) {
+        if extent.is_nan() || extent <= 0.0 {
             continue;
         }
         let scale = BINS as f32 / extent;
@@ -453,7 +453,7 @@ fn best_split(bounds: &Aabb, items: &[Item], leaf_size: usize) -> Option<(usize,
             left += mins[k - 1];
             right -= maxs[k - 1];
             let plane = lo + extent * k as f32 / BINS as f32;
-            if !(plane > lo && plane < hi) {
+            if plane <= lo || plane >= hi {
                 continue;
             }
             let (mut l, mut r) = (*bounds, *bounds);
