@@ -1,7 +1,7 @@
 //! The command line: every clap type, and nothing that runs.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hom::cull::{Coherence, DepthMode, PSkip};
+use hom::cull::{Coherence, DepthMode, Hierarchy, PSkip};
 use hom::occluders::SelectionMode;
 use hom_walk::cullers;
 use std::path::PathBuf;
@@ -140,6 +140,10 @@ pub struct HomArgs {
     /// assumed visible without a test: `auto` (from each node's history) or a number in [0, 1].
     #[arg(long, value_parser = hom_walk::bench::parse_p_skip)]
     pub p_skip: Option<PSkip>,
+    /// HOM, HZB, masked: the hierarchy the occlusion traversal walks: `bvh` (default),
+    /// `kd` (a kD-tree with ropes) or `kd-propagate` (with visibility propagation, Bittner & Havran 2002).
+    #[arg(long, value_parser = hom_walk::bench::parse_hierarchy)]
+    pub hierarchy: Option<Hierarchy>,
     /// HOM, HZB, masked: never rest, even where occlusion culling costs more than it saves
     /// (by default, frames are frustum culled only while it does not pay).
     #[arg(long)]
@@ -315,6 +319,10 @@ pub struct BenchArgs {
     /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]
     pub coherence: Vec<Coherence>,
+    /// Comma-separated hierarchies to walk HOM, HZB and masked with, a row each (times the
+    /// coherence modes): bvh, kd, kd-propagate (default: the BVH only).
+    #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_hierarchy)]
+    pub hierarchy: Vec<Hierarchy>,
     /// HOM, HZB, masked: never rest where occlusion culling costs more than it saves.
     #[arg(long)]
     pub no_cost_model: bool,

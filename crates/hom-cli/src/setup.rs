@@ -110,6 +110,9 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         settings.hv.coherence = c.coherence;
     }
     c.cost_model = !args.no_cost_model;
+    if let Some(h) = args.hierarchy {
+        c.hierarchy = h;
+    }
     if args.p_skip.is_some() && !matches!(c.coherence, Coherence::Skip(_)) {
         bail!("--p-skip needs --coherence skip");
     }

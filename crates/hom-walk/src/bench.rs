@@ -9,7 +9,7 @@
 use crate::pictures::StageBar;
 use crate::report::{median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
-use hom::cull::{Coherence, PSkip};
+use hom::cull::{Coherence, Hierarchy, PSkip};
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
 use serde::Serialize;
@@ -35,6 +35,10 @@ pub struct BenchOptions {
     /// with, one row each; empty: their default only.
     #[serde(serialize_with = "coherence_labels")]
     pub coherence: Vec<Coherence>,
+    /// The hierarchies to walk each of HOM, HZB and masked with, one row
+    /// each (times the coherence modes); empty: the default (BVH) only.
+    #[serde(serialize_with = "hierarchy_labels")]
+    pub hierarchy: Vec<Hierarchy>,
     /// Whether HOM, HZB and masked rest while occlusion culling does not pay.
     pub cost_model: bool,
     /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
@@ -54,6 +58,7 @@ impl Default for BenchOptions {
             height: None,
             threads: 0,
             coherence: Vec::new(),
+            hierarchy: Vec::new(),
             cost_model: true,
             speed: None,
             cuts: None,
@@ -100,6 +105,20 @@ pub fn parse_coherence(s: &str) -> Result<Coherence, String> {
             None => Err(format!("expected off, exact, skip or skip:P, got `{s}`")),
         },
     }
+}
+
+/// A hierarchy as `--hierarchy` spells it: `bvh`, `kd` or `kd-propagate`.
+pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
+    match s {
+        "bvh" => Ok(Hierarchy::Bvh),
+        "kd" => Ok(Hierarchy::KdTree { propagation: false }),
+        "kd-propagate" => Ok(Hierarchy::KdTree { propagation: true }),
+        _ => Err(format!("expected bvh, kd or kd-propagate, got `{s}`")),
+    }
+}
+
+fn hierarchy_labels<S: serde::Serializer>(h: &[Hierarchy], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(h.iter().map(|h| h.to_string()))
 }
 
 fn coherence_labels<S: serde::Serializer>(modes: &[Coherence], s: S) -> Result<S::Ok, S::Error> {
@@ -185,6 +204,18 @@ pub struct BenchRow {
     /// The traversal's coherence ([`coherence_label`]) when the bench was
     /// given modes and the culler takes one.
     pub coherence: Option<String>,
+    /// The traversal's hierarchy (`bvh`, `kd`, `kd-propagate`) when the bench
+    /// was given hierarchies and the culler takes one.
+    pub hierarchy: Option<String>,
+    /// Mean node tests per frame (`node_tests`).
+    pub node_tests_per_frame: Option<f64>,
+    /// Mean object tests per frame (`object_tests`).
+    pub object_tests_per_frame: Option<f64>,
+    /// Mean nodes classified invisible by visibility propagation per frame
+    /// (`propagated_invisible`; kD-tree only).
+    pub propagated_per_frame: Option<f64>,
+    /// Mean nodes propagation was tried on per frame (`propagation_attempts`).
+    pub propagation_attempts_per_frame: Option<f64>,
     /// Mean node and object tests per frame (`node_tests + object_tests`),
     /// for the cullers that count them.
     pub tests_per_frame: Option<f64>,
@@ -297,22 +328,32 @@ pub fn run_bench(
             source,
         })?;
         let frame_count = walk_options.frame_count(&path);
-        // One run per culler, and per coherence mode for the cullers that take one.
-        let runs: Vec<(&str, Option<Coherence>)> = culler_names
+        // One run per culler, and per hierarchy and coherence mode for the cullers that take them.
+        let runs: Vec<(&str, Mode)> = culler_names
             .iter()
             .flat_map(|&name| {
-                let modes: Vec<Option<Coherence>> = if options.coherence.is_empty() || !COHERENT_CULLERS.contains(&name)
-                {
+                let takes = COHERENT_CULLERS.contains(&name);
+                let modes: Vec<Option<Coherence>> = if options.coherence.is_empty() || !takes {
                     vec![None]
                 } else {
                     options.coherence.iter().copied().map(Some).collect()
                 };
-                modes.into_iter().map(move |m| (name, m))
+                let hierarchies: Vec<Option<Hierarchy>> = if options.hierarchy.is_empty() || !takes {
+                    vec![None]
+                } else {
+                    options.hierarchy.iter().copied().map(Some).collect()
+                };
+                hierarchies.into_iter().flat_map(move |hierarchy| {
+                    modes
+                        .clone()
+                        .into_iter()
+                        .map(move |coherence| (name, Mode { coherence, hierarchy }))
+                })
             })
             .collect();
-        let mut walks: Vec<(String, Option<Coherence>, WalkResult)> = Vec::new();
-        for (i, &(name, coherence)) in runs.iter().enumerate() {
-            let label = row_label(name, coherence.as_ref().map(coherence_label).as_deref());
+        let mut walks: Vec<(String, Mode, WalkResult)> = Vec::new();
+        for (i, &(name, mode)) in runs.iter().enumerate() {
+            let label = row_label(name, mode.labels());
             progress(&format!(
                 "{} ({}/{}): {label} ({}/{}), {frame_count} frames",
                 scene.name(),
@@ -322,9 +363,12 @@ pub fn run_bench(
                 runs.len()
             ));
             let mut settings = cullers::CullerSettings::for_scene(&scene);
-            if let Some(c) = coherence {
+            if let Some(c) = mode.coherence {
                 settings.hom.coherence = c;
                 settings.hv.coherence = c;
+            }
+            if let Some(h) = mode.hierarchy {
+                settings.hom.hierarchy = h;
             }
             settings.hom.cost_model = options.cost_model;
             settings.hv.priming = options.hv_priming;
@@ -343,13 +387,13 @@ pub fn run_bench(
                 culler: name.to_string(),
                 source,
             })?;
-            walks.push((name.to_string(), coherence, result));
+            walks.push((name.to_string(), mode, result));
         }
         let oracle_speedup = scene_oracle_speedup(&walks);
-        for (name, coherence, w) in &walks {
+        for (name, mode, w) in &walks {
             report
                 .rows
-                .push(culler_row(scene.name(), name, coherence.as_ref(), w, oracle_speedup));
+                .push(culler_row(scene.name(), name, mode, w, oracle_speedup));
         }
         report.rows.push(oracle_row(&scene, &walks, oracle_speedup));
         report.scenes.push(BenchScene {
@@ -368,7 +412,7 @@ pub fn run_bench(
 }
 
 /// Σ baseline ÷ Σ oracle-set render time over every frame of every walk.
-fn scene_oracle_speedup(walks: &[(String, Option<Coherence>, WalkResult)]) -> Option<f64> {
+fn scene_oracle_speedup(walks: &[(String, Mode, WalkResult)]) -> Option<f64> {
     let (mut base, mut oracle) = (0.0, 0.0);
     for f in walks.iter().flat_map(|(_, _, w)| &w.frames) {
         base += f.baseline_frame_ms?;
@@ -377,18 +421,38 @@ fn scene_oracle_speedup(walks: &[(String, Option<Coherence>, WalkResult)]) -> Op
     (oracle > 0.0).then(|| base / oracle)
 }
 
-/// `culler`, or `culler/mode` when walked with a coherence mode ([`coherence_label`]).
-fn row_label(culler: &str, coherence: Option<&str>) -> String {
-    match coherence {
-        Some(c) => format!("{culler}/{c}"),
-        None => culler.to_string(),
+/// What a run of a culler was walked with, beyond its defaults.
+#[derive(Clone, Copy, Debug)]
+struct Mode {
+    coherence: Option<Coherence>,
+    hierarchy: Option<Hierarchy>,
+}
+
+impl Mode {
+    /// The hierarchy's and coherence's labels, as the row shows them.
+    fn labels(&self) -> (Option<String>, Option<String>) {
+        (
+            self.hierarchy.map(|h| h.to_string()),
+            self.coherence.as_ref().map(coherence_label),
+        )
     }
+}
+
+/// `culler`, then `/hierarchy` and `/mode` for those it was walked with
+/// (hierarchy as `--hierarchy` spells it, mode as [`coherence_label`]).
+fn row_label(culler: &str, (hierarchy, coherence): (Option<String>, Option<String>)) -> String {
+    let mut s = culler.to_string();
+    for part in [hierarchy, coherence].into_iter().flatten() {
+        s.push('/');
+        s.push_str(&part);
+    }
+    s
 }
 
 impl BenchRow {
     /// The row's name in the table: `culler`, or `culler/mode` with a coherence mode.
     pub fn label(&self) -> String {
-        row_label(&self.culler, self.coherence.as_deref())
+        row_label(&self.culler, (self.hierarchy.clone(), self.coherence.clone()))
     }
 }
 
@@ -403,18 +467,18 @@ fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
     (!sums.is_empty()).then(|| sums.iter().sum::<u64>() as f64 / sums.len() as f64)
 }
 
-fn culler_row(
-    scene: &str,
-    culler: &str,
-    coherence: Option<&Coherence>,
-    w: &WalkResult,
-    oracle_speedup: Option<f64>,
-) -> BenchRow {
+fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
     let s: &Summary = &w.summary;
+    let (hierarchy, coherence) = mode.labels();
     BenchRow {
         scene: scene.to_string(),
         culler: culler.to_string(),
-        coherence: coherence.map(coherence_label),
+        coherence,
+        hierarchy,
+        node_tests_per_frame: mean_counter(w, &["node_tests"]),
+        object_tests_per_frame: mean_counter(w, &["object_tests"]),
+        propagated_per_frame: mean_counter(w, &["propagated_invisible"]),
+        propagation_attempts_per_frame: mean_counter(w, &["propagation_attempts"]),
         tests_per_frame: mean_counter(w, &["node_tests", "object_tests"]),
         tests_skipped_per_frame: mean_counter(w, &["tests_skipped"]),
         frames: s.frames,
@@ -444,7 +508,7 @@ fn share(speedup: Option<f64>, oracle_speedup: Option<f64>) -> Option<f64> {
 /// The pseudo-row: render only what the oracle saw, with a perfect zero-cost culler.
 fn oracle_row(
     scene: &hom::scene::Scene,
-    walks: &[(String, Option<Coherence>, WalkResult)],
+    walks: &[(String, Mode, WalkResult)],
     oracle_speedup: Option<f64>,
 ) -> BenchRow {
     let frames: Vec<_> = walks.iter().flat_map(|(_, _, w)| &w.frames).collect();
@@ -478,6 +542,11 @@ fn oracle_row(
         scene: scene.name().to_string(),
         culler: ORACLE_ROW.to_string(),
         coherence: None,
+        hierarchy: None,
+        node_tests_per_frame: None,
+        object_tests_per_frame: None,
+        propagated_per_frame: None,
+        propagation_attempts_per_frame: None,
         tests_per_frame: None,
         tests_skipped_per_frame: None,
         frames: walks.first().map_or(0, |(_, _, w)| w.frames.len()),
@@ -605,6 +674,28 @@ mod tests {
             threads: 1,
             ..BenchOptions::default()
         }
+    }
+
+    #[test]
+    fn hierarchies_are_parsed_and_labelled_as_the_flag_spells_them() {
+        for h in ["bvh", "kd", "kd-propagate"] {
+            assert_eq!(parse_hierarchy(h).unwrap().to_string(), h);
+        }
+        assert_eq!(
+            parse_hierarchy("kd-propagate"),
+            Ok(Hierarchy::KdTree { propagation: true })
+        );
+        assert!(parse_hierarchy("octree").is_err());
+        let mode = Mode {
+            coherence: Some(Coherence::Exact),
+            hierarchy: Some(Hierarchy::KdTree { propagation: false }),
+        };
+        assert_eq!(row_label("hom", mode.labels()), "hom/kd/exact");
+        let plain = Mode {
+            coherence: None,
+            hierarchy: None,
+        };
+        assert_eq!(row_label("hom", plain.labels()), "hom");
     }
 
     #[test]

@@ -24,6 +24,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         height: a.height,
         threads: a.threads,
         coherence: a.coherence.clone(),
+        hierarchy: a.hierarchy.clone(),
         cost_model: !a.no_cost_model,
         hv_priming: a.hv_priming,
         speed: a.speed,

@@ -175,32 +175,16 @@ impl TemporalState {
     /// Starts a frame over `model` (synced this frame) and `objects` object
     /// ids: forgets everything after a rebuild, demotes what moved.
     pub fn begin(&mut self, model: &ModelDb, objects: usize) {
-        if !self.start(model.build(), model.bvh().node_count(), objects) {
-            return;
-        }
-        for &i in model.moved_nodes() {
-            let s = &mut self.nodes[i as usize];
-            if s.vis == Vis::Visible {
-                s.vis = Vis::Partial;
-            }
-        }
-        for &id in model.moved_objects() {
-            self.objects[id as usize] = Temporal::NEVER;
-        }
+        let bvh = model.bvh().node_count();
+        self.begin_over(model.build(), bvh, model.moved_nodes(), model.moved_objects(), objects);
     }
 
-    /// Starts a frame over a hierarchy of `nodes` nodes without objects (HV's
-    /// octree: its leaves are the termination nodes), from its `build`: a new
-    /// build forgets everything.
-    pub fn begin_tree(&mut self, build: u32, nodes: usize) {
-        self.start(build, nodes, 0);
-    }
-
-    /// The next frame over `nodes` nodes and `objects` objects of hierarchy
-    /// `build`; `false` (nothing kept) with coherence off.
-    fn start(&mut self, build: u32, nodes: usize, objects: usize) -> bool {
+    /// [`TemporalState::begin`] over any hierarchy: `nodes` nodes of build
+    /// `build`, of which `moved_nodes` changed bounds; `moved_objects`
+    /// changed boxes; `objects` object ids.
+    pub fn begin_over(&mut self, build: u32, nodes: usize, moved_nodes: &[u32], moved_objects: &[u32], objects: usize) {
         if !self.is_on() {
-            return false;
+            return;
         }
         self.frame += 1;
         if build != self.build || self.frame == u32::MAX {
@@ -211,7 +195,22 @@ impl TemporalState {
         }
         self.nodes.resize(nodes, Temporal::NEVER);
         self.objects.resize(objects, Temporal::NEVER);
-        true
+        for &i in moved_nodes {
+            let s = &mut self.nodes[i as usize];
+            if s.vis == Vis::Visible {
+                s.vis = Vis::Partial;
+            }
+        }
+        for &id in moved_objects {
+            self.objects[id as usize] = Temporal::NEVER;
+        }
+    }
+
+    /// Starts a frame over a hierarchy of `nodes` nodes without objects (HV's
+    /// octree: its leaves are the termination nodes), from its `build`: a new
+    /// build forgets everything.
+    pub fn begin_tree(&mut self, build: u32, nodes: usize) {
+        self.begin_over(build, nodes, &[], &[], 0);
     }
 
     /// Node `i`'s classification this frame, if it has one yet (coherence on).
@@ -313,7 +312,7 @@ pub(crate) fn combine(visible: usize, invisible: usize) -> Vis {
 }
 
 /// SplitMix64's finalizer: a well-mixed 64-bit hash of `x`.
-fn mix(mut x: u64) -> u64 {
+pub(crate) fn mix(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
     x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

@@ -20,7 +20,7 @@
 //! contained in the object they stand for; and transparent occluders.
 
 use super::traversal::{culler_buffer_options, sized, OccluderCulling};
-use super::{Coherence, CullError, CullOutput, Culler};
+use super::{Coherence, CullError, CullOutput, Culler, Hierarchy};
 use crate::geom::View;
 use crate::map::{find_worst_hole, Pyramid};
 use crate::occluders::{OccluderConfig, OccluderDb};
@@ -41,16 +41,20 @@ pub struct HomConfig {
     /// Rest (frustum culling only) while occlusion culling costs more than it
     /// saves, learnt from the frame times given to [`Culler::frame_done`] (shared with HZB).
     pub cost_model: bool,
+    /// The hierarchy the occlusion traversal walks: the BVH (default) or a
+    /// kD-tree with ropes, with or without visibility propagation (shared with HZB).
+    pub hierarchy: Hierarchy,
 }
 
 impl Default for HomConfig {
-    /// The default map and occluders, exact coherence, the cost model on.
+    /// The default map and occluders, exact coherence, the cost model on, the BVH.
     fn default() -> Self {
         HomConfig {
             map: MapOptions::default(),
             occluders: OccluderConfig::default(),
             coherence: Coherence::default(),
             cost_model: true,
+            hierarchy: Hierarchy::Bvh,
         }
     }
 }
@@ -76,7 +80,13 @@ impl HomCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HomConfig) -> HomCuller {
         HomCuller {
-            common: OccluderCulling::new(scene, &config.occluders, config.coherence, config.cost_model),
+            common: OccluderCulling::new(
+                scene,
+                &config.occluders,
+                config.coherence,
+                config.cost_model,
+                config.hierarchy,
+            ),
             config,
             buffer: None,
         }

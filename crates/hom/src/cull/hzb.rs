@@ -35,7 +35,7 @@
 //! ([`crate::map::worst_hole_of_coverage`]).
 
 use super::traversal::{culler_buffer_options, sized, OccluderCulling, Selected};
-use super::{Coherence, CullError, CullOutput, Culler, HomConfig};
+use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
 use crate::depth::TiledZBuffer;
 use crate::geom::View;
 use crate::map::worst_hole_of_coverage;
@@ -64,6 +64,8 @@ pub struct HzbConfig {
     pub coherence: Coherence,
     /// Rest while occlusion culling does not pay (shared with HOM; see [`HomConfig::cost_model`]).
     pub cost_model: bool,
+    /// The hierarchy the occlusion traversal walks (shared with HOM; see [`HomConfig::hierarchy`]).
+    pub hierarchy: Hierarchy,
 }
 
 impl Default for HzbConfig {
@@ -81,6 +83,7 @@ impl HzbConfig {
             depth: ZDepth::PerSample,
             coherence: hom.coherence,
             cost_model: hom.cost_model,
+            hierarchy: hom.hierarchy,
         }
     }
 
@@ -107,7 +110,13 @@ impl HzbCuller {
     /// Builds the model database (BVH) and the occluder database for `scene`.
     pub fn new(scene: &Scene, config: HzbConfig) -> HzbCuller {
         HzbCuller {
-            common: OccluderCulling::new(scene, &config.occluders, config.coherence, config.cost_model),
+            common: OccluderCulling::new(
+                scene,
+                &config.occluders,
+                config.coherence,
+                config.cost_model,
+                config.hierarchy,
+            ),
             buffer: match config.depth {
                 ZDepth::PerSample => Buffer::PerSample(None),
                 ZDepth::Masked => Buffer::Masked(None),

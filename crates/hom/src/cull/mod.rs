@@ -13,6 +13,7 @@ mod governor;
 mod hom;
 mod hv;
 mod hzb;
+mod kd_traversal;
 mod model_db;
 mod traversal;
 
@@ -23,6 +24,7 @@ pub use governor::MAX_REST;
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};
+pub use kd_traversal::{Hierarchy, DFS_BUDGET, P_VP};
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;

@@ -10,6 +10,7 @@
 use super::coherence::{combine, Coherence, Step, TemporalState, Vis};
 use super::frustum::frustum_visible;
 use super::governor::{FrameFacts, Governor};
+use super::kd_traversal::{Hierarchy, KdModel};
 use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
@@ -60,6 +61,10 @@ pub(crate) struct OccluderCulling {
     governor: Governor,
     /// Whether the last frame ran the occlusion work (it did not rest).
     culled_last: bool,
+    /// The hierarchy traversed.
+    hierarchy: Hierarchy,
+    /// The kD-tree, when it is the hierarchy.
+    kd: Option<KdModel>,
 }
 
 /// One frame after occluder selection.
@@ -79,10 +84,23 @@ impl OccluderCulling {
     /// Builds the BVH over the objects' boxes and the occluder database; the
     /// traversal reuses last frame's classification as `coherence` says, and
     /// with `cost_model` frames rest (frustum culling only) while occlusion
-    /// culling does not pay for itself.
-    pub fn new(scene: &Scene, config: &OccluderConfig, coherence: Coherence, cost_model: bool) -> OccluderCulling {
+    /// culling does not pay for itself. With [`Hierarchy::KdTree`] the
+    /// occlusion traversal walks a kD-tree too (resting frames and occluder
+    /// selection keep the BVH).
+    pub fn new(
+        scene: &Scene,
+        config: &OccluderConfig,
+        coherence: Coherence,
+        cost_model: bool,
+        hierarchy: Hierarchy,
+    ) -> OccluderCulling {
+        let model = ModelDb::new(scene);
+        let kd = match hierarchy {
+            Hierarchy::Bvh => None,
+            Hierarchy::KdTree { propagation } => Some(KdModel::new(&model, scene, propagation)),
+        };
         OccluderCulling {
-            model: ModelDb::new(scene),
+            model,
             db: OccluderDb::build(scene, &config.occluder_db),
             selector: OccluderSelector::new(config.selection.clone()),
             is_occluder: Vec::new(),
@@ -90,6 +108,8 @@ impl OccluderCulling {
             temporal: TemporalState::new(coherence),
             governor: Governor::new(cost_model),
             culled_last: false,
+            hierarchy,
+            kd,
         }
     }
 
@@ -128,13 +148,24 @@ impl OccluderCulling {
         view.validate()?;
         out.clear();
         let Self {
-            model, db, temporal, ..
+            model,
+            db,
+            temporal,
+            kd,
+            ..
         } = self;
         out.time("refit", || {
-            if model.sync(scene) == Change::Structure {
+            let change = model.sync(scene);
+            if change == Change::Structure {
                 db.rebuild(scene);
             }
-            temporal.begin(model, scene.objects().len());
+            match kd {
+                Some(kd) => {
+                    kd.sync(model, scene, change);
+                    kd.begin(temporal, model, scene.objects().len());
+                }
+                None => temporal.begin(model, scene.objects().len()),
+            }
         });
         Ok(())
     }
@@ -229,8 +260,10 @@ impl OccluderCulling {
             frame: &frame,
         };
         let (is_occluder, temporal) = (&mut self.is_occluder, &mut self.temporal);
-        let stats = out.time("traversal", || {
-            traversal.run(is_occluder, temporal, is_occluded, &mut visible, &mut occluded)
+        let kd = &mut self.kd;
+        let stats = out.time("traversal", || match kd {
+            Some(kd) => traversal.run_kd(kd, is_occluder, temporal, is_occluded, &mut visible, &mut occluded),
+            None => traversal.run(is_occluder, temporal, is_occluded, &mut visible, &mut occluded),
         });
         let (drawn, hidden) = (triangles(scene, &visible), triangles(scene, &occluded));
         self.culled_pct = if drawn + hidden > 0 {
@@ -251,6 +284,10 @@ impl OccluderCulling {
         out.count("node_tests", stats.node_tests);
         out.count("object_tests", stats.object_tests);
         out.count("tests_skipped", stats.skipped);
+        if self.kd.is_some() {
+            out.count("propagation_attempts", stats.propagation_attempts);
+            out.count("propagated_invisible", stats.propagated);
+        }
         count_occluders(out, &frame.stats, occluder_triangles);
         out.count("temporal_bytes", self.temporal.heap_bytes() as u64);
         out.count("state_bytes", self.state_bytes() as u64);
@@ -264,13 +301,15 @@ impl OccluderCulling {
             + self.selector.heap_bytes()
             + crate::vec_bytes(&self.is_occluder)
             + self.temporal.heap_bytes()
+            + self.kd.as_ref().map_or(0, KdModel::heap_bytes)
     }
 
     /// The configuration entries every occluder-based culler reports: its
     /// selection settings and the occluder database's report.
-    pub fn describe(&self) -> [(&'static str, String); 7] {
+    pub fn describe(&self) -> [(&'static str, String); 8] {
         let c = self.selector.config();
         [
+            ("hierarchy", self.hierarchy.to_string()),
             ("coherence", self.temporal.mode().to_string()),
             ("cost_model", self.governor.is_enabled().to_string()),
             ("selection", format!("{:?}", c.mode)),
@@ -292,33 +331,37 @@ impl OccluderCulling {
 }
 
 /// What one frame's traversal looks at.
-struct Traversal<'a> {
-    scene: &'a Scene,
+pub(super) struct Traversal<'a> {
+    pub scene: &'a Scene,
     model: &'a ModelDb,
-    frame: &'a Selected,
+    pub frame: &'a Selected,
 }
 
 /// What a traversal did, for the counters.
 #[derive(Clone, Copy, Debug, Default)]
-struct TraversalStats {
+pub(super) struct TraversalStats {
     /// Nodes classified by a test: found outside the frustum, or tested
     /// against the buffer.
-    node_tests: u64,
+    pub node_tests: u64,
     /// Objects classified by a test.
-    object_tests: u64,
+    pub object_tests: u64,
     /// Nodes in view opened without their buffer test, and nodes and objects
     /// assumed visible.
-    skipped: u64,
+    pub skipped: u64,
+    /// Nodes visibility propagation was tried on (kD-tree only).
+    pub propagation_attempts: u64,
+    /// Nodes it classified invisible without a test.
+    pub propagated: u64,
 }
 
 /// The mutable side of a traversal: the state kept across frames, the
 /// buffer's test, the output lists and the counters.
-struct Visit<'a, F> {
-    temporal: &'a mut TemporalState,
-    is_occluded: F,
-    visible: &'a mut Vec<u32>,
-    occluded: &'a mut Vec<u32>,
-    stats: TraversalStats,
+pub(super) struct Visit<'a, F> {
+    pub temporal: &'a mut TemporalState,
+    pub is_occluded: F,
+    pub visible: &'a mut Vec<u32>,
+    pub occluded: &'a mut Vec<u32>,
+    pub stats: TraversalStats,
 }
 
 impl Traversal<'_> {
@@ -444,7 +487,7 @@ impl Traversal<'_> {
     /// Classifies one object: frustum (its oriented box when it moves; none
     /// when its node was wholly `inside`), then its rectangle, unless assumed
     /// visible. `None` for a removed object.
-    fn object<F: FnMut(&ScreenRect) -> bool>(
+    pub(super) fn object<F: FnMut(&ScreenRect) -> bool>(
         &self,
         id: u32,
         inside: bool,
@@ -500,7 +543,7 @@ impl Traversal<'_> {
 
     /// The frustum test of an object: its oriented box when it moves, else
     /// its box, which needs no test when its node was wholly `inside`.
-    fn meets_frustum(&self, o: &Object, inside: bool) -> bool {
+    pub(super) fn meets_frustum(&self, o: &Object, inside: bool) -> bool {
         let frustum = &self.frame.frustum;
         if o.is_dynamic() {
             frustum.test_obb(&o.obb) != Containment::Outside
@@ -510,7 +553,7 @@ impl Traversal<'_> {
     }
 
     /// The screen footprint of a box's corners.
-    fn footprint(&self, corners: &[Vec3; 8]) -> Footprint {
+    pub(super) fn footprint(&self, corners: &[Vec3; 8]) -> Footprint {
         let f = self.frame;
         project_points(corners, &f.world_to_clip, f.width, f.height)
     }

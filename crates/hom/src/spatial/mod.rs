@@ -1,8 +1,11 @@
-//! Spatial hierarchies: the BVH over object bounds (the model database) and
-//! the octree over triangles (hierarchical visibility).
+//! Spatial hierarchies: the BVH over object bounds (the model database), the
+//! kD-tree with ropes over object bounds (its alternative, for visibility
+//! propagation) and the octree over triangles (hierarchical visibility).
 
 pub(crate) mod bvh;
+pub(crate) mod kdtree;
 mod octree;
 
 pub(crate) use bvh::{Bvh, BvhConfig};
+pub use kdtree::KdConfig;
 pub use octree::{Octree, OctreeConfig, OctreeNode, TriRef};
