@@ -14,6 +14,7 @@ mod hom;
 mod hv;
 mod hzb;
 mod model_db;
+mod otree;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
@@ -23,6 +24,7 @@ pub use governor::MAX_REST;
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};
+pub use otree::{OtreeConfig, OtreeCuller};
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;

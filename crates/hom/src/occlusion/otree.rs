@@ -606,10 +606,19 @@ mod tests {
     fn a_quad_over_the_screen_hides_what_is_behind_it_not_what_is_in_front() {
         let mut t = tree_with(&[quad(-50.0, -50.0, 50.0, 50.0, 0.0)]);
         let vp = view_proj();
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -5.0), 1.0), &vp), Visibility::Occluded);
-        assert_eq!(t.test_aabb(&cube(Vec3::new(1.0, 1.0, 3.0), 1.0), &vp), Visibility::Visible);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -5.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(1.0, 1.0, 3.0), 1.0), &vp),
+            Visibility::Visible
+        );
         // Touching the quad's plane is not behind it.
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -1.0), 1.0), &vp), Visibility::Visible);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -1.0), 1.0), &vp),
+            Visibility::Visible
+        );
         let s = t.tree_stats();
         assert_eq!((s.invisible, s.triangles_inserted), (1, 2));
         assert!(s.visible + s.partial == 2);
@@ -620,7 +629,10 @@ mod tests {
         // The quad's diagonal runs through the middle of the box's rectangle.
         let mut t = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
         let vp = view_proj();
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 1.0), &vp), Visibility::Occluded);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 1.0), &vp),
+            Visibility::Occluded
+        );
         // Both triangles' in leaves were reached.
         let mut one = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
         assert!(one.tree_stats().in_leaves >= 2);
@@ -629,7 +641,10 @@ mod tests {
             .map(|i| quad(-4.0 + 2.0 * i as f32, -2.0, -2.0 + 2.0 * i as f32, 2.0, 0.0))
             .collect();
         let mut t = tree_with(&strip);
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp), Visibility::Occluded);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
     }
 
     #[test]
@@ -645,8 +660,14 @@ mod tests {
         // A rectangle test reaching one pixel column past the quad's right edge.
         let edge = vp.project_point3(Vec3::new(3.0, 0.0, 0.0)).x;
         let z = vp.project_point3(Vec3::new(0.0, 0.0, -4.0)).z;
-        assert_eq!(t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge + 2.0 / 64.0, 0.1), z), Visibility::Visible);
-        assert_eq!(t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge - 2.0 / 64.0, 0.1), z), Visibility::Occluded);
+        assert_eq!(
+            t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge + 2.0 / 64.0, 0.1), z),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge - 2.0 / 64.0, 0.1), z),
+            Visibility::Occluded
+        );
     }
 
     #[test]
@@ -660,11 +681,20 @@ mod tests {
             Vec3::new(20.0, -1.0, -50.0),
             Vec3::new(-20.0, -1.0, -50.0),
         ];
-        t.render_triangles(&floor, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None).unwrap();
-        let nan = [Vec3::new(f32::NAN, 0.0, 0.0), Vec3::new(50.0, -50.0, 0.0), Vec3::new(50.0, 50.0, 0.0)];
+        t.render_triangles(&floor, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None)
+            .unwrap();
+        let nan = [
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(50.0, -50.0, 0.0),
+            Vec3::new(50.0, 50.0, 0.0),
+        ];
         t.render_triangles(&nan, &[[0, 1, 2]], &vp, FaceCull::None).unwrap();
         t.render_clip_triangles(
-            &[Vec4::new(0.0, 0.0, 0.5, 1.0), Vec4::new(f32::NAN, 1.0, 0.5, 1.0), Vec4::new(1.0, 1.0, 0.5, 1.0)],
+            &[
+                Vec4::new(0.0, 0.0, 0.5, 1.0),
+                Vec4::new(f32::NAN, 1.0, 0.5, 1.0),
+                Vec4::new(1.0, 1.0, 0.5, 1.0),
+            ],
             &[[0, 1, 2]],
             FaceCull::None,
         )
@@ -673,11 +703,23 @@ mod tests {
         // The floor: inserted (clipped), the NaN triangles not.
         assert!(t.tree_stats().triangles_inserted >= 2);
         // Above the floor: visible; below it: hidden; a box around the eye: visible.
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.5, -5.0), 0.5), &vp), Visibility::Visible);
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, -3.0, -5.0), 0.5), &vp), Visibility::Occluded);
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, 10.0), 1.0), &vp), Visibility::Visible);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.5, -5.0), 0.5), &vp),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, -3.0, -5.0), 0.5), &vp),
+            Visibility::Occluded
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, 10.0), 1.0), &vp),
+            Visibility::Visible
+        );
         // Nothing occludes where the NaN triangle would have been.
-        assert_eq!(t.test_aabb(&cube(Vec3::new(2.0, 0.5, -5.0), 0.5), &vp), Visibility::Visible);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(2.0, 0.5, -5.0), 0.5), &vp),
+            Visibility::Visible
+        );
     }
 
     #[test]
@@ -700,15 +742,22 @@ mod tests {
             .collect();
         let mut t = OcclusionTree::new(64, 64, exact()).unwrap().with_node_cap(12);
         for q in &quads {
-            t.render_triangles(q, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None).unwrap();
+            t.render_triangles(q, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None)
+                .unwrap();
         }
         t.assert_well_formed();
         let s = t.tree_stats();
         assert!(s.leaves_dropped > 0 && s.nodes <= 12, "{s:?}");
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp), Visibility::Visible);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp),
+            Visibility::Visible
+        );
         // Without the cap the same box is hidden.
         let mut t = tree_with(&quads);
-        assert_eq!(t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp), Visibility::Occluded);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp),
+            Visibility::Occluded
+        );
     }
 
     #[test]
@@ -768,12 +817,12 @@ mod tests {
             assert_eq!(t, brute, "{l:?} {bx:?}");
             // The complement holds exactly the other samples.
             let c = l.complement();
-            assert!((bx.y0..bx.y1).all(|y| (bx.x0..bx.x1)
-                .all(|x| (c.a * sample(x) + c.b * sample(y) + c.c >= 0) != inside(x, y))));
+            assert!((bx.y0..bx.y1)
+                .all(|y| (bx.x0..bx.x1).all(|x| (c.a * sample(x) + c.b * sample(y) + c.c >= 0) != inside(x, y))));
             // The canonical line holds the same integer points.
             let k = l.canonical();
-            assert!((bx.y0..bx.y1).all(|y| (bx.x0..bx.x1)
-                .all(|x| (k.a * sample(x) + k.b * sample(y) + k.c >= 0) == inside(x, y))));
+            assert!((bx.y0..bx.y1)
+                .all(|y| (bx.x0..bx.x1).all(|x| (k.a * sample(x) + k.b * sample(y) + k.c >= 0) == inside(x, y))));
         }
     }
 
@@ -812,7 +861,9 @@ mod sample_tests {
             let (w, h) = (24, 16);
             let mut t = OcclusionTree::new(w, h, options).unwrap();
             let n = 1 + case % 6;
-            let verts: Vec<Vec4> = (0..3 * n).map(|_| Vec4::new(next(), next(), 0.3 + 0.1 * next(), 1.0)).collect();
+            let verts: Vec<Vec4> = (0..3 * n)
+                .map(|_| Vec4::new(next(), next(), 0.3 + 0.1 * next(), 1.0))
+                .collect();
             let idx: Vec<[u32; 3]> = (0..n as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
             t.render_clip_triangles(&verts, &idx, FaceCull::None).unwrap();
             t.flush();
@@ -830,7 +881,12 @@ mod sample_tests {
                         z_far: 0.99,
                     };
                     let covered = all.iter().any(|tr| tr.covers(x, y));
-                    assert_eq!(t.is_behind(&r), covered, "case {case} sample {x},{y}; {} tris", tris.len());
+                    assert_eq!(
+                        t.is_behind(&r),
+                        covered,
+                        "case {case} sample {x},{y}; {} tris",
+                        tris.len()
+                    );
                 }
             }
         }
