@@ -31,11 +31,11 @@ pub struct BenchOptions {
     pub height: Option<u32>,
     /// Renderer threads (0 = one per core).
     pub threads: usize,
-    /// The traversal coherence modes to walk each of HOM, HZB and masked
+    /// The traversal coherence modes to walk each of HOM, HZB, masked and otree
     /// with, one row each; empty: their default only.
     #[serde(serialize_with = "coherence_labels")]
     pub coherence: Vec<Coherence>,
-    /// Whether HOM, HZB and masked rest while occlusion culling does not pay.
+    /// Whether HOM, HZB, masked and otree rest while occlusion culling does not pay.
     pub cost_model: bool,
     /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
     pub speed: Option<f32>,
@@ -60,7 +60,7 @@ impl Default for BenchOptions {
 }
 
 /// The cullers whose traversal takes a [`Coherence`].
-const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked"];
+const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked", "otree"];
 
 /// A coherence mode as `hom bench --coherence` spells it: `off`, `exact`,
 /// `skip` (adaptive p_skip) or `skip:P`.

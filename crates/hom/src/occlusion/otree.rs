@@ -248,6 +248,94 @@ struct Step {
     constraint: Option<Line>,
 }
 
+/// Most vertices a clipped polygon keeps; beyond, its bounding box stands in.
+const POLY_MAX: usize = 12;
+
+/// A convex polygon in fixed-point sample units (`f64`): where an inserted
+/// triangle still is. It only steers the insertion (which leaves a triangle
+/// goes into); the leaves' regions are the exact lines, so its rounding can
+/// at worst leave a triangle out of a leaf (less occlusion, never wrong).
+#[derive(Clone, Copy, Debug)]
+struct Poly {
+    v: [[f64; 2]; POLY_MAX],
+    n: usize,
+}
+
+impl Poly {
+    /// The triangle's corners: the crossings of consecutive edge lines.
+    fn of_tri(t: &Tri) -> Poly {
+        let mut p = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 0,
+        };
+        for i in 0..3 {
+            let j = (i + 2) % 3;
+            let (a1, b1, c1) = (t.a[j] as f64, t.b[j] as f64, t.c[j] as f64);
+            let (a2, b2, c2) = (t.a[i] as f64, t.b[i] as f64, t.c[i] as f64);
+            let det = a1 * b2 - a2 * b1;
+            if det == 0.0 || !det.is_finite() {
+                continue;
+            }
+            p.v[p.n] = [(b1 * c2 - b2 * c1) / det, (a2 * c1 - a1 * c2) / det];
+            p.n += 1;
+        }
+        p
+    }
+
+    /// The part where `line`'s value is `>= -0.5` (`inside`) or `<= -0.5`:
+    /// every sample of the side keeps a margin of half a unit.
+    fn clip(&self, line: Line, inside: bool) -> Poly {
+        let (a, b, c) = (line.a as f64, line.b as f64, line.c as f64 + 0.5);
+        let sign = if inside { 1.0 } else { -1.0 };
+        let d = |p: [f64; 2]| sign * (a * p[0] + b * p[1] + c);
+        let mut out = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 0,
+        };
+        let mut over = false;
+        let mut push = |q: [f64; 2], out: &mut Poly| {
+            if out.n == POLY_MAX {
+                over = true;
+            } else {
+                out.v[out.n] = q;
+                out.n += 1;
+            }
+        };
+        for i in 0..self.n {
+            let (p, q) = (self.v[i], self.v[(i + 1) % self.n]);
+            let (dp, dq) = (d(p), d(q));
+            if dp >= 0.0 {
+                push(p, &mut out);
+            }
+            if (dp >= 0.0) != (dq >= 0.0) {
+                let t = dp / (dp - dq);
+                push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t], &mut out);
+            }
+        }
+        if over {
+            // Too many corners: the bounding box of this polygon stands in (larger).
+            return self.bounds();
+        }
+        out
+    }
+
+    fn bounds(&self) -> Poly {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for p in &self.v[..self.n] {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let mut b = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 4,
+        };
+        b.v[..4].copy_from_slice(&[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]]);
+        b
+    }
+}
+
 /// The occlusion-tree occlusion buffer; see the [module docs](self).
 #[derive(Clone, Debug)]
 pub struct OcclusionTree {
@@ -261,6 +349,8 @@ pub struct OcclusionTree {
     cleared: bool,
     /// Scratch for the searches.
     stack: Vec<Step>,
+    /// The insertion's polygons, one per step on `stack`.
+    polys: Vec<Poly>,
     path: Vec<Line>,
 }
 
@@ -279,6 +369,7 @@ impl OcclusionTree {
             },
             cleared: false,
             stack: Vec::new(),
+            polys: Vec::new(),
             path: Vec::new(),
         })
     }
@@ -385,6 +476,7 @@ impl OcclusionTree {
         let index = self.tris.len() as u32;
         let mut used = false;
         self.stack.clear();
+        self.polys.clear();
         self.path.clear();
         self.stack.push(Step {
             node: 0,
@@ -392,7 +484,9 @@ impl OcclusionTree {
             path_len: 0,
             constraint: None,
         });
+        self.polys.push(Poly::of_tri(t));
         while let Some(s) = self.stack.pop() {
+            let poly = self.polys.pop().expect("one polygon per step");
             self.path.truncate(s.path_len as usize);
             self.path.extend(s.constraint);
             // No sample of the triangle in the box: nothing to insert here.
@@ -410,10 +504,17 @@ impl OcclusionTree {
                     let path_len = self.path.len() as u32;
                     let (lo, hi) = line.range(&s.bx);
                     if lo < 0 {
-                        self.push_side(outside, line.complement(), &s.bx, path_len, lc[1]);
+                        self.push_side(
+                            outside,
+                            line.complement(),
+                            &s.bx,
+                            path_len,
+                            lc[1],
+                            poly.clip(line, false),
+                        );
                     }
                     if hi >= 0 {
-                        self.push_side(inside, line, &s.bx, path_len, lc[0]);
+                        self.push_side(inside, line, &s.bx, path_len, lc[0], poly.clip(line, true));
                     }
                 }
                 Node::Out => used |= self.fill(s.node, &edges, &canon, index),
@@ -426,9 +527,10 @@ impl OcclusionTree {
     }
 
     /// Pushes the `side` of a split (its line `line`, canonical `canon`) for the samples of `bx` there.
-    fn push_side(&mut self, node: u32, line: Line, bx: &SampleBox, path_len: u32, canon: Line) {
+    fn push_side(&mut self, node: u32, line: Line, bx: &SampleBox, path_len: u32, canon: Line, poly: Poly) {
         let bx = line.tighten(bx);
-        if !bx.is_empty() {
+        if !bx.is_empty() && poly.n >= 3 {
+            self.polys.push(poly);
             self.stack.push(Step {
                 node,
                 bx,
