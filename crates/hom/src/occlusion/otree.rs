@@ -624,7 +624,9 @@ impl OcclusionTree {
                         continue; // no sample of the rectangle reaches this leaf
                     }
                     let far = t.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
-                    !(z > far + DEPTH_MARGIN)
+                    // Seen unless behind; a NaN depth is seen.
+                    let behind = z > far + DEPTH_MARGIN;
+                    !behind
                 }
                 Node::Split {
                     line, inside, outside, ..
