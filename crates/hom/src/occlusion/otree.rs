@@ -23,7 +23,9 @@
 //!   samples the search brings there ([`Tri::depth_bounds`]).
 //! - Triangles are inserted in submission order (the cullers submit
 //!   occluders nearest first). A triangle is filtered down the tree with the
-//!   bounding box of its samples, tightened exactly at every split; where it
+//!   bounding box of its samples, tightened exactly at every split, and its
+//!   polygon clipped in `f64` (which only steers it: rounding there can leave
+//!   the triangle out of a leaf, never put a wrong region in); where it
 //!   reaches an *out* leaf the leaf becomes the triangle's edge lines (less
 //!   those the path to the leaf already implies, so a shared edge is not
 //!   split twice) ending in an *in* leaf. An *in* leaf keeps the triangle it
