@@ -132,7 +132,7 @@ pub struct HomArgs {
     /// HOM: disable the hole-filling feedback.
     #[arg(long)]
     pub no_hole_filling: bool,
-    /// HOM, HZB, masked, HV: how much of last frame's classification the traversal
+    /// HOM, HZB, masked, otree, HV: how much of last frame's classification the traversal
     /// reuses (Bittner & Havran 2002).
     #[arg(long, value_enum)]
     pub coherence: Option<CoherenceArg>,
@@ -144,7 +144,7 @@ pub struct HomArgs {
     /// `kd` (a kD-tree with ropes) or `kd-propagate` (with visibility propagation, Bittner & Havran 2002).
     #[arg(long, value_parser = hom_walk::bench::parse_hierarchy)]
     pub hierarchy: Option<Hierarchy>,
-    /// HOM, HZB, masked: never rest, even where occlusion culling costs more than it saves
+    /// HOM, HZB, masked, otree: never rest, even where occlusion culling costs more than it saves
     /// (by default, frames are frustum culled only while it does not pay).
     #[arg(long)]
     pub no_cost_model: bool,
@@ -315,7 +315,7 @@ pub struct BenchArgs {
     /// A cut every N frames: jump a third of the path ahead, turning 180° at every other cut.
     #[arg(long)]
     pub cuts: Option<usize>,
-    /// Comma-separated traversal coherence modes to walk HOM, HZB, masked and HV with, a row each:
+    /// Comma-separated traversal coherence modes to walk HOM, HZB, masked, otree and HV with, a row each:
     /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]
     pub coherence: Vec<Coherence>,
@@ -323,7 +323,7 @@ pub struct BenchArgs {
     /// coherence modes): bvh, kd, kd-propagate (default: the BVH only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_hierarchy)]
     pub hierarchy: Vec<Hierarchy>,
-    /// HOM, HZB, masked: never rest where occlusion culling costs more than it saves.
+    /// HOM, HZB, masked, otree: never rest where occlusion culling costs more than it saves.
     #[arg(long)]
     pub no_cost_model: bool,
     /// HV: temporal priming (last frame's visible nodes drawn first).

@@ -31,7 +31,7 @@ pub struct BenchOptions {
     pub height: Option<u32>,
     /// Renderer threads (0 = one per core).
     pub threads: usize,
-    /// The traversal coherence modes to walk each of HOM, HZB and masked
+    /// The traversal coherence modes to walk each of HOM, HZB, masked and otree
     /// with, one row each; empty: their default only.
     #[serde(serialize_with = "coherence_labels")]
     pub coherence: Vec<Coherence>,
@@ -39,7 +39,7 @@ pub struct BenchOptions {
     /// each (times the coherence modes); empty: the default (BVH) only.
     #[serde(serialize_with = "hierarchy_labels")]
     pub hierarchy: Vec<Hierarchy>,
-    /// Whether HOM, HZB and masked rest while occlusion culling does not pay.
+    /// Whether HOM, HZB, masked and otree rest while occlusion culling does not pay.
     pub cost_model: bool,
     /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
     pub speed: Option<f32>,
@@ -68,7 +68,10 @@ impl Default for BenchOptions {
 }
 
 /// The cullers whose traversal takes a [`Coherence`].
-const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked", "hv"];
+const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked", "otree", "hv"];
+
+/// The cullers whose occlusion traversal takes a [`Hierarchy`] (HV has its octree).
+const HIERARCHY_CULLERS: &[&str] = &["hom", "hzb", "masked", "otree"];
 
 /// A coherence mode as `hom bench --coherence` spells it: `off`, `exact`,
 /// `skip` (adaptive p_skip) or `skip:P`.
@@ -338,11 +341,12 @@ pub fn run_bench(
                 } else {
                     options.coherence.iter().copied().map(Some).collect()
                 };
-                let hierarchies: Vec<Option<Hierarchy>> = if options.hierarchy.is_empty() || !takes {
-                    vec![None]
-                } else {
-                    options.hierarchy.iter().copied().map(Some).collect()
-                };
+                let hierarchies: Vec<Option<Hierarchy>> =
+                    if options.hierarchy.is_empty() || !HIERARCHY_CULLERS.contains(&name) {
+                        vec![None]
+                    } else {
+                        options.hierarchy.iter().copied().map(Some).collect()
+                    };
                 hierarchies.into_iter().flat_map(move |hierarchy| {
                     modes
                         .clone()

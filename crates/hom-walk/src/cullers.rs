@@ -2,7 +2,8 @@
 //! every caller builds cullers with.
 
 use hom::cull::{
-    Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller, ZDepth,
+    Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller, OtreeConfig,
+    OtreeCuller, ZDepth,
 };
 use hom::scene::Scene;
 
@@ -18,6 +19,10 @@ pub const CULLERS: &[(&str, &str)] = &[
     (
         "masked",
         "masked occlusion culling (Hasselgren et al. 2016): HOM's occluders as coverage masks and two depth layers per tile, conservative",
+    ),
+    (
+        "otree",
+        "occlusion trees (Bittner et al. 1998): HOM's occluders' shadow frusta merged into a BSP tree, conservative",
     ),
     (
         "hv",
@@ -69,6 +74,7 @@ pub fn make(name: &str, scene: &Scene, settings: &CullerSettings) -> Result<Box<
                 ..HzbConfig::from_hom(&settings.hom)
             },
         )),
+        "otree" => Box::new(OtreeCuller::new(scene, OtreeConfig::from_hom(&settings.hom))),
         "hv" => Box::new(HvCuller::new(scene, settings.hv.clone())),
         _ => return Err(UnknownCuller { name: name.to_string() }),
     })
@@ -94,7 +100,7 @@ mod tests {
         assert_eq!(err.name, "magic");
         assert_eq!(
             err.to_string(),
-            "unknown culler 'magic'; available: none, frustum, hom, hzb, masked, hv"
+            "unknown culler 'magic'; available: none, frustum, hom, hzb, masked, otree, hv"
         );
     }
 }

@@ -1,5 +1,5 @@
 //! The front door (`hom::occlusion`) as an engine meets it, written only
-//! against its contract: random occluders in `HzBuffer`, `HomBuffer` and `MaskedBuffer`
+//! against its contract: random occluders in `HzBuffer`, `HomBuffer`, `MaskedBuffer` and `OcclusionTree`
 //! under every clip convention, perspective and orthographic, every
 //! `Occluded` answer checked by brute-force ray casting (no ray from the eye
 //! through a sample may reach a box called occluded, and a fair share of the
@@ -12,7 +12,7 @@ use hom::glam::camera::rh::view::look_at_mat4;
 use hom::glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use hom::occlusion::{
     BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, OcclusionError,
-    Visibility,
+    OcclusionTree, Visibility,
 };
 use hom_testkit::Rng;
 use proptest::prelude::*;
@@ -235,8 +235,10 @@ fn check_against_rays(seed: u64, ortho: bool, clip: ClipConvention) -> (usize, u
     let a = answers(&mut hz, &w, &vp);
     let b = answers(&mut hom, &w, &vp);
     let c = answers(&mut masked, &w, &vp);
+    let mut tree = OcclusionTree::new(cam.width, cam.height, options(clip)).unwrap();
+    let d = answers(&mut tree, &w, &vp);
     for (k, &(reached, seen_anywhere)) in truth.iter().enumerate() {
-        for v in [a[k], b[k], c[k]] {
+        for v in [a[k], b[k], c[k], d[k]] {
             if v == Visibility::Occluded && reached {
                 wrong += 1;
                 eprintln!(
@@ -417,12 +419,18 @@ proptest! {
             let mut hz = HzBuffer::new(w, h, options(clip)).unwrap();
             let mut hom = HomBuffer::new(w, h, options(clip)).unwrap();
             let mut masked = MaskedBuffer::new(w, h, options(clip)).unwrap();
+            let mut tree = OcclusionTree::new(w, h, options(clip)).unwrap();
             let got = (
                 rect_answers(&mut hz, clip, seed),
                 rect_answers(&mut hom, clip, seed),
                 box_answers(&mut hz, clip, seed),
                 box_answers(&mut hom, clip, seed),
-                [rect_answers(&mut masked, clip, seed), box_answers(&mut masked, clip, seed)],
+                [
+                    rect_answers(&mut masked, clip, seed),
+                    box_answers(&mut masked, clip, seed),
+                    rect_answers(&mut tree, clip, seed),
+                    box_answers(&mut tree, clip, seed),
+                ],
             );
             match &want {
                 None => want = Some(got),

@@ -15,6 +15,7 @@ mod hv;
 mod hzb;
 mod kd_traversal;
 mod model_db;
+mod otree;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
@@ -25,6 +26,7 @@ pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};
 pub use kd_traversal::{Hierarchy, DFS_BUDGET, P_VP};
+pub use otree::{OtreeConfig, OtreeCuller};
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;

@@ -60,6 +60,10 @@
 //!   2016) — per 32×8 tile a coverage mask and two conservative depth
 //!   layers: far less work per occluder, fewer hidden boxes found where small
 //!   occluders at mixed depths share a tile.
+//! - [`OcclusionTree`]: occlusion trees (Bittner, Havran and Slavík 1998) —
+//!   the occluders' shadow frusta merged into a BSP tree of the image plane
+//!   (their projected edges) with *in* and *out* leaves, tested by a
+//!   constrained depth-first search: object space, no image to clear.
 //!
 //! Triangles are queued by `render_*` and set up and drawn, in parallel on
 //! the current rayon pool, at the first test after them (or at
@@ -68,10 +72,12 @@
 mod hom;
 mod hzb;
 mod masked;
+mod otree;
 
 pub use self::hom::{DepthMode, HomBuffer, MapOptions, Opacity};
 pub use self::hzb::HzBuffer;
 pub use self::masked::MaskedBuffer;
+pub use self::otree::{OcclusionTree, TreeStats, DEFAULT_NODE_CAP};
 pub use crate::geom::ClipConvention;
 pub use crate::raster::setup::FaceCull;
 

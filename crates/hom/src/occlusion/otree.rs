@@ -1,0 +1,1000 @@
+//! [`OcclusionTree`]: hierarchical visibility culling with occlusion trees
+//! (Bittner, Havran and Slavík, "Hierarchical visibility culling with
+//! occlusion trees", CGI 1998; summarised in Bittner and Havran 2002,
+//! "The Node Visibility Test") as an occlusion buffer.
+//!
+//! The paper merges the selected occluders' shadow frusta — the volumes
+//! bounded by the occluder and the planes through the eye and its edges —
+//! into a BSP tree whose leaves are *in* (occluded) or *out* (unoccluded), and
+//! decides a node of the scene hierarchy by a constrained depth-first search
+//! of the tree. Every shadow plane passes through the eye, so after the
+//! perspective projection it is a line of the image plane: the same tree is a
+//! 2D BSP of the image whose splitting lines are the occluder triangles'
+//! projected edges, and a shadow volume's far side is the occluder's depth
+//! plane. That is what is built here, after projection, so the tree shares
+//! hom's setup and sampling with the rasterizers and the oracle:
+//!
+//! - A splitting line is a set-up triangle's edge function ([`Tri`]): fixed
+//!   point, exact, the fill rule folded in, "inside" where it is `>= 0` at a
+//!   sample. Sides of a line are decided per sample in integer arithmetic,
+//!   so an edge shared by two triangles leaves no crack and needs no epsilon.
+//! - An *in* leaf names the occluder triangle that covers its region: its
+//!   depth plane (hom's one depth formula, [`Tri::depth_at`]) bounded over the
+//!   samples the search brings there ([`Tri::depth_bounds`]).
+//! - Triangles are inserted in submission order (the cullers submit
+//!   occluders nearest first). A triangle is filtered down the tree with the
+//!   bounding box of its samples, tightened exactly at every split, and its
+//!   polygon clipped in `f64` (which only steers it: rounding there can leave
+//!   the triangle out of a leaf, never put a wrong region in); where it
+//!   reaches an *out* leaf the leaf becomes the triangle's edge lines (less
+//!   those the path to the leaf already implies, so a shared edge is not
+//!   split twice) ending in an *in* leaf. An *in* leaf keeps the triangle it
+//!   has: the first cover, valid over its whole region (the conservative
+//!   rule; a nearer later triangle is not merged in).
+//! - The node test pushes the box's rectangle of samples down the tree,
+//!   again as an exactly tightened bounding box: an *out* leaf reached means
+//!   visible (the search stops); an *in* leaf is hidden when the rectangle's
+//!   nearest depth lies beyond the triangle's farthest depth over the
+//!   samples that reach it by [`crate::depth::DEPTH_MARGIN`]. A rectangle
+//!   hidden in every leaf it reaches is occluded. Tests are counted as the
+//!   paper classifies them ([`TreeStats`]): *invisible*, *partially visible*
+//!   (some leaf reached was hidden before the search met one that is not)
+//!   and *visible*.
+//!
+//! Conservative by construction: a leaf's region holds only samples its
+//! triangle covers, and the bounding boxes only ever hold more samples than
+//! the region, so a rectangle is occluded only when every one of its samples
+//! lies behind an occluder sample the renderer draws. The boxes may reach
+//! leaves the rectangle's samples do not (a box is not the region): that
+//! costs culling, never correctness.
+//!
+//! The tree's size is capped ([`OcclusionTree::with_node_cap`]); a triangle
+//! that would grow it beyond the cap is left out where it does not fit
+//! (fewer occluders: conservative), so hostile input costs bounded memory.
+//! Near-plane clipping, face culling, non-finite vertices and triangles that
+//! cover no sample are the setup's ([`crate::raster::setup`]), as for the
+//! other buffers.
+
+use super::{occlusion_buffer, BufferOptions, Front, OcclusionError};
+use crate::depth::DEPTH_MARGIN;
+use crate::geom::ScreenRect;
+use crate::raster::setup::{Tri, HALF, ONE};
+
+/// Default most nodes of a tree: 2^16 (about 2.5 MiB).
+pub const DEFAULT_NODE_CAP: usize = 1 << 16;
+
+/// What an [`OcclusionTree`] holds and what its tests found, since its last clear.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TreeStats {
+    /// Nodes of the tree (splitting lines and leaves).
+    pub nodes: u64,
+    /// Of those, *in* leaves.
+    pub in_leaves: u64,
+    /// Triangles inserted (after setup).
+    pub triangles_inserted: u64,
+    /// *Out* leaves a triangle reached but was not put in because the tree was full.
+    pub leaves_dropped: u64,
+    /// Rectangle tests that reached an unhidden leaf before any hidden one.
+    pub visible: u64,
+    /// Rectangle tests that reached a hidden leaf, then an unhidden one.
+    pub partial: u64,
+    /// Rectangle tests hidden in every leaf they reached (occluded).
+    pub invisible: u64,
+}
+
+/// An edge function `a·X + b·Y + c` over fixed-point sample positions
+/// (`X = x·ONE + HALF`): the sample is on the line's inner side iff `>= 0`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Line {
+    a: i64,
+    b: i64,
+    c: i64,
+}
+
+impl Line {
+    /// The other side: `E < 0` iff `−E − 1 >= 0` (edge values are integers).
+    fn complement(self) -> Line {
+        Line {
+            a: -self.a,
+            b: -self.b,
+            c: -self.c - 1,
+        }
+    }
+
+    /// The same set of integer points with `gcd(a, b) = 1`: `a·X + b·Y` is a
+    /// multiple of `g`, so `E >= 0` iff `(a/g)·X + (b/g)·Y + floor(c/g) >= 0`.
+    fn canonical(self) -> Line {
+        let g = gcd(self.a.unsigned_abs(), self.b.unsigned_abs()) as i64;
+        if g <= 1 {
+            return self;
+        }
+        Line {
+            a: self.a / g,
+            b: self.b / g,
+            c: self.c.div_euclid(g),
+        }
+    }
+
+    /// Whether every integer point inside `self` (canonical) is inside `e` (canonical).
+    fn implies(self, e: Line) -> bool {
+        self.a == e.a && self.b == e.b && e.c >= self.c
+    }
+
+    /// Whether no integer point is inside both `self` and `e` (both canonical).
+    fn excludes(self, e: Line) -> bool {
+        // a·P <= c_self... : inside self is aX+bY >= −c; inside e (= −a, −b) is aX+bY <= c_e.
+        self.a == -e.a && self.b == -e.b && e.c < -self.c
+    }
+
+    /// The smallest and largest edge value over the samples of `bx` (not empty).
+    #[inline]
+    fn range(self, bx: &SampleBox) -> (i64, i64) {
+        let base = self.a * sample(bx.x0) + self.b * sample(bx.y0) + self.c;
+        let dx = self.a * ONE * i64::from(bx.x1 - 1 - bx.x0);
+        let dy = self.b * ONE * i64::from(bx.y1 - 1 - bx.y0);
+        (base + dx.min(0) + dy.min(0), base + dx.max(0) + dy.max(0))
+    }
+
+    /// The bounding box of the samples of `bx` inside the line (exact;
+    /// empty when there are none).
+    fn tighten(self, bx: &SampleBox) -> SampleBox {
+        let mut t = *bx;
+        // Columns: the best row for each column, then a·X >= −(b·Y + c).
+        let y_best = if self.b >= 0 { bx.y1 - 1 } else { bx.y0 };
+        let k = self.b * sample(y_best) + self.c;
+        if self.a > 0 {
+            t.x0 = t.x0.max(first_index(-k, self.a));
+        } else if self.a < 0 {
+            t.x1 = t.x1.min(end_index(k, -self.a));
+        } else if k < 0 {
+            t.x1 = t.x0;
+        }
+        let x_best = if self.a >= 0 { bx.x1 - 1 } else { bx.x0 };
+        let k = self.a * sample(x_best) + self.c;
+        if self.b > 0 {
+            t.y0 = t.y0.max(first_index(-k, self.b));
+        } else if self.b < 0 {
+            t.y1 = t.y1.min(end_index(k, -self.b));
+        } else if k < 0 {
+            t.y1 = t.y0;
+        }
+        t
+    }
+}
+
+/// The fixed-point position of sample (pixel centre) `i`.
+#[inline]
+fn sample(i: u32) -> i64 {
+    i64::from(i) * ONE + HALF
+}
+
+/// The first index `i` with `q · sample(i) >= p` (`q > 0`), clamped to `0..=u32::MAX`.
+fn first_index(p: i64, q: i64) -> u32 {
+    // sample(i) >= ceil(p / q)  <=>  i >= ceil((ceil(p / q) − HALF) / ONE).
+    let s = -((-p).div_euclid(q));
+    let i = -((HALF - s).div_euclid(ONE));
+    i.clamp(0, i64::from(u32::MAX)) as u32
+}
+
+/// One past the last index `i` with `q · sample(i) <= p` (`q > 0`), clamped.
+fn end_index(p: i64, q: i64) -> u32 {
+    let s = p.div_euclid(q);
+    let i = (s - HALF).div_euclid(ONE) + 1;
+    i.clamp(0, i64::from(u32::MAX)) as u32
+}
+
+fn gcd(mut a: u64, mut b: u64) -> u64 {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// Samples `x0..x1` × `y0..y1` (half-open).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct SampleBox {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl SampleBox {
+    fn is_empty(&self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
+    fn of_tri(t: &Tri) -> SampleBox {
+        SampleBox {
+            x0: u32::from(t.x0),
+            y0: u32::from(t.y0),
+            x1: u32::from(t.x1),
+            y1: u32::from(t.y1),
+        }
+    }
+
+    fn meet(&self, o: &SampleBox) -> SampleBox {
+        SampleBox {
+            x0: self.x0.max(o.x0),
+            y0: self.y0.max(o.y0),
+            x1: self.x1.min(o.x1),
+            y1: self.y1.min(o.y1),
+        }
+    }
+}
+
+/// A node of the tree.
+#[derive(Clone, Copy, Debug)]
+enum Node {
+    /// Unoccluded.
+    Out,
+    /// Covered by triangle `.0` of [`OcclusionTree::tris`].
+    In(u32),
+    /// Split by `line`: `inside` where it is `>= 0`, `outside` elsewhere.
+    Split {
+        line: Line,
+        /// `line.canonical()`, and of its complement: the path constraints.
+        canon: [Line; 2],
+        inside: u32,
+        outside: u32,
+    },
+}
+
+/// A step of a search: a node, the box of samples that reaches it, and the
+/// path constraint taken to it (`path_len` entries of the path stay below it).
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    node: u32,
+    bx: SampleBox,
+    path_len: u32,
+    constraint: Option<Line>,
+}
+
+/// Most vertices a clipped polygon keeps; beyond, its bounding box stands in.
+const POLY_MAX: usize = 12;
+
+/// A convex polygon in fixed-point sample units (`f64`): where an inserted
+/// triangle still is. It only steers the insertion (which leaves a triangle
+/// goes into); the leaves' regions are the exact lines, so its rounding can
+/// at worst leave a triangle out of a leaf (less occlusion, never wrong).
+#[derive(Clone, Copy, Debug)]
+struct Poly {
+    v: [[f64; 2]; POLY_MAX],
+    n: usize,
+}
+
+impl Poly {
+    /// The triangle's corners: the crossings of consecutive edge lines.
+    fn of_tri(t: &Tri) -> Poly {
+        let mut p = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 0,
+        };
+        for i in 0..3 {
+            let j = (i + 2) % 3;
+            let (a1, b1, c1) = (t.a[j] as f64, t.b[j] as f64, t.c[j] as f64);
+            let (a2, b2, c2) = (t.a[i] as f64, t.b[i] as f64, t.c[i] as f64);
+            let det = a1 * b2 - a2 * b1;
+            if det == 0.0 || !det.is_finite() {
+                continue;
+            }
+            p.v[p.n] = [(b1 * c2 - b2 * c1) / det, (a2 * c1 - a1 * c2) / det];
+            p.n += 1;
+        }
+        p
+    }
+
+    /// The part where `line`'s value is `>= -0.5` (`inside`) or `<= -0.5`:
+    /// every sample of the side keeps a margin of half a unit.
+    fn clip(&self, line: Line, inside: bool) -> Poly {
+        let (a, b, c) = (line.a as f64, line.b as f64, line.c as f64 + 0.5);
+        let sign = if inside { 1.0 } else { -1.0 };
+        let d = |p: [f64; 2]| sign * (a * p[0] + b * p[1] + c);
+        let mut out = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 0,
+        };
+        let mut over = false;
+        let mut push = |q: [f64; 2], out: &mut Poly| {
+            if out.n == POLY_MAX {
+                over = true;
+            } else {
+                out.v[out.n] = q;
+                out.n += 1;
+            }
+        };
+        for i in 0..self.n {
+            let (p, q) = (self.v[i], self.v[(i + 1) % self.n]);
+            let (dp, dq) = (d(p), d(q));
+            if dp >= 0.0 {
+                push(p, &mut out);
+            }
+            if (dp >= 0.0) != (dq >= 0.0) {
+                let t = dp / (dp - dq);
+                push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t], &mut out);
+            }
+        }
+        if over {
+            // Too many corners: the bounding box of this polygon stands in (larger).
+            return self.bounds();
+        }
+        out
+    }
+
+    fn bounds(&self) -> Poly {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for p in &self.v[..self.n] {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let mut b = Poly {
+            v: [[0.0; 2]; POLY_MAX],
+            n: 4,
+        };
+        b.v[..4].copy_from_slice(&[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]]);
+        b
+    }
+}
+
+/// The occlusion-tree occlusion buffer; see the [module docs](self).
+#[derive(Clone, Debug)]
+pub struct OcclusionTree {
+    front: Front,
+    nodes: Vec<Node>,
+    /// The triangles the *in* leaves name.
+    tris: Vec<Tri>,
+    node_cap: usize,
+    tree: TreeStats,
+    /// Cleared since the last draw.
+    cleared: bool,
+    /// Scratch for the searches.
+    stack: Vec<Step>,
+    /// The insertion's polygons, one per step on `stack`.
+    polys: Vec<Poly>,
+    path: Vec<Line>,
+}
+
+impl OcclusionTree {
+    /// An empty tree for a `width` × `height` image (each side 1..=16384),
+    /// holding at most [`DEFAULT_NODE_CAP`] nodes.
+    pub fn new(width: u32, height: u32, options: BufferOptions) -> Result<OcclusionTree, OcclusionError> {
+        Ok(OcclusionTree {
+            front: Front::new(width, height, options)?,
+            nodes: vec![Node::Out],
+            tris: Vec::new(),
+            node_cap: DEFAULT_NODE_CAP,
+            tree: TreeStats {
+                nodes: 1,
+                ..TreeStats::default()
+            },
+            cleared: false,
+            stack: Vec::new(),
+            polys: Vec::new(),
+            path: Vec::new(),
+        })
+    }
+
+    /// The same with at most `cap` nodes (at least 1): beyond it, triangles are
+    /// left out where they do not fit.
+    pub fn with_node_cap(mut self, cap: usize) -> OcclusionTree {
+        self.node_cap = cap.max(1);
+        self
+    }
+
+    /// The tree's size and its tests' classes since the last clear (draws what is queued first).
+    pub fn tree_stats(&mut self) -> TreeStats {
+        <Self as super::OcclusionBuffer>::flush(self);
+        self.tree
+    }
+
+    /// [`OcclusionTree::tree_stats`] as it stands, without drawing what is queued.
+    pub(crate) fn last_tree_stats(&self) -> TreeStats {
+        self.tree
+    }
+
+    /// Checks the tree's structure: every child index in range, each node
+    /// reached once from the root, every *in* leaf naming a stored triangle,
+    /// and the counts in [`TreeStats`] right.
+    ///
+    /// # Panics
+    /// When one of these fails.
+    pub fn assert_well_formed(&mut self) {
+        <Self as super::OcclusionBuffer>::flush(self);
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![0u32];
+        let mut in_leaves = 0;
+        while let Some(n) = stack.pop() {
+            assert!(!seen[n as usize], "node {n} reached twice");
+            seen[n as usize] = true;
+            match self.nodes[n as usize] {
+                Node::Out => {}
+                Node::In(t) => {
+                    assert!((t as usize) < self.tris.len(), "leaf {n} names triangle {t}");
+                    in_leaves += 1;
+                }
+                Node::Split {
+                    line,
+                    canon,
+                    inside,
+                    outside,
+                } => {
+                    assert!(line.a != 0 || line.b != 0, "node {n}: degenerate line");
+                    assert_eq!(canon, [line.canonical(), line.complement().canonical()]);
+                    stack.extend([inside, outside]);
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "unreachable nodes");
+        assert_eq!(self.tree.nodes, self.nodes.len() as u64);
+        assert_eq!(self.tree.in_leaves, in_leaves);
+        assert!(self.nodes.len() <= self.node_cap.max(1));
+    }
+
+    /// Empties the tree lazily (the first draw or settle does it).
+    fn reset(&mut self) {
+        self.cleared = true;
+    }
+
+    /// After a flush: a tree cleared and not drawn since is emptied.
+    #[inline]
+    fn settle(&mut self) {
+        if self.cleared {
+            self.empty();
+        }
+    }
+
+    fn empty(&mut self) {
+        self.nodes.clear();
+        self.nodes.push(Node::Out);
+        self.tris.clear();
+        self.tree = TreeStats {
+            nodes: 1,
+            ..TreeStats::default()
+        };
+        self.cleared = false;
+    }
+
+    fn draw(&mut self) {
+        if self.cleared {
+            self.empty();
+        }
+        let tris = std::mem::take(&mut self.front.tris);
+        for t in &tris {
+            self.insert(t);
+        }
+        self.front.tris = tris;
+    }
+
+    /// Filters `t` down the tree; see the module docs.
+    fn insert(&mut self, t: &Tri) {
+        let edges: [Line; 3] = std::array::from_fn(|i| Line {
+            a: t.a[i],
+            b: t.b[i],
+            c: t.c[i],
+        });
+        let canon = edges.map(Line::canonical);
+        let index = self.tris.len() as u32;
+        let mut used = false;
+        self.stack.clear();
+        self.polys.clear();
+        self.path.clear();
+        self.stack.push(Step {
+            node: 0,
+            bx: SampleBox::of_tri(t),
+            path_len: 0,
+            constraint: None,
+        });
+        self.polys.push(Poly::of_tri(t));
+        while let Some(s) = self.stack.pop() {
+            let poly = self.polys.pop().expect("one polygon per step");
+            self.path.truncate(s.path_len as usize);
+            self.path.extend(s.constraint);
+            // No sample of the triangle in the box: nothing to insert here.
+            if edges.iter().any(|e| e.range(&s.bx).1 < 0) {
+                continue;
+            }
+            match self.nodes[s.node as usize] {
+                Node::In(_) => {} // the first cover stays
+                Node::Split {
+                    line,
+                    canon: lc,
+                    inside,
+                    outside,
+                } => {
+                    let path_len = self.path.len() as u32;
+                    let (lo, hi) = line.range(&s.bx);
+                    if lo < 0 {
+                        self.push_side(
+                            outside,
+                            line.complement(),
+                            &s.bx,
+                            path_len,
+                            lc[1],
+                            poly.clip(line, false),
+                        );
+                    }
+                    if hi >= 0 {
+                        self.push_side(inside, line, &s.bx, path_len, lc[0], poly.clip(line, true));
+                    }
+                }
+                Node::Out => used |= self.fill(s.node, &edges, &canon, index),
+            }
+        }
+        if used {
+            self.tris.push(*t);
+            self.tree.triangles_inserted += 1;
+        }
+    }
+
+    /// Pushes the `side` of a split (its line `line`, canonical `canon`) for the samples of `bx` there.
+    fn push_side(&mut self, node: u32, line: Line, bx: &SampleBox, path_len: u32, canon: Line, poly: Poly) {
+        let bx = line.tighten(bx);
+        if !bx.is_empty() && poly.n >= 3 {
+            self.polys.push(poly);
+            self.stack.push(Step {
+                node,
+                bx,
+                path_len,
+                constraint: Some(canon),
+            });
+        }
+    }
+
+    /// Replaces *out* leaf `leaf` (reached along `self.path`) by the triangle's edges ending in an *in* leaf naming
+    /// triangle `index`. False when the triangle has no sample there or the
+    /// tree has no room.
+    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], index: u32) -> bool {
+        let mut keep = [false; 3];
+        // Only the path may make an edge redundant: the leaf's region is the
+        // path's samples, the box only bounds them (an edge the whole box is
+        // inside may still cut the region elsewhere).
+        for i in 0..3 {
+            if self.path.iter().any(|p| p.excludes(canon[i])) {
+                return false; // the leaf's region and the triangle share no sample
+            }
+            keep[i] = !self.path.iter().any(|p| p.implies(canon[i]));
+        }
+        let splits = keep.iter().filter(|&&k| k).count();
+        if self.nodes.len() + 2 * splits > self.node_cap {
+            self.tree.leaves_dropped += 1;
+            return false;
+        }
+        // The chain: each kept edge's outside is a new out leaf, its inside the
+        // next edge; the last inside is the in leaf. `leaf` becomes the first.
+        let mut at = leaf;
+        for i in (0..3).filter(|&i| keep[i]) {
+            let (inside, outside) = (self.nodes.len() as u32, self.nodes.len() as u32 + 1);
+            self.nodes.push(Node::Out);
+            self.nodes.push(Node::Out);
+            self.nodes[at as usize] = Node::Split {
+                line: edges[i],
+                canon: [canon[i], edges[i].complement().canonical()],
+                inside,
+                outside,
+            };
+            at = inside;
+        }
+        self.nodes[at as usize] = Node::In(index);
+        self.tree.nodes = self.nodes.len() as u64;
+        self.tree.in_leaves += 1;
+        true
+    }
+
+    /// The constrained depth-first search of the module docs: whether every
+    /// sample of `r` is hidden.
+    fn is_behind(&mut self, r: &ScreenRect) -> bool {
+        let (w, h) = (self.front.width, self.front.height);
+        let bx = SampleBox {
+            x0: r.x0,
+            y0: r.y0,
+            x1: r.x1.min(w),
+            y1: r.y1.min(h),
+        };
+        if bx.is_empty() {
+            return true;
+        }
+        let z = r.z_near;
+        let mut hidden_some = false;
+        self.stack.clear();
+        self.stack.push(Step {
+            node: 0,
+            bx,
+            path_len: 0,
+            constraint: None,
+        });
+        while let Some(s) = self.stack.pop() {
+            let seen = match self.nodes[s.node as usize] {
+                Node::Out => true,
+                Node::In(t) => {
+                    let t = &self.tris[t as usize];
+                    // The leaf's samples are the triangle's: tighten to them.
+                    let mut b = s.bx.meet(&SampleBox::of_tri(t));
+                    for i in 0..3 {
+                        if b.is_empty() {
+                            break;
+                        }
+                        b = Line {
+                            a: t.a[i],
+                            b: t.b[i],
+                            c: t.c[i],
+                        }
+                        .tighten(&b);
+                    }
+                    if b.is_empty() {
+                        continue; // no sample of the rectangle reaches this leaf
+                    }
+                    let far = t.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
+                    // Seen unless behind; a NaN depth is seen.
+                    let behind = z > far + DEPTH_MARGIN;
+                    !behind
+                }
+                Node::Split {
+                    line, inside, outside, ..
+                } => {
+                    let (lo, hi) = line.range(&s.bx);
+                    // The outside first on the stack's top: out leaves end the search.
+                    for (go, l, child) in [(hi >= 0, line, inside), (lo < 0, line.complement(), outside)] {
+                        if go {
+                            let bx = l.tighten(&s.bx);
+                            if !bx.is_empty() {
+                                self.stack.push(Step {
+                                    node: child,
+                                    bx,
+                                    path_len: 0,
+                                    constraint: None,
+                                });
+                            }
+                        }
+                    }
+                    continue;
+                }
+            };
+            if seen {
+                if hidden_some {
+                    self.tree.partial += 1;
+                } else {
+                    self.tree.visible += 1;
+                }
+                return false;
+            }
+            hidden_some = true;
+        }
+        self.tree.invisible += 1;
+        true
+    }
+}
+
+occlusion_buffer!(OcclusionTree);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::occlusion::{FaceCull, OcclusionBuffer, Sampling, Visibility};
+    use glam::{Mat4, Vec2, Vec3, Vec4};
+
+    fn exact() -> BufferOptions {
+        BufferOptions {
+            sampling: Sampling::Exact,
+            ..BufferOptions::default()
+        }
+    }
+
+    fn view_proj() -> Mat4 {
+        crate::geom::Camera::new(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::Y, 1.0, 0.1, 100.0, 64, 64).view_proj()
+    }
+
+    fn quad(x0: f32, y0: f32, x1: f32, y1: f32, z: f32) -> [Vec3; 4] {
+        [
+            Vec3::new(x0, y0, z),
+            Vec3::new(x1, y0, z),
+            Vec3::new(x1, y1, z),
+            Vec3::new(x0, y1, z),
+        ]
+    }
+
+    fn tree_with(quads: &[[Vec3; 4]]) -> OcclusionTree {
+        let mut t = OcclusionTree::new(64, 64, exact()).unwrap();
+        for q in quads {
+            t.render_triangles(q, &[[0, 1, 2], [0, 2, 3]], &view_proj(), FaceCull::None)
+                .unwrap();
+        }
+        t.assert_well_formed();
+        t
+    }
+
+    fn cube(centre: Vec3, half: f32) -> crate::geom::Aabb {
+        crate::geom::Aabb::new(centre - Vec3::splat(half), centre + Vec3::splat(half))
+    }
+
+    #[test]
+    fn a_quad_over_the_screen_hides_what_is_behind_it_not_what_is_in_front() {
+        let mut t = tree_with(&[quad(-50.0, -50.0, 50.0, 50.0, 0.0)]);
+        let vp = view_proj();
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -5.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(1.0, 1.0, 3.0), 1.0), &vp),
+            Visibility::Visible
+        );
+        // Touching the quad's plane is not behind it.
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -1.0), 1.0), &vp),
+            Visibility::Visible
+        );
+        let s = t.tree_stats();
+        assert_eq!((s.invisible, s.triangles_inserted), (1, 2));
+        assert!(s.visible + s.partial == 2);
+    }
+
+    #[test]
+    fn two_triangles_sharing_an_edge_leave_no_crack() {
+        // The quad's diagonal runs through the middle of the box's rectangle.
+        let mut t = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
+        let vp = view_proj();
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        // Both triangles' in leaves were reached.
+        let mut one = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
+        assert!(one.tree_stats().in_leaves >= 2);
+        // A strip of four quads (eight triangles) hides a box behind its middle.
+        let strip: Vec<[Vec3; 4]> = (0..4)
+            .map(|i| quad(-4.0 + 2.0 * i as f32, -2.0, -2.0 + 2.0 * i as f32, 2.0, 0.0))
+            .collect();
+        let mut t = tree_with(&strip);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+    }
+
+    #[test]
+    fn a_box_peeking_past_an_edge_is_visible() {
+        let mut t = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
+        let vp = view_proj();
+        // Behind, but wider than the quad to the right.
+        let b = crate::geom::Aabb::new(Vec3::new(-1.0, -1.0, -5.0), Vec3::new(4.5, 1.0, -4.0));
+        assert_eq!(t.test_aabb(&b, &vp), Visibility::Visible);
+        // Just inside: hidden.
+        let b = crate::geom::Aabb::new(Vec3::new(-1.0, -1.0, -5.0), Vec3::new(2.0, 1.0, -4.0));
+        assert_eq!(t.test_aabb(&b, &vp), Visibility::Occluded);
+        // A rectangle test reaching one pixel column past the quad's right edge.
+        let edge = vp.project_point3(Vec3::new(3.0, 0.0, 0.0)).x;
+        let z = vp.project_point3(Vec3::new(0.0, 0.0, -4.0)).z;
+        assert_eq!(
+            t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge + 2.0 / 64.0, 0.1), z),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_rect(Vec2::new(0.0, -0.1), Vec2::new(edge - 2.0 / 64.0, 0.1), z),
+            Visibility::Occluded
+        );
+    }
+
+    #[test]
+    fn occluders_through_the_near_plane_and_nan_vertices_stay_conservative() {
+        let vp = view_proj();
+        let mut t = OcclusionTree::new(64, 64, exact()).unwrap();
+        // A floor from behind the eye to far in front, a triangle with a NaN vertex.
+        let floor = [
+            Vec3::new(-20.0, -1.0, 30.0),
+            Vec3::new(20.0, -1.0, 30.0),
+            Vec3::new(20.0, -1.0, -50.0),
+            Vec3::new(-20.0, -1.0, -50.0),
+        ];
+        t.render_triangles(&floor, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None)
+            .unwrap();
+        let nan = [
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(50.0, -50.0, 0.0),
+            Vec3::new(50.0, 50.0, 0.0),
+        ];
+        t.render_triangles(&nan, &[[0, 1, 2]], &vp, FaceCull::None).unwrap();
+        t.render_clip_triangles(
+            &[
+                Vec4::new(0.0, 0.0, 0.5, 1.0),
+                Vec4::new(f32::NAN, 1.0, 0.5, 1.0),
+                Vec4::new(1.0, 1.0, 0.5, 1.0),
+            ],
+            &[[0, 1, 2]],
+            FaceCull::None,
+        )
+        .unwrap();
+        t.assert_well_formed();
+        // The floor: inserted (clipped), the NaN triangles not.
+        assert!(t.tree_stats().triangles_inserted >= 2);
+        // Above the floor: visible; below it: hidden; a box around the eye: visible.
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.5, -5.0), 0.5), &vp),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, -3.0, -5.0), 0.5), &vp),
+            Visibility::Occluded
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, 10.0), 1.0), &vp),
+            Visibility::Visible
+        );
+        // Nothing occludes where the NaN triangle would have been.
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(2.0, 0.5, -5.0), 0.5), &vp),
+            Visibility::Visible
+        );
+    }
+
+    #[test]
+    fn face_culling_drops_the_named_winding() {
+        let vp = view_proj();
+        let q = quad(-3.0, -3.0, 3.0, 3.0, 0.0);
+        let behind = cube(Vec3::new(0.0, 0.0, -4.0), 1.0);
+        for (cull, hidden) in [(FaceCull::CounterClockwise, false), (FaceCull::Clockwise, true)] {
+            let mut t = OcclusionTree::new(64, 64, exact()).unwrap();
+            t.render_triangles(&q, &[[0, 1, 2], [0, 2, 3]], &vp, cull).unwrap();
+            assert_eq!(t.test_aabb(&behind, &vp) == Visibility::Occluded, hidden, "{cull:?}");
+        }
+    }
+
+    #[test]
+    fn a_full_tree_drops_occluders_and_stays_conservative() {
+        let vp = view_proj();
+        let quads: Vec<[Vec3; 4]> = (0..8)
+            .map(|i| quad(-4.0 + i as f32, -4.0, -3.0 + i as f32, 4.0, 0.0))
+            .collect();
+        let mut t = OcclusionTree::new(64, 64, exact()).unwrap().with_node_cap(12);
+        for q in &quads {
+            t.render_triangles(q, &[[0, 1, 2], [0, 2, 3]], &vp, FaceCull::None)
+                .unwrap();
+        }
+        t.assert_well_formed();
+        let s = t.tree_stats();
+        assert!(s.leaves_dropped > 0 && s.nodes <= 12, "{s:?}");
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp),
+            Visibility::Visible
+        );
+        // Without the cap the same box is hidden.
+        let mut t = tree_with(&quads);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -4.0), 2.0), &vp),
+            Visibility::Occluded
+        );
+    }
+
+    #[test]
+    fn clear_empties_the_tree() {
+        let vp = view_proj();
+        let mut t = tree_with(&[quad(-50.0, -50.0, 50.0, 50.0, 0.0)]);
+        let behind = cube(Vec3::new(0.0, 0.0, -5.0), 1.0);
+        assert_eq!(t.test_aabb(&behind, &vp), Visibility::Occluded);
+        t.clear();
+        assert_eq!(t.test_aabb(&behind, &vp), Visibility::Visible);
+        t.assert_well_formed();
+        assert_eq!(t.tree_stats().nodes, 1);
+    }
+
+    #[test]
+    fn tighten_is_the_bounding_box_of_the_inside_samples() {
+        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |m: i64| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % (2 * m as u64 + 1)) as i64 - m
+        };
+        for _ in 0..2000 {
+            let l = Line {
+                a: next(600),
+                b: next(600),
+                c: next(600 * 20 * ONE),
+            };
+            let x0 = next(10).unsigned_abs() as u32;
+            let y0 = next(10).unsigned_abs() as u32;
+            let bx = SampleBox {
+                x0,
+                y0,
+                x1: x0 + 1 + next(8).unsigned_abs() as u32,
+                y1: y0 + 1 + next(8).unsigned_abs() as u32,
+            };
+            let inside = |x: u32, y: u32| l.a * sample(x) + l.b * sample(y) + l.c >= 0;
+            let pts: Vec<(u32, u32)> = (bx.y0..bx.y1)
+                .flat_map(|y| (bx.x0..bx.x1).map(move |x| (x, y)))
+                .filter(|&(x, y)| inside(x, y))
+                .collect();
+            let t = l.tighten(&bx);
+            let (lo, hi) = l.range(&bx);
+            assert_eq!(hi >= 0, !pts.is_empty(), "{l:?} {bx:?}");
+            assert_eq!(lo >= 0, pts.len() as u32 == bx.width() * bx.height());
+            if pts.is_empty() {
+                assert!(t.is_empty(), "{l:?} {bx:?} {t:?}");
+                continue;
+            }
+            let brute = SampleBox {
+                x0: pts.iter().map(|p| p.0).min().unwrap(),
+                y0: pts.iter().map(|p| p.1).min().unwrap(),
+                x1: pts.iter().map(|p| p.0).max().unwrap() + 1,
+                y1: pts.iter().map(|p| p.1).max().unwrap() + 1,
+            };
+            assert_eq!(t, brute, "{l:?} {bx:?}");
+            // The complement holds exactly the other samples.
+            let c = l.complement();
+            assert!((bx.y0..bx.y1)
+                .all(|y| (bx.x0..bx.x1).all(|x| (c.a * sample(x) + c.b * sample(y) + c.c >= 0) != inside(x, y))));
+            // The canonical line holds the same integer points.
+            let k = l.canonical();
+            assert!((bx.y0..bx.y1)
+                .all(|y| (bx.x0..bx.x1).all(|x| (k.a * sample(x) + k.b * sample(y) + k.c >= 0) == inside(x, y))));
+        }
+    }
+
+    impl SampleBox {
+        fn width(&self) -> u32 {
+            self.x1 - self.x0
+        }
+        fn height(&self) -> u32 {
+            self.y1 - self.y0
+        }
+    }
+}
+
+#[cfg(test)]
+mod sample_tests {
+    use super::*;
+    use crate::occlusion::{FaceCull, OcclusionBuffer, Sampling};
+    use glam::Vec4;
+
+    /// One-sample rectangles far behind everything: hidden exactly where a
+    /// set-up triangle covers the sample (the tree's regions are the triangles' samples).
+    #[test]
+    fn single_samples_are_hidden_exactly_where_a_triangle_covers_them() {
+        let options = BufferOptions {
+            sampling: Sampling::Exact,
+            ..BufferOptions::default()
+        };
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> 11) as f32 / (1u64 << 53) as f32 * 2.4 - 1.2
+        };
+        for case in 0..200 {
+            let (w, h) = (24, 16);
+            let mut t = OcclusionTree::new(w, h, options).unwrap();
+            let n = 1 + case % 6;
+            let verts: Vec<Vec4> = (0..3 * n)
+                .map(|_| Vec4::new(next(), next(), 0.3 + 0.1 * next(), 1.0))
+                .collect();
+            let idx: Vec<[u32; 3]> = (0..n as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+            t.render_clip_triangles(&verts, &idx, FaceCull::None).unwrap();
+            t.flush();
+            t.assert_well_formed();
+            let tris = t.tris.clone();
+            let all = t.front.tris.clone();
+            for y in 0..h {
+                for x in 0..w {
+                    let r = ScreenRect {
+                        x0: x,
+                        y0: y,
+                        x1: x + 1,
+                        y1: y + 1,
+                        z_near: 0.99,
+                        z_far: 0.99,
+                    };
+                    let covered = all.iter().any(|tr| tr.covers(x, y));
+                    assert_eq!(
+                        t.is_behind(&r),
+                        covered,
+                        "case {case} sample {x},{y}; {} tris",
+                        tris.len()
+                    );
+                }
+            }
+        }
+    }
+}
