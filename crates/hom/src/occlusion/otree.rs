@@ -30,9 +30,12 @@
 //!   occluders nearest first). A triangle's samples are filtered down the
 //!   tree; where they reach an *out* leaf the leaf becomes the triangle's
 //!   edge lines (less those the path to the leaf already implies, so a shared
-//!   edge is not split twice) ending in an *in* leaf. An *in* leaf keeps the
-//!   triangle it has: the first cover, valid over its whole region (the
-//!   conservative rule; a nearer later triangle is not merged in).
+//!   edge is not split twice) ending in an *in* leaf. Where they reach an
+//!   *in* leaf whose triangle lies farther there (its farthest depth over
+//!   the box of those samples beyond the new one's), the leaf is split the
+//!   same way, the new triangle's *in* leaf inside and the old cover kept
+//!   outside (any cover is valid over its region: conservative either way;
+//!   this only tightens depths, as the paper's depth merging does).
 //! - The node test pushes the rectangle's samples down the tree: an *out*
 //!   leaf reached means visible (the search stops); an *in* leaf is hidden
 //!   when the rectangle's nearest depth lies beyond the triangle's farthest
@@ -74,7 +77,7 @@ pub struct TreeStats {
     pub in_leaves: u64,
     /// Triangles inserted (after setup).
     pub triangles_inserted: u64,
-    /// *Out* leaves a triangle reached but was not put in because the tree was full.
+    /// Leaves a triangle reached but was not put in because the tree was full.
     pub leaves_dropped: u64,
     /// Rectangle tests that reached an unhidden leaf before any hidden one.
     pub visible: u64,
@@ -392,6 +395,37 @@ impl OcclusionTree {
         self.tree
     }
 
+    /// The samples the tree covers as of its last draw (the union of its
+    /// *in* leaves' triangles' samples), as a mask: bit `x % 64` of word
+    /// `y * ceil(width / 64) + x / 64`, the layout
+    /// [`crate::map::worst_hole_of_coverage`] reads. For hole filling.
+    pub fn coverage_bits(&self, bits: &mut Vec<u64>) {
+        let (w, h) = (self.front.width, self.front.height);
+        let wpr = (w as usize).div_ceil(64);
+        bits.clear();
+        bits.resize(wpr * h as usize, 0);
+        if self.cleared {
+            return;
+        }
+        for t in &self.tris {
+            for y in u32::from(t.y0)..u32::from(t.y1).min(h) {
+                let mut r = [u32::from(t.x0), u32::from(t.x1).min(w)];
+                for i in 0..3 {
+                    let e = Line {
+                        a: t.a[i],
+                        b: t.b[i],
+                        c: t.c[i],
+                    };
+                    r = split_row(e, y, r).0;
+                }
+                let row = &mut bits[y as usize * wpr..(y as usize + 1) * wpr];
+                for x in r[0]..r[1] {
+                    row[x as usize / 64] |= 1 << (x % 64);
+                }
+            }
+        }
+    }
+
     /// Checks the tree's structure: every child index in range, each node
     /// reached once from the root, every *in* leaf naming a stored triangle,
     /// and the counts in [`TreeStats`] right.
@@ -505,7 +539,19 @@ impl OcclusionTree {
             self.path.truncate(s.path_len as usize);
             self.path.extend(s.constraint);
             match self.nodes[s.node as usize] {
-                Node::In(_) => {} // the first cover stays
+                Node::In(old) => {
+                    // A nearer cover where the triangle's samples are: split
+                    // the leaf by its edges, the rest keeps the old cover.
+                    let o = &self.tris[old as usize];
+                    let b = s.bx.meet(&SampleBox::of_tri(o));
+                    if !b.is_empty() {
+                        let new_far = t.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
+                        let old_far = o.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
+                        if new_far < old_far {
+                            used |= self.fill(s.node, &edges, &canon, index, Node::In(old));
+                        }
+                    }
+                }
                 Node::Split {
                     line,
                     canon: lc,
@@ -527,7 +573,7 @@ impl OcclusionTree {
                         }
                     }
                 }
-                Node::Out => used |= self.fill(s.node, &edges, &canon, index),
+                Node::Out => used |= self.fill(s.node, &edges, &canon, index, Node::Out),
             }
         }
         if used {
@@ -536,10 +582,12 @@ impl OcclusionTree {
         }
     }
 
-    /// Replaces *out* leaf `leaf` (reached along `self.path`) by the triangle's edges ending in an *in* leaf naming
-    /// triangle `index`. False when the triangle has no sample there or the
-    /// tree has no room.
-    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], index: u32) -> bool {
+    /// Replaces leaf `leaf` (reached along `self.path`; `rest` is what it
+    /// was: *out*, or *in* naming the cover it keeps outside the triangle) by
+    /// the triangle's edges ending in an *in* leaf naming triangle `index`,
+    /// their outsides `rest`. False when the triangle has no sample there or
+    /// the tree has no room.
+    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], index: u32, rest: Node) -> bool {
         let mut keep = [false; 3];
         // Only the path may make an edge redundant: the leaf's region is the
         // path's samples, the box only bounds them (an edge the whole box is
@@ -561,7 +609,7 @@ impl OcclusionTree {
         for i in (0..3).filter(|&i| keep[i]) {
             let (inside, outside) = (self.nodes.len() as u32, self.nodes.len() as u32 + 1);
             self.nodes.push(Node::Out);
-            self.nodes.push(Node::Out);
+            self.nodes.push(rest);
             self.nodes[at as usize] = Node::Split {
                 line: edges[i],
                 canon: [canon[i], edges[i].complement().canonical()],
@@ -572,7 +620,12 @@ impl OcclusionTree {
         }
         self.nodes[at as usize] = Node::In(index);
         self.tree.nodes = self.nodes.len() as u64;
-        self.tree.in_leaves += 1;
+        if matches!(rest, Node::In(_)) {
+            // The leaf was in already; each kept edge's outside is a copy.
+            self.tree.in_leaves += splits as u64;
+        } else {
+            self.tree.in_leaves += 1;
+        }
         true
     }
 
@@ -745,6 +798,33 @@ mod tests {
             .map(|i| quad(-4.0 + 2.0 * i as f32, -2.0, -2.0 + 2.0 * i as f32, 2.0, 0.0))
             .collect();
         let mut t = tree_with(&strip);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+    }
+
+    #[test]
+    fn a_nearer_later_triangle_takes_over_where_it_covers() {
+        // A far wall drawn first, then a nearer small quad: a box between the
+        // two, behind the quad, is hidden by the quad's depth.
+        let mut t = tree_with(&[quad(-50.0, -50.0, 50.0, 50.0, -8.0), quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
+        let vp = view_proj();
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        // Past the quad's edge only the wall is there: visible in front of it, hidden behind.
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(5.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(7.0, 0.0, -12.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        // A farther later triangle changes nothing.
+        let mut t = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0), quad(-50.0, -50.0, 50.0, 50.0, -8.0)]);
         assert_eq!(
             t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
             Visibility::Occluded
@@ -1060,6 +1140,15 @@ mod sample_tests {
             t.assert_well_formed();
             let tris = t.tris.clone();
             let all = t.front.tris.clone();
+            // The coverage mask is the same set (no triangle was dropped).
+            let mut bits = Vec::new();
+            t.coverage_bits(&mut bits);
+            for y in 0..h {
+                for x in 0..w {
+                    let covered = all.iter().any(|tr| tr.covers(x, y));
+                    assert_eq!(bits[y as usize] >> x & 1 == 1, covered, "case {case} sample {x},{y}");
+                }
+            }
             for y in 0..h {
                 for x in 0..w {
                     let r = ScreenRect {
