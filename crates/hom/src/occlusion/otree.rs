@@ -344,6 +344,13 @@ fn split_region(spans: &mut Vec<Span>, s: &Step, line: Line) -> [Option<(SampleB
 pub struct OcclusionTree {
     front: Front,
     nodes: Vec<Node>,
+    /// Per node: the farthest depth of the covers of its subtree's leaves
+    /// (each cover's farthest over its own box), infinite where an *out* leaf
+    /// is below. A triangle nearest at or beyond it cannot improve the
+    /// subtree and is not filtered into it.
+    far: Vec<f32>,
+    /// Per node: its parent (`u32::MAX` for the root).
+    parent: Vec<u32>,
     /// The triangles the *in* leaves name.
     tris: Vec<Tri>,
     node_cap: usize,
@@ -364,6 +371,8 @@ impl OcclusionTree {
         Ok(OcclusionTree {
             front: Front::new(width, height, options)?,
             nodes: vec![Node::Out],
+            far: vec![f32::INFINITY],
+            parent: vec![u32::MAX],
             tris: Vec::new(),
             node_cap: DEFAULT_NODE_CAP,
             tree: TreeStats {
@@ -441,7 +450,7 @@ impl OcclusionTree {
             assert!(!seen[n as usize], "node {n} reached twice");
             seen[n as usize] = true;
             match self.nodes[n as usize] {
-                Node::Out => {}
+                Node::Out => assert_eq!(self.far[n as usize], f32::INFINITY),
                 Node::In(t) => {
                     assert!((t as usize) < self.tris.len(), "leaf {n} names triangle {t}");
                     in_leaves += 1;
@@ -454,6 +463,9 @@ impl OcclusionTree {
                 } => {
                     assert!(line.a != 0 || line.b != 0, "node {n}: degenerate line");
                     assert_eq!(canon, [line.canonical(), line.complement().canonical()]);
+                    assert_eq!([self.parent[inside as usize], self.parent[outside as usize]], [n, n]);
+                    let v = self.far[inside as usize].max(self.far[outside as usize]);
+                    assert_eq!(self.far[n as usize], v, "node {n}: subtree far");
                     stack.extend([inside, outside]);
                 }
             }
@@ -480,6 +492,10 @@ impl OcclusionTree {
     fn empty(&mut self) {
         self.nodes.clear();
         self.nodes.push(Node::Out);
+        self.far.clear();
+        self.far.push(f32::INFINITY);
+        self.parent.clear();
+        self.parent.push(u32::MAX);
         self.tris.clear();
         self.tree = TreeStats {
             nodes: 1,
@@ -527,6 +543,8 @@ impl OcclusionTree {
         let Some((bx, first)) = trim(&self.spans, tb.y0) else {
             return;
         };
+        let (near, far) = t.depth_bounds(tb.x0, tb.x1 - 1, tb.y0, tb.y1 - 1);
+        let far = if far.is_nan() { f32::INFINITY } else { far };
         self.stack.push(Step {
             node: 0,
             bx,
@@ -538,6 +556,9 @@ impl OcclusionTree {
             self.spans.truncate(s.end());
             self.path.truncate(s.path_len as usize);
             self.path.extend(s.constraint);
+            if near >= self.far[s.node as usize] {
+                continue; // covered throughout by nearer triangles
+            }
             match self.nodes[s.node as usize] {
                 Node::In(old) => {
                     // A nearer cover where the triangle's samples are: split
@@ -548,7 +569,7 @@ impl OcclusionTree {
                         let new_far = t.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
                         let old_far = o.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
                         if new_far < old_far {
-                            used |= self.fill(s.node, &edges, &canon, index, Node::In(old));
+                            used |= self.fill(s.node, &edges, &canon, (index, far), Node::In(old));
                         }
                     }
                 }
@@ -573,7 +594,7 @@ impl OcclusionTree {
                         }
                     }
                 }
-                Node::Out => used |= self.fill(s.node, &edges, &canon, index, Node::Out),
+                Node::Out => used |= self.fill(s.node, &edges, &canon, (index, far), Node::Out),
             }
         }
         if used {
@@ -584,10 +605,10 @@ impl OcclusionTree {
 
     /// Replaces leaf `leaf` (reached along `self.path`; `rest` is what it
     /// was: *out*, or *in* naming the cover it keeps outside the triangle) by
-    /// the triangle's edges ending in an *in* leaf naming triangle `index`,
-    /// their outsides `rest`. False when the triangle has no sample there or
-    /// the tree has no room.
-    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], index: u32, rest: Node) -> bool {
+    /// the triangle's edges ending in an *in* leaf naming triangle `index`
+    /// (farthest depth `far`), their outsides `rest`. False when the
+    /// triangle has no sample there or the tree has no room.
+    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], (index, far): (u32, f32), rest: Node) -> bool {
         let mut keep = [false; 3];
         // Only the path may make an edge redundant: the leaf's region is the
         // path's samples, the box only bounds them (an edge the whole box is
@@ -606,10 +627,14 @@ impl OcclusionTree {
         // The chain: each kept edge's outside is a new out leaf, its inside the
         // next edge; the last inside is the in leaf. `leaf` becomes the first.
         let mut at = leaf;
+        let rest_far = self.far[leaf as usize];
+        let first_new = self.nodes.len() as u32;
         for i in (0..3).filter(|&i| keep[i]) {
             let (inside, outside) = (self.nodes.len() as u32, self.nodes.len() as u32 + 1);
             self.nodes.push(Node::Out);
             self.nodes.push(rest);
+            self.far.extend([f32::INFINITY, rest_far]);
+            self.parent.extend([at, at]);
             self.nodes[at as usize] = Node::Split {
                 line: edges[i],
                 canon: [canon[i], edges[i].complement().canonical()],
@@ -619,6 +644,20 @@ impl OcclusionTree {
             at = inside;
         }
         self.nodes[at as usize] = Node::In(index);
+        self.far[at as usize] = far;
+        // The subtree summaries up the chain, then up the path while they change.
+        let mut n = self.parent[at as usize];
+        while n != u32::MAX {
+            let Node::Split { inside, outside, .. } = self.nodes[n as usize] else {
+                unreachable!("a parent splits")
+            };
+            let v = self.far[inside as usize].max(self.far[outside as usize]);
+            if v == self.far[n as usize] && n != leaf && n < first_new {
+                break;
+            }
+            self.far[n as usize] = v;
+            n = self.parent[n as usize];
+        }
         self.tree.nodes = self.nodes.len() as u64;
         if matches!(rest, Node::In(_)) {
             // The leaf was in already; each kept edge's outside is a copy.
