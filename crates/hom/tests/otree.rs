@@ -168,8 +168,8 @@ proptest! {
 }
 
 /// Of the rectangles the exact z-buffer proves hidden, the tree finds most
-/// (it loses some to bounding boxes that reach leaves the samples do not, and
-/// to keeping the first cover of a leaf).
+/// (it may lose some to depth bounds over a leaf's box of samples, and to a
+/// leaf whose nearer cover came later but did not lie nearer over the box).
 #[test]
 fn the_tree_finds_most_hidden_rectangles() {
     let (mut said, mut provable) = (0, 0);
