@@ -65,8 +65,8 @@ use crate::depth::DEPTH_MARGIN;
 use crate::geom::ScreenRect;
 use crate::raster::setup::{Tri, HALF, ONE};
 
-/// Default most nodes of a tree: 2^16 (about 6 MiB: 88 bytes a node and 8 of summaries).
-pub const DEFAULT_NODE_CAP: usize = 1 << 16;
+/// Default most nodes of a tree: 2^17 (about 12 MiB: 88 bytes a node and 8 of summaries).
+pub const DEFAULT_NODE_CAP: usize = 1 << 17;
 
 /// What an [`OcclusionTree`] holds and what its tests found, since its last clear.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
