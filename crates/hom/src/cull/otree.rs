@@ -21,9 +21,11 @@
 //! resolution and sampling as the final image, stand-ins contained in their
 //! objects, opaque occluders).
 //!
-//! Hole filling (occluder selection's feedback) asks for the opacity of
-//! screen regions, which the tree does not keep: this culler never offers a
-//! worst hole (`|| None`), so hole filling adds no occluders here.
+//! Hole filling (occluder selection's feedback) needs the opacity of screen
+//! regions, which the tree does not keep: as HZB does from its depth, an
+//! opacity pyramid is built from the samples last frame's tree covered (its
+//! *in* leaves' triangles, [`OcclusionTree::coverage_bits`]) and searched
+//! ([`crate::map::worst_hole_of_coverage`]).
 //!
 //! Counters besides the traversal's: `otree_nodes`, `otree_in_leaves` (the
 //! tree's size), `otree_dropped` (out leaves left out at the node cap), and
@@ -32,8 +34,9 @@
 use super::traversal::{culler_buffer_options, sized, OccluderCulling};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
 use crate::geom::View;
+use crate::map::worst_hole_of_coverage;
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{OcclusionTree, RectTest, DEFAULT_NODE_CAP};
+use crate::occlusion::{MapOptions, OcclusionBuffer, OcclusionTree, RectTest, DEFAULT_NODE_CAP};
 use crate::scene::Scene;
 
 /// Settings of the occlusion-tree culler: HOM's occluder selection and database, and the tree's size cap.
@@ -132,8 +135,17 @@ impl Culler for OtreeCuller {
         if self.common.rest(scene, view, out)? {
             return Ok(()); // occlusion culling does not pay now: frustum culling only
         }
-        // 1. Occluder selection; the tree keeps no opacity, so no worst hole.
-        let frame = self.common.select(scene, view, out, || None)?;
+        // 1. Occluder selection, with last frame's worst hole (from the
+        // samples the tree covered) when culling was poor.
+        let hole_opacity = self.config.occluders.selection.hole_opacity;
+        let last = &self.tree;
+        let frame = self.common.select(scene, view, out, || {
+            let t = last.as_ref()?;
+            let (w, h) = (t.width(), t.height());
+            let mut bits = Vec::new();
+            t.coverage_bits(&mut bits);
+            worst_hole_of_coverage(&bits, w, h, &MapOptions::default(), hole_opacity)
+        })?;
         let cap = self.config.node_cap;
         let tree = sized(&mut self.tree, view, |w, h| {
             OcclusionTree::new(w, h, culler_buffer_options()).map(|t| t.with_node_cap(cap))

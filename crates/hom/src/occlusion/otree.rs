@@ -21,32 +21,37 @@
 //! - An *in* leaf names the occluder triangle that covers its region: its
 //!   depth plane (hom's one depth formula, [`Tri::depth_at`]) bounded over the
 //!   samples the search brings there ([`Tri::depth_bounds`]).
+//! - Both searches carry a *region* of samples exactly: its rows' spans
+//!   (one interval of samples a row, the region being convex) and their
+//!   bounding box. A split cuts each row's span at the line's crossing,
+//!   decided per sample in the same integer arithmetic, and a side that holds
+//!   none of the region's samples is not visited.
 //! - Triangles are inserted in submission order (the cullers submit
-//!   occluders nearest first). A triangle is filtered down the tree with the
-//!   bounding box of its samples, tightened exactly at every split, and its
-//!   polygon clipped in `f64` (which only steers it: rounding there can leave
-//!   the triangle out of a leaf, never put a wrong region in); where it
-//!   reaches an *out* leaf the leaf becomes the triangle's edge lines (less
-//!   those the path to the leaf already implies, so a shared edge is not
-//!   split twice) ending in an *in* leaf. An *in* leaf keeps the triangle it
-//!   has: the first cover, valid over its whole region (the conservative
-//!   rule; a nearer later triangle is not merged in).
-//! - The node test pushes the box's rectangle of samples down the tree,
-//!   again as an exactly tightened bounding box: an *out* leaf reached means
-//!   visible (the search stops); an *in* leaf is hidden when the rectangle's
-//!   nearest depth lies beyond the triangle's farthest depth over the
-//!   samples that reach it by [`crate::depth::DEPTH_MARGIN`]. A rectangle
-//!   hidden in every leaf it reaches is occluded. Tests are counted as the
-//!   paper classifies them ([`TreeStats`]): *invisible*, *partially visible*
-//!   (some leaf reached was hidden before the search met one that is not)
-//!   and *visible*.
+//!   occluders nearest first). A triangle's samples are filtered down the
+//!   tree; where they reach an *out* leaf the leaf becomes the triangle's
+//!   edge lines (less those the path to the leaf already implies, so a shared
+//!   edge is not split twice) ending in an *in* leaf. Where they reach an
+//!   *in* leaf whose triangle lies farther there (its farthest depth over
+//!   the box of those samples beyond the new one's), the leaf is split the
+//!   same way, the new triangle's *in* leaf inside and the old cover kept
+//!   outside (any cover is valid over its region: conservative either way;
+//!   this only tightens depths, as the paper's depth merging does).
+//! - The node test pushes the rectangle's samples down the tree: an *out*
+//!   leaf reached means visible (the search stops); an *in* leaf is hidden
+//!   when the rectangle's nearest depth lies beyond the triangle's farthest
+//!   depth over the bounding box of the rectangle's samples there by
+//!   [`crate::depth::DEPTH_MARGIN`]. A rectangle hidden in every leaf it
+//!   reaches is occluded. Tests are counted as the paper classifies them
+//!   ([`TreeStats`]): *invisible*, *partially visible* (some leaf reached
+//!   was hidden before the search met one that is not) and *visible*.
 //!
 //! Conservative by construction: a leaf's region holds only samples its
-//! triangle covers, and the bounding boxes only ever hold more samples than
-//! the region, so a rectangle is occluded only when every one of its samples
-//! lies behind an occluder sample the renderer draws. The boxes may reach
-//! leaves the rectangle's samples do not (a box is not the region): that
-//! costs culling, never correctness.
+//! triangle covers, and the test reaches exactly the leaves that hold
+//! samples of the rectangle, so a rectangle is occluded only when every one
+//! of its samples lies behind an occluder sample the renderer draws. (An
+//! earlier build carried only the bounding box, which reaches leaves the
+//! samples do not, and *out* ones among them: on meshes of small triangles
+//! that hid almost nothing.)
 //!
 //! The tree's size is capped ([`OcclusionTree::with_node_cap`]); a triangle
 //! that would grow it beyond the cap is left out where it does not fit
@@ -60,8 +65,8 @@ use crate::depth::DEPTH_MARGIN;
 use crate::geom::ScreenRect;
 use crate::raster::setup::{Tri, HALF, ONE};
 
-/// Default most nodes of a tree: 2^16 (about 2.5 MiB).
-pub const DEFAULT_NODE_CAP: usize = 1 << 16;
+/// Default most nodes of a tree: 2^17 (about 12 MiB: 88 bytes a node and 8 of summaries).
+pub const DEFAULT_NODE_CAP: usize = 1 << 17;
 
 /// What an [`OcclusionTree`] holds and what its tests found, since its last clear.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -72,7 +77,7 @@ pub struct TreeStats {
     pub in_leaves: u64,
     /// Triangles inserted (after setup).
     pub triangles_inserted: u64,
-    /// *Out* leaves a triangle reached but was not put in because the tree was full.
+    /// Leaves a triangle reached but was not put in because the tree was full.
     pub leaves_dropped: u64,
     /// Rectangle tests that reached an unhidden leaf before any hidden one.
     pub visible: u64,
@@ -240,109 +245,119 @@ enum Node {
     },
 }
 
-/// A step of a search: a node, the box of samples that reaches it, and the
-/// path constraint taken to it (`path_len` entries of the path stay below it).
+/// A step of a search: a node, the region of samples that reaches it (its
+/// exact bounding box `bx` and its rows' spans at `off` in
+/// [`OcclusionTree::spans`], one per row of `bx`), and the path constraint
+/// taken to it (`path_len` entries of the path stay below it).
 #[derive(Clone, Copy, Debug)]
 struct Step {
     node: u32,
     bx: SampleBox,
+    off: u32,
     path_len: u32,
     constraint: Option<Line>,
 }
 
-/// Most vertices a clipped polygon keeps; beyond, its bounding box stands in.
-const POLY_MAX: usize = 12;
-
-/// A convex polygon in fixed-point sample units (`f64`): where an inserted
-/// triangle still is. It only steers the insertion (which leaves a triangle
-/// goes into); the leaves' regions are the exact lines, so its rounding can
-/// at worst leave a triangle out of a leaf (less occlusion, never wrong).
-#[derive(Clone, Copy, Debug)]
-struct Poly {
-    v: [[f64; 2]; POLY_MAX],
-    n: usize,
-}
-
-impl Poly {
-    /// The triangle's corners: the crossings of consecutive edge lines.
-    fn of_tri(t: &Tri) -> Poly {
-        let mut p = Poly {
-            v: [[0.0; 2]; POLY_MAX],
-            n: 0,
-        };
-        for i in 0..3 {
-            let j = (i + 2) % 3;
-            let (a1, b1, c1) = (t.a[j] as f64, t.b[j] as f64, t.c[j] as f64);
-            let (a2, b2, c2) = (t.a[i] as f64, t.b[i] as f64, t.c[i] as f64);
-            let det = a1 * b2 - a2 * b1;
-            if det == 0.0 || !det.is_finite() {
-                continue;
-            }
-            p.v[p.n] = [(b1 * c2 - b2 * c1) / det, (a2 * c1 - a1 * c2) / det];
-            p.n += 1;
-        }
-        p
-    }
-
-    /// The part where `line`'s value is `>= -0.5` (`inside`) or `<= -0.5`:
-    /// every sample of the side keeps a margin of half a unit.
-    fn clip(&self, line: Line, inside: bool) -> Poly {
-        let (a, b, c) = (line.a as f64, line.b as f64, line.c as f64 + 0.5);
-        let sign = if inside { 1.0 } else { -1.0 };
-        let d = |p: [f64; 2]| sign * (a * p[0] + b * p[1] + c);
-        let mut out = Poly {
-            v: [[0.0; 2]; POLY_MAX],
-            n: 0,
-        };
-        let mut over = false;
-        let mut push = |q: [f64; 2], out: &mut Poly| {
-            if out.n == POLY_MAX {
-                over = true;
-            } else {
-                out.v[out.n] = q;
-                out.n += 1;
-            }
-        };
-        for i in 0..self.n {
-            let (p, q) = (self.v[i], self.v[(i + 1) % self.n]);
-            let (dp, dq) = (d(p), d(q));
-            if dp >= 0.0 {
-                push(p, &mut out);
-            }
-            if (dp >= 0.0) != (dq >= 0.0) {
-                let t = dp / (dp - dq);
-                push([p[0] + (q[0] - p[0]) * t, p[1] + (q[1] - p[1]) * t], &mut out);
-            }
-        }
-        if over {
-            // Too many corners: the bounding box of this polygon stands in (larger).
-            return self.bounds();
-        }
-        out
-    }
-
-    fn bounds(&self) -> Poly {
-        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
-        for p in &self.v[..self.n] {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let mut b = Poly {
-            v: [[0.0; 2]; POLY_MAX],
-            n: 4,
-        };
-        b.v[..4].copy_from_slice(&[lo, [hi[0], lo[1]], hi, [lo[0], hi[1]]]);
-        b
+impl Step {
+    /// One past the last span of this step's region.
+    fn end(&self) -> usize {
+        self.off as usize + (self.bx.y1 - self.bx.y0) as usize
     }
 }
 
-/// The occlusion-tree occlusion buffer; see the [module docs](self).
+/// A row's samples `x0..x1` (empty when `x0 >= x1`).
+type Span = [u32; 2];
+
+/// The parts of row `y`'s span `s` inside and outside `line` (exact: the
+/// inner side is `E >= 0` at the sample; a line meets a row in one crossing).
+#[inline]
+fn split_row(line: Line, y: u32, s: Span) -> (Span, Span) {
+    if s[0] >= s[1] {
+        return (s, s);
+    }
+    let k = line.b * sample(y) + line.c;
+    let e0 = line.a * sample(s[0]) + k;
+    let e1 = line.a * sample(s[1] - 1) + k;
+    if e0 >= 0 && e1 >= 0 {
+        return (s, [s[1], s[1]]);
+    }
+    if e0 < 0 && e1 < 0 {
+        return ([s[1], s[1]], s);
+    }
+    if line.a > 0 {
+        // Inside from the first x with a·X >= −k on.
+        let f = first_index(-k, line.a).clamp(s[0], s[1]);
+        ([f, s[1]], [s[0], f])
+    } else {
+        // a < 0 (a = 0 is one side for the whole row): inside up to a·X >= −k.
+        let e = end_index(k, -line.a).clamp(s[0], s[1]);
+        ([s[0], e], [e, s[1]])
+    }
+}
+
+/// The exact bounding box and first span of the rows `y0 + i` of `rows`
+/// that hold samples; `None` when none do.
+fn trim(rows: &[Span], y0: u32) -> Option<(SampleBox, usize)> {
+    let first = rows.iter().position(|s| s[0] < s[1])?;
+    let last = rows.iter().rposition(|s| s[0] < s[1])?;
+    let (mut x0, mut x1) = (u32::MAX, 0);
+    for s in &rows[first..=last] {
+        if s[0] < s[1] {
+            x0 = x0.min(s[0]);
+            x1 = x1.max(s[1]);
+        }
+    }
+    let bx = SampleBox {
+        x0,
+        y0: y0 + first as u32,
+        x1,
+        y1: y0 + last as u32 + 1,
+    };
+    Some((bx, first))
+}
+
+/// Splits the region of `s` (its spans in `spans`) by `line`: the inside's
+/// and the outside's regions as (box, offset), `None` for a side that holds
+/// none of its samples. A side the whole region lies in shares its spans.
+fn split_region(spans: &mut Vec<Span>, s: &Step, line: Line) -> [Option<(SampleBox, u32)>; 2] {
+    let (lo, hi) = line.range(&s.bx);
+    if lo >= 0 {
+        return [Some((s.bx, s.off)), None];
+    }
+    if hi < 0 {
+        return [None, Some((s.bx, s.off))];
+    }
+    let n = (s.bx.y1 - s.bx.y0) as usize;
+    let base = spans.len();
+    spans.resize(base + 2 * n, [0, 0]);
+    for i in 0..n {
+        let (inside, outside) = split_row(line, s.bx.y0 + i as u32, spans[s.off as usize + i]);
+        spans[base + i] = inside;
+        spans[base + n + i] = outside;
+    }
+    let side = |spans: &[Span], at: usize| trim(&spans[at..at + n], s.bx.y0).map(|(b, f)| (b, (at + f) as u32));
+    [side(spans, base), side(spans, base + n)]
+}
+
+/// The occlusion tree of Bittner, Havran & Slavík (1998), built after
+/// projection: a BSP tree of the image whose splitting lines are the set-up
+/// occluder triangles' edge functions (fill rule included) and whose *in*
+/// leaves name the triangle covering them; a test is a constrained
+/// depth-first search carrying the rectangle's samples exactly. Conservative:
+/// a rectangle is occluded only when every one of its samples holds a nearer
+/// occluder triangle (with the renderer's sampling and depth). Triangles that
+/// do not fit under the node cap are left out, never half-inserted.
 #[derive(Clone, Debug)]
 pub struct OcclusionTree {
     front: Front,
     nodes: Vec<Node>,
+    /// Per node: the farthest depth of the covers of its subtree's leaves
+    /// (each cover's farthest over its own box), infinite where an *out* leaf
+    /// is below. A triangle nearest at or beyond it cannot improve the
+    /// subtree and is not filtered into it.
+    far: Vec<f32>,
+    /// Per node: its parent (`u32::MAX` for the root).
+    parent: Vec<u32>,
     /// The triangles the *in* leaves name.
     tris: Vec<Tri>,
     node_cap: usize,
@@ -351,8 +366,8 @@ pub struct OcclusionTree {
     cleared: bool,
     /// Scratch for the searches.
     stack: Vec<Step>,
-    /// The insertion's polygons, one per step on `stack`.
-    polys: Vec<Poly>,
+    /// The searches' regions: each step's rows of samples (see [`Step`]).
+    spans: Vec<Span>,
     path: Vec<Line>,
 }
 
@@ -363,6 +378,8 @@ impl OcclusionTree {
         Ok(OcclusionTree {
             front: Front::new(width, height, options)?,
             nodes: vec![Node::Out],
+            far: vec![f32::INFINITY],
+            parent: vec![u32::MAX],
             tris: Vec::new(),
             node_cap: DEFAULT_NODE_CAP,
             tree: TreeStats {
@@ -371,7 +388,7 @@ impl OcclusionTree {
             },
             cleared: false,
             stack: Vec::new(),
-            polys: Vec::new(),
+            spans: Vec::new(),
             path: Vec::new(),
         })
     }
@@ -394,6 +411,37 @@ impl OcclusionTree {
         self.tree
     }
 
+    /// The samples the tree covers as of its last draw (the union of its
+    /// *in* leaves' triangles' samples), as a mask: bit `x % 64` of word
+    /// `y * ceil(width / 64) + x / 64`, the layout occluder selection's hole
+    /// search reads. For hole filling.
+    pub fn coverage_bits(&self, bits: &mut Vec<u64>) {
+        let (w, h) = (self.front.width, self.front.height);
+        let wpr = (w as usize).div_ceil(64);
+        bits.clear();
+        bits.resize(wpr * h as usize, 0);
+        if self.cleared {
+            return;
+        }
+        for t in &self.tris {
+            for y in u32::from(t.y0)..u32::from(t.y1).min(h) {
+                let mut r = [u32::from(t.x0), u32::from(t.x1).min(w)];
+                for i in 0..3 {
+                    let e = Line {
+                        a: t.a[i],
+                        b: t.b[i],
+                        c: t.c[i],
+                    };
+                    r = split_row(e, y, r).0;
+                }
+                let row = &mut bits[y as usize * wpr..(y as usize + 1) * wpr];
+                for x in r[0]..r[1] {
+                    row[x as usize / 64] |= 1 << (x % 64);
+                }
+            }
+        }
+    }
+
     /// Checks the tree's structure: every child index in range, each node
     /// reached once from the root, every *in* leaf naming a stored triangle,
     /// and the counts in [`TreeStats`] right.
@@ -409,7 +457,7 @@ impl OcclusionTree {
             assert!(!seen[n as usize], "node {n} reached twice");
             seen[n as usize] = true;
             match self.nodes[n as usize] {
-                Node::Out => {}
+                Node::Out => assert_eq!(self.far[n as usize], f32::INFINITY),
                 Node::In(t) => {
                     assert!((t as usize) < self.tris.len(), "leaf {n} names triangle {t}");
                     in_leaves += 1;
@@ -422,6 +470,9 @@ impl OcclusionTree {
                 } => {
                     assert!(line.a != 0 || line.b != 0, "node {n}: degenerate line");
                     assert_eq!(canon, [line.canonical(), line.complement().canonical()]);
+                    assert_eq!([self.parent[inside as usize], self.parent[outside as usize]], [n, n]);
+                    let v = self.far[inside as usize].max(self.far[outside as usize]);
+                    assert_eq!(self.far[n as usize], v, "node {n}: subtree far");
                     stack.extend([inside, outside]);
                 }
             }
@@ -448,6 +499,10 @@ impl OcclusionTree {
     fn empty(&mut self) {
         self.nodes.clear();
         self.nodes.push(Node::Out);
+        self.far.clear();
+        self.far.push(f32::INFINITY);
+        self.parent.clear();
+        self.parent.push(u32::MAX);
         self.tris.clear();
         self.tree = TreeStats {
             nodes: 1,
@@ -478,25 +533,53 @@ impl OcclusionTree {
         let index = self.tris.len() as u32;
         let mut used = false;
         self.stack.clear();
-        self.polys.clear();
+        self.spans.clear();
         self.path.clear();
+        // The triangle's samples, row by row.
+        let tb = SampleBox::of_tri(t);
+        if tb.is_empty() {
+            return;
+        }
+        for y in tb.y0..tb.y1 {
+            let mut r = [tb.x0, tb.x1];
+            for e in &edges {
+                r = split_row(*e, y, r).0;
+            }
+            self.spans.push(r);
+        }
+        let Some((bx, first)) = trim(&self.spans, tb.y0) else {
+            return;
+        };
+        let (near, far) = t.depth_bounds(tb.x0, tb.x1 - 1, tb.y0, tb.y1 - 1);
+        let far = if far.is_nan() { f32::INFINITY } else { far };
         self.stack.push(Step {
             node: 0,
-            bx: SampleBox::of_tri(t),
+            bx,
+            off: first as u32,
             path_len: 0,
             constraint: None,
         });
-        self.polys.push(Poly::of_tri(t));
         while let Some(s) = self.stack.pop() {
-            let poly = self.polys.pop().expect("one polygon per step");
+            self.spans.truncate(s.end());
             self.path.truncate(s.path_len as usize);
             self.path.extend(s.constraint);
-            // No sample of the triangle in the box: nothing to insert here.
-            if edges.iter().any(|e| e.range(&s.bx).1 < 0) {
-                continue;
+            if near >= self.far[s.node as usize] {
+                continue; // covered throughout by nearer triangles
             }
             match self.nodes[s.node as usize] {
-                Node::In(_) => {} // the first cover stays
+                Node::In(old) => {
+                    // A nearer cover where the triangle's samples are: split
+                    // the leaf by its edges, the rest keeps the old cover.
+                    let o = &self.tris[old as usize];
+                    let b = s.bx.meet(&SampleBox::of_tri(o));
+                    if !b.is_empty() {
+                        let new_far = t.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
+                        let old_far = o.depth_bounds(b.x0, b.x1 - 1, b.y0, b.y1 - 1).1;
+                        if new_far < old_far {
+                            used |= self.fill(s.node, &edges, &canon, (index, far), Node::In(old));
+                        }
+                    }
+                }
                 Node::Split {
                     line,
                     canon: lc,
@@ -504,22 +587,21 @@ impl OcclusionTree {
                     outside,
                 } => {
                     let path_len = self.path.len() as u32;
-                    let (lo, hi) = line.range(&s.bx);
-                    if lo < 0 {
-                        self.push_side(
-                            outside,
-                            line.complement(),
-                            &s.bx,
-                            path_len,
-                            lc[1],
-                            poly.clip(line, false),
-                        );
-                    }
-                    if hi >= 0 {
-                        self.push_side(inside, line, &s.bx, path_len, lc[0], poly.clip(line, true));
+                    let sides = split_region(&mut self.spans, &s, line);
+                    // Inside first: the regions' spans end in stack order.
+                    for ((side, child), c) in sides.into_iter().zip([inside, outside]).zip(lc) {
+                        if let Some((bx, off)) = side {
+                            self.stack.push(Step {
+                                node: child,
+                                bx,
+                                off,
+                                path_len,
+                                constraint: Some(c),
+                            });
+                        }
                     }
                 }
-                Node::Out => used |= self.fill(s.node, &edges, &canon, index),
+                Node::Out => used |= self.fill(s.node, &edges, &canon, (index, far), Node::Out),
             }
         }
         if used {
@@ -528,24 +610,12 @@ impl OcclusionTree {
         }
     }
 
-    /// Pushes the `side` of a split (its line `line`, canonical `canon`) for the samples of `bx` there.
-    fn push_side(&mut self, node: u32, line: Line, bx: &SampleBox, path_len: u32, canon: Line, poly: Poly) {
-        let bx = line.tighten(bx);
-        if !bx.is_empty() && poly.n >= 3 {
-            self.polys.push(poly);
-            self.stack.push(Step {
-                node,
-                bx,
-                path_len,
-                constraint: Some(canon),
-            });
-        }
-    }
-
-    /// Replaces *out* leaf `leaf` (reached along `self.path`) by the triangle's edges ending in an *in* leaf naming
-    /// triangle `index`. False when the triangle has no sample there or the
-    /// tree has no room.
-    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], index: u32) -> bool {
+    /// Replaces leaf `leaf` (reached along `self.path`; `rest` is what it
+    /// was: *out*, or *in* naming the cover it keeps outside the triangle) by
+    /// the triangle's edges ending in an *in* leaf naming triangle `index`
+    /// (farthest depth `far`), their outsides `rest`. False when the
+    /// triangle has no sample there or the tree has no room.
+    fn fill(&mut self, leaf: u32, edges: &[Line; 3], canon: &[Line; 3], (index, far): (u32, f32), rest: Node) -> bool {
         let mut keep = [false; 3];
         // Only the path may make an edge redundant: the leaf's region is the
         // path's samples, the box only bounds them (an edge the whole box is
@@ -564,10 +634,14 @@ impl OcclusionTree {
         // The chain: each kept edge's outside is a new out leaf, its inside the
         // next edge; the last inside is the in leaf. `leaf` becomes the first.
         let mut at = leaf;
+        let rest_far = self.far[leaf as usize];
+        let first_new = self.nodes.len() as u32;
         for i in (0..3).filter(|&i| keep[i]) {
             let (inside, outside) = (self.nodes.len() as u32, self.nodes.len() as u32 + 1);
             self.nodes.push(Node::Out);
-            self.nodes.push(Node::Out);
+            self.nodes.push(rest);
+            self.far.extend([f32::INFINITY, rest_far]);
+            self.parent.extend([at, at]);
             self.nodes[at as usize] = Node::Split {
                 line: edges[i],
                 canon: [canon[i], edges[i].complement().canonical()],
@@ -577,8 +651,27 @@ impl OcclusionTree {
             at = inside;
         }
         self.nodes[at as usize] = Node::In(index);
+        self.far[at as usize] = far;
+        // The subtree summaries up the chain, then up the path while they change.
+        let mut n = self.parent[at as usize];
+        while n != u32::MAX {
+            let Node::Split { inside, outside, .. } = self.nodes[n as usize] else {
+                unreachable!("a parent splits")
+            };
+            let v = self.far[inside as usize].max(self.far[outside as usize]);
+            if v == self.far[n as usize] && n != leaf && n < first_new {
+                break;
+            }
+            self.far[n as usize] = v;
+            n = self.parent[n as usize];
+        }
         self.tree.nodes = self.nodes.len() as u64;
-        self.tree.in_leaves += 1;
+        if matches!(rest, Node::In(_)) {
+            // The leaf was in already; each kept edge's outside is a copy.
+            self.tree.in_leaves += splits as u64;
+        } else {
+            self.tree.in_leaves += 1;
+        }
         true
     }
 
@@ -598,18 +691,23 @@ impl OcclusionTree {
         let z = r.z_near;
         let mut hidden_some = false;
         self.stack.clear();
+        self.spans.clear();
+        self.spans.extend((bx.y0..bx.y1).map(|_| [bx.x0, bx.x1]));
         self.stack.push(Step {
             node: 0,
             bx,
+            off: 0,
             path_len: 0,
             constraint: None,
         });
         while let Some(s) = self.stack.pop() {
+            self.spans.truncate(s.end());
             let seen = match self.nodes[s.node as usize] {
                 Node::Out => true,
                 Node::In(t) => {
                     let t = &self.tris[t as usize];
-                    // The leaf's samples are the triangle's: tighten to them.
+                    // The leaf's region lies in the triangle: its box bounds
+                    // the rectangle's samples there (tightening only helps).
                     let mut b = s.bx.meet(&SampleBox::of_tri(t));
                     for i in 0..3 {
                         if b.is_empty() {
@@ -633,19 +731,18 @@ impl OcclusionTree {
                 Node::Split {
                     line, inside, outside, ..
                 } => {
-                    let (lo, hi) = line.range(&s.bx);
-                    // The outside first on the stack's top: out leaves end the search.
-                    for (go, l, child) in [(hi >= 0, line, inside), (lo < 0, line.complement(), outside)] {
-                        if go {
-                            let bx = l.tighten(&s.bx);
-                            if !bx.is_empty() {
-                                self.stack.push(Step {
-                                    node: child,
-                                    bx,
-                                    path_len: 0,
-                                    constraint: None,
-                                });
-                            }
+                    // Only sides holding samples of the rectangle; the outside
+                    // pushed last, on the stack's top: out leaves end the search.
+                    let sides = split_region(&mut self.spans, &s, line);
+                    for (side, child) in sides.into_iter().zip([inside, outside]) {
+                        if let Some((bx, off)) = side {
+                            self.stack.push(Step {
+                                node: child,
+                                bx,
+                                off,
+                                path_len: 0,
+                                constraint: None,
+                            });
                         }
                     }
                     continue;
@@ -747,6 +844,33 @@ mod tests {
             .map(|i| quad(-4.0 + 2.0 * i as f32, -2.0, -2.0 + 2.0 * i as f32, 2.0, 0.0))
             .collect();
         let mut t = tree_with(&strip);
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+    }
+
+    #[test]
+    fn a_nearer_later_triangle_takes_over_where_it_covers() {
+        // A far wall drawn first, then a nearer small quad: a box between the
+        // two, behind the quad, is hidden by the quad's depth.
+        let mut t = tree_with(&[quad(-50.0, -50.0, 50.0, 50.0, -8.0), quad(-3.0, -3.0, 3.0, 3.0, 0.0)]);
+        let vp = view_proj();
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        // Past the quad's edge only the wall is there: visible in front of it, hidden behind.
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(5.0, 0.0, -3.0), 1.0), &vp),
+            Visibility::Visible
+        );
+        assert_eq!(
+            t.test_aabb(&cube(Vec3::new(7.0, 0.0, -12.0), 1.0), &vp),
+            Visibility::Occluded
+        );
+        // A farther later triangle changes nothing.
+        let mut t = tree_with(&[quad(-3.0, -3.0, 3.0, 3.0, 0.0), quad(-50.0, -50.0, 50.0, 50.0, -8.0)]);
         assert_eq!(
             t.test_aabb(&cube(Vec3::new(0.0, 0.0, -3.0), 1.0), &vp),
             Visibility::Occluded
@@ -932,6 +1056,92 @@ mod tests {
         }
     }
 
+    /// A region split down a chain of random lines keeps exactly the samples
+    /// on each side (brute force), with exact boxes; an empty side is `None`.
+    #[test]
+    fn split_region_keeps_exactly_the_samples_of_each_side() {
+        let mut rng = 0x51_7cc1_b727_220au64;
+        let mut next = |m: i64| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % (2 * m as u64 + 1)) as i64 - m
+        };
+        for _ in 0..300 {
+            let x0 = next(6).unsigned_abs() as u32;
+            let y0 = next(6).unsigned_abs() as u32;
+            let bx = SampleBox {
+                x0,
+                y0,
+                x1: x0 + 1 + next(12).unsigned_abs() as u32,
+                y1: y0 + 1 + next(12).unsigned_abs() as u32,
+            };
+            let mut spans: Vec<Span> = (bx.y0..bx.y1).map(|_| [bx.x0, bx.x1]).collect();
+            let mut s = Step {
+                node: 0,
+                bx,
+                off: 0,
+                path_len: 0,
+                constraint: None,
+            };
+            let mut lines: Vec<(Line, bool)> = Vec::new();
+            for _ in 0..6 {
+                let l = Line {
+                    a: next(600),
+                    b: next(600),
+                    c: next(600 * 20 * ONE),
+                };
+                let sides = split_region(&mut spans, &s, l);
+                let member = |x: u32, y: u32, lines: &[(Line, bool)]| {
+                    (bx.x0..bx.x1).contains(&x)
+                        && (bx.y0..bx.y1).contains(&y)
+                        && lines
+                            .iter()
+                            .all(|&(l, inside)| (l.a * sample(x) + l.b * sample(y) + l.c >= 0) == inside)
+                };
+                for (k, side) in sides.iter().enumerate() {
+                    let mut path = lines.clone();
+                    path.push((l, k == 0));
+                    let pts: Vec<(u32, u32)> = (0..24)
+                        .flat_map(|y| (0..24).map(move |x| (x, y)))
+                        .filter(|&(x, y)| member(x, y, &path))
+                        .collect();
+                    match side {
+                        None => assert!(pts.is_empty(), "{path:?}"),
+                        Some((b, off)) => {
+                            let got: Vec<(u32, u32)> = (b.y0..b.y1)
+                                .flat_map(|y| {
+                                    let r = spans[*off as usize + (y - b.y0) as usize];
+                                    (r[0]..r[1].max(r[0])).map(move |x| (x, y))
+                                })
+                                .collect();
+                            let mut got = got;
+                            got.sort_by_key(|p| (p.1, p.0));
+                            assert_eq!(got, pts, "{path:?}");
+                            assert!(got.iter().all(|&(x, y)| x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1));
+                            assert!(got.iter().any(|p| p.0 == b.x0) && got.iter().any(|p| p.0 == b.x1 - 1));
+                            assert!(got.iter().any(|p| p.1 == b.y0) && got.iter().any(|p| p.1 == b.y1 - 1));
+                        }
+                    }
+                }
+                // Descend into a random non-empty side, as a search does.
+                let k = next(1).unsigned_abs() as usize;
+                let Some(k) = [k, 1 - k].into_iter().find(|&k| sides[k].is_some()) else {
+                    break;
+                };
+                let (b, off) = sides[k].unwrap();
+                s = Step {
+                    node: 0,
+                    bx: b,
+                    off,
+                    path_len: 0,
+                    constraint: None,
+                };
+                lines.push((l, k == 0));
+            }
+        }
+    }
+
     impl SampleBox {
         fn width(&self) -> u32 {
             self.x1 - self.x0
@@ -976,6 +1186,15 @@ mod sample_tests {
             t.assert_well_formed();
             let tris = t.tris.clone();
             let all = t.front.tris.clone();
+            // The coverage mask is the same set (no triangle was dropped).
+            let mut bits = Vec::new();
+            t.coverage_bits(&mut bits);
+            for y in 0..h {
+                for x in 0..w {
+                    let covered = all.iter().any(|tr| tr.covers(x, y));
+                    assert_eq!(bits[y as usize] >> x & 1 == 1, covered, "case {case} sample {x},{y}");
+                }
+            }
             for y in 0..h {
                 for x in 0..w {
                     let r = ScreenRect {
