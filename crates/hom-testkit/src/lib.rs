@@ -7,7 +7,7 @@
 //! - [`Rng`]: a tiny deterministic generator (xorshift64), usable anywhere,
 //!   also in a crate's own unit tests.
 //! - Scenes and checks built on [`hom`] types ([`cube`], [`random_scene`],
-//!   [`assert_no_false_culls`], ...): for integration tests and benches
+//!   [`assert_no_false_culls`], [`stand_in_violations`], ...): for integration tests and benches
 //!   (`tests/`, `benches/`). Inside a crate's own `#[cfg(test)]` modules
 //!   they do not type-check, because the kit links the *other* compilation
 //!   of that crate (the one without `cfg(test)`); there use [`Rng`] only.
@@ -131,6 +131,32 @@ pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Cu
         }
     }
     out
+}
+
+/// Where a stand-in breaks the virtual-occluder guarantee from `camera`
+/// (Law & Tan 1999, section 4: an occluder's stand-in must never hide what
+/// the original would not). Renders `original` and `stand_in` alone, each
+/// placed by `transform`, with the reference renderer's sampling and depth,
+/// and counts the samples the stand-in covers where the original covers
+/// nothing or lies farther. 0 from every view is the guarantee.
+pub fn stand_in_violations(original: &Mesh, stand_in: &Mesh, transform: Mat4, camera: &Camera) -> usize {
+    let depth = |mesh: &Mesh| {
+        let mut b = SceneBuilder::new("stand-in check");
+        let m = b.add_mesh(mesh.clone());
+        b.add_object("object", m, transform).expect("a valid transform");
+        let scene = b.build().expect("one object");
+        let renderer = Renderer::new(1).expect("one thread");
+        let mut fb = Framebuffer::new(camera.width, camera.height);
+        hom_render::oracle_pixel_counts(&renderer, &scene, camera, &mut fb);
+        fb.depth().to_vec()
+    };
+    let (original, stand_in) = (depth(original), depth(stand_in));
+    // The cleared depth is 1.0: a covered sample is nearer.
+    original
+        .iter()
+        .zip(&stand_in)
+        .filter(|&(&o, &s)| s < 1.0 && (o >= 1.0 || s < o))
+        .count()
 }
 
 /// A random scene of `n` boxes around the origin (half of them dynamic when
@@ -276,6 +302,53 @@ mod tests {
             let r = rng.range(-2.0, 3.0);
             assert!((-2.0..=3.0).contains(&r), "{r}");
         }
+    }
+
+    /// The checker issue 12's virtual occluders will be held to: a stand-in
+    /// inside a closed original never hides what it would not (every ray to
+    /// it enters the original first), one reaching outside does.
+    #[test]
+    fn stand_ins_inside_a_closed_mesh_pass_and_ones_outside_fail() {
+        let original = cube();
+        let scaled = |k: f32| {
+            let p = original.positions().iter().map(|&v| v * k).collect();
+            Mesh::new("scaled", p, original.triangles().to_vec()).unwrap()
+        };
+        // A cross-section through the middle, inside the cube.
+        let s = 0.45;
+        let section = Mesh::new(
+            "section",
+            vec![
+                Vec3::new(-s, -s, 0.0),
+                Vec3::new(s, -s, 0.0),
+                Vec3::new(s, s, 0.0),
+                Vec3::new(-s, s, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+        .unwrap();
+        let (inner, outer) = (scaled(0.9), scaled(1.1));
+        let mut rng = Rng::new(11);
+        let transform = Mat4::from_scale_rotation_translation(
+            Vec3::new(2.0, 1.0, 3.0),
+            Quat::from_rotation_y(0.4),
+            Vec3::new(0.5, 0.0, -1.0),
+        );
+        let mut outer_views = 0;
+        for _ in 0..60 {
+            let dir = (rng.vec3(-1.0, 1.0) + Vec3::new(0.0, 0.0, 1e-3)).normalize();
+            let eye = Vec3::new(0.5, 0.0, -1.0) + dir * rng.range(3.0, 8.0);
+            let camera = Camera::new(eye, Vec3::new(0.5, 0.0, -1.0), Vec3::Y, 1.0, 0.1, 50.0, 64, 48);
+            if camera.validate().is_err() {
+                continue;
+            }
+            assert_eq!(stand_in_violations(&original, &inner, transform, &camera), 0);
+            assert_eq!(stand_in_violations(&original, &section, transform, &camera), 0);
+            if stand_in_violations(&original, &outer, transform, &camera) > 0 {
+                outer_views += 1;
+            }
+        }
+        assert!(outer_views > 50, "the outer stand-in was caught in {outer_views} views");
     }
 
     #[test]
