@@ -1,6 +1,6 @@
 //! Why did HOM not cull what the oracle says is hidden? For one frame of a
 //! built-in scene, sorts the triangles of in-frustum objects that own no pixel
-//! by what stopped HOM: culled, selected as an occluder (always drawn), box
+//! by what stopped HOM: culled, selected as an occluder (and not hidden by the others), box
 //! straddling the near plane, rectangle not covered by the occlusion map, not
 //! behind the depth estimation buffer, or neither.
 //!

@@ -8,8 +8,8 @@ use hom::occlusion::{HomBuffer, MapOptions};
 use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use hom_testkit::{
-    assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_raster_case,
-    permissive_occluders, random_moving_scene, random_scene,
+    assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_cullers,
+    occluder_raster_case, permissive_occluders, random_moving_scene, random_scene,
 };
 use proptest::prelude::*;
 
@@ -280,5 +280,46 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
             }
         }
         assert!(covered_cells > 0, "seed {seed}: the occluders cover something");
+    }
+}
+
+/// An occluder hidden by a nearer occluder is culled, by every occluder
+/// culler (its own triangles cannot hide it; the nearer one does), and the
+/// nearer one is drawn.
+#[test]
+fn an_occluder_behind_a_nearer_occluder_is_culled() {
+    let mut b = SceneBuilder::new("two walls");
+    let mut wall = |b: &mut SceneBuilder, z: f32, s: f32| {
+        let m = b.add_mesh(cube());
+        b.add_object(
+            "wall",
+            m,
+            Mat4::from_scale_rotation_translation(Vec3::new(s, s, 0.2), Quat::IDENTITY, Vec3::new(0.0, 0.0, z)),
+        )
+        .unwrap()
+    };
+    let near = wall(&mut b, -5.0, 12.0);
+    let far = wall(&mut b, -12.0, 4.0);
+    let scene = b.build().unwrap();
+    let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 64, 48);
+    let mut hom = HomConfig {
+        occluders: OccluderConfig {
+            occluder_db: permissive_occluders(),
+            ..OccluderConfig::default()
+        },
+        cost_model: false,
+        ..HomConfig::default()
+    };
+    hom.occluders.selection.budget = 1000;
+    for mut culler in occluder_cullers(&scene, &hom) {
+        let out = assert_no_false_culls(&scene, &camera, culler.as_mut());
+        assert_eq!(
+            out.occluders,
+            vec![near, far],
+            "{}: both walls are occluders",
+            culler.name()
+        );
+        assert_eq!(out.visible, vec![near], "{}", culler.name());
+        assert_eq!(out.occluded, vec![far], "{}", culler.name());
     }
 }

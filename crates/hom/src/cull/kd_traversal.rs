@@ -276,18 +276,12 @@ impl Traversal<'_> {
     pub fn run_kd(
         &self,
         kd: &mut KdModel,
-        is_occluder: &mut Vec<bool>,
         temporal: &mut TemporalState,
         is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
     ) -> TraversalStats {
         let (scene, f) = (self.scene, self.frame);
-        is_occluder.clear();
-        is_occluder.resize(scene.objects().len(), false);
-        for &id in &f.occluders {
-            is_occluder[id as usize] = true;
-        }
         let KdModel {
             tree,
             marks,
@@ -315,7 +309,7 @@ impl Traversal<'_> {
             &f.eye,
             false,
             c,
-            |c, i, node, inside| self.kd_node(tree, i, node, inside, propagation, is_occluder, c),
+            |c, i, node, inside| self.kd_node(tree, i, node, inside, propagation, c),
             |c, i, node| {
                 let (a, b) = (node.child, node.child + 1);
                 let (pa, pb) = (c.marks.nodes[a as usize].pulled, c.marks.nodes[b as usize].pulled);
@@ -325,13 +319,12 @@ impl Traversal<'_> {
         );
         let KdVisit { v, marks } = c;
         for &id in outside.iter() {
-            self.object(id, false, is_occluder, v);
+            self.object(id, false, v);
         }
         // Hidden in one region, but seen through another: visible.
         v.occluded.retain(|&id| marks.fate(id) != Some(Fate::Visible));
         v.occluded.sort_unstable();
         v.occluded.dedup();
-        v.visible.extend_from_slice(&f.occluders);
         v.visible.sort_unstable();
         v.stats
     }
@@ -346,7 +339,6 @@ impl Traversal<'_> {
         node: &KdNode,
         inside: bool,
         propagation: bool,
-        is_occluder: &[bool],
         c: &mut KdVisit<'_, '_, F>,
     ) -> Option<bool> {
         let f = self.frame;
@@ -368,7 +360,7 @@ impl Traversal<'_> {
             c.v.stats.skipped += 1;
             c.marks.set(i, Class::Opened);
             if node.is_leaf() {
-                self.kd_leaf(tree, i, node, inside, is_occluder, c);
+                self.kd_leaf(tree, i, node, inside, c);
             }
             return Some(inside);
         }
@@ -376,7 +368,7 @@ impl Traversal<'_> {
             c.v.stats.skipped += 1;
             for &id in tree.subtree_items(node) {
                 let fate = c.marks.fate(id);
-                if !c.marks.served[id as usize] || is_occluder[id as usize] || fate == Some(Fate::Visible) {
+                if !c.marks.served[id as usize] || fate == Some(Fate::Visible) {
                     continue;
                 }
                 if self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside)) {
@@ -395,14 +387,14 @@ impl Traversal<'_> {
                 c.v.stats.propagation_attempts += 1;
                 if self.propagates(tree, node, c.marks) {
                     c.v.stats.propagated += 1;
-                    self.kd_hide(tree, i, node, inside, is_occluder, c);
+                    self.kd_hide(tree, i, node, inside, c);
                     return None;
                 }
                 c.marks.nodes[i as usize].failed = frame;
             }
             c.v.stats.node_tests += 1;
             if (c.v.is_occluded)(&r) {
-                self.kd_hide(tree, i, node, inside, is_occluder, c);
+                self.kd_hide(tree, i, node, inside, c);
                 return None;
             }
         } else {
@@ -410,7 +402,7 @@ impl Traversal<'_> {
         }
         c.marks.set(i, Class::Opened);
         if node.is_leaf() {
-            self.kd_leaf(tree, i, node, inside, is_occluder, c);
+            self.kd_leaf(tree, i, node, inside, c);
         }
         Some(inside)
     }
@@ -418,17 +410,9 @@ impl Traversal<'_> {
     /// Node `i` hidden (by its test or by propagation): the served objects
     /// of its subtree in the frustum not yet decided are occluded unless
     /// another region shows them.
-    fn kd_hide<F>(
-        &self,
-        tree: &KdTree,
-        i: u32,
-        node: &KdNode,
-        inside: bool,
-        is_occluder: &[bool],
-        c: &mut KdVisit<'_, '_, F>,
-    ) {
+    fn kd_hide<F>(&self, tree: &KdTree, i: u32, node: &KdNode, inside: bool, c: &mut KdVisit<'_, '_, F>) {
         for &id in tree.subtree_items(node) {
-            if !c.marks.served[id as usize] || is_occluder[id as usize] || c.marks.fate(id).is_some() {
+            if !c.marks.served[id as usize] || c.marks.fate(id).is_some() {
                 continue;
             }
             if self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside)) {
@@ -447,7 +431,6 @@ impl Traversal<'_> {
         i: u32,
         node: &KdNode,
         inside: bool,
-        is_occluder: &[bool],
         c: &mut KdVisit<'_, '_, F>,
     ) {
         let (mut seen, mut unseen) = (0, 0);
@@ -458,7 +441,7 @@ impl Traversal<'_> {
             match c.marks.fate(id) {
                 Some(Fate::Visible) => seen += 1,
                 Some(Fate::Tested) => unseen += 1,
-                None | Some(Fate::InHidden) => match self.object(id, inside, is_occluder, c.v) {
+                None | Some(Fate::InHidden) => match self.object(id, inside, c.v) {
                     Some(Vis::Invisible) => {
                         unseen += 1;
                         c.marks.set_fate(id, Fate::Tested);

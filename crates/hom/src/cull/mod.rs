@@ -48,7 +48,9 @@ pub struct CullOutput {
     pub visible: Vec<u32>,
     /// Ids culled as occluded (inside the frustum), ascending.
     pub occluded: Vec<u32>,
-    /// Ids selected as occluders this frame (they are drawn too).
+    /// Ids selected as occluders this frame, ascending: rasterized into the
+    /// occlusion buffer, and in `visible` or `occluded` like every object
+    /// (an occluder hidden by nearer ones is culled).
     pub occluders: Vec<u32>,
     /// Milliseconds per stage, in execution order.
     pub stages: Vec<(&'static str, f64)>,

@@ -4,8 +4,17 @@
 //! selection with its feedback, and the occlusion traversal — the BVH front
 //! to back, the frustum's three-way test, then an occlusion test of each
 //! node's and object's screen rectangle. An occluded node culls its whole
-//! subtree; boxes straddling the near plane are never image-tested; this
-//! frame's occluders are always drawn.
+//! subtree; boxes straddling the near plane are never image-tested.
+//!
+//! This frame's occluders are tested like every other object: an occluder
+//! hidden by nearer ones is culled. Sound because an object's own triangles
+//! (or its stand-in's, which lie inside it) are never nearer than its box's
+//! nearest depth, so they cannot hide it; an object is culled only where
+//! other occluders' triangles lie nearer at every sample, and following
+//! "hidden by" from a culled object reaches, depth falling strictly at each
+//! step, an occluder that is drawn and nearer there. (Drawing every
+//! selected occluder, as before, cost office 2 points of efficiency: 93.0 →
+//! 95.0 %, city 74.3 → 75.9 %, 60 frames.)
 
 use super::coherence::{combine, Coherence, Step, TemporalState, Vis};
 use super::frustum::frustum_visible;
@@ -51,8 +60,6 @@ pub(crate) struct OccluderCulling {
     /// The occluder database.
     pub db: OccluderDb,
     selector: OccluderSelector,
-    /// Scratch: one flag per object.
-    is_occluder: Vec<bool>,
     /// Last frame's share of triangles culled, for the selection's feedback.
     culled_pct: f32,
     /// Classifications kept across frames (coherence).
@@ -75,7 +82,7 @@ pub(crate) struct Selected {
     pub eye: Eye,
     pub width: u32,
     pub height: u32,
-    /// This frame's occluders (ascending ids): drawn, and rasterized by the culler.
+    /// This frame's occluders (ascending ids), rasterized by the culler.
     pub occluders: Vec<u32>,
     stats: SelectionStats,
 }
@@ -103,7 +110,6 @@ impl OccluderCulling {
             model,
             db: OccluderDb::build(scene, &config.occluder_db),
             selector: OccluderSelector::new(config.selection.clone()),
-            is_occluder: Vec::new(),
             culled_pct: 0.0,
             temporal: TemporalState::new(coherence),
             governor: Governor::new(cost_model),
@@ -259,11 +265,11 @@ impl OccluderCulling {
             model: &self.model,
             frame: &frame,
         };
-        let (is_occluder, temporal) = (&mut self.is_occluder, &mut self.temporal);
+        let temporal = &mut self.temporal;
         let kd = &mut self.kd;
         let stats = out.time("traversal", || match kd {
-            Some(kd) => traversal.run_kd(kd, is_occluder, temporal, is_occluded, &mut visible, &mut occluded),
-            None => traversal.run(is_occluder, temporal, is_occluded, &mut visible, &mut occluded),
+            Some(kd) => traversal.run_kd(kd, temporal, is_occluded, &mut visible, &mut occluded),
+            None => traversal.run(temporal, is_occluded, &mut visible, &mut occluded),
         });
         let (drawn, hidden) = (triangles(scene, &visible), triangles(scene, &occluded));
         self.culled_pct = if drawn + hidden > 0 {
@@ -299,7 +305,6 @@ impl OccluderCulling {
         self.model.heap_bytes()
             + self.db.heap_bytes()
             + self.selector.heap_bytes()
-            + crate::vec_bytes(&self.is_occluder)
             + self.temporal.heap_bytes()
             + self.kd.as_ref().map_or(0, KdModel::heap_bytes)
     }
@@ -366,22 +371,15 @@ pub(super) struct Visit<'a, F> {
 
 impl Traversal<'_> {
     /// Fills `visible` and `occluded` (both ascending) using `is_occluded` on
-    /// screen rectangles, reusing and updating `temporal` as its mode says;
-    /// `is_occluder` is scratch of one flag per object.
+    /// screen rectangles, reusing and updating `temporal` as its mode says.
     pub fn run(
         &self,
-        is_occluder: &mut Vec<bool>,
         temporal: &mut TemporalState,
         is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
     ) -> TraversalStats {
-        let (bvh, scene, f) = (self.model.bvh(), self.scene, self.frame);
-        is_occluder.clear();
-        is_occluder.resize(scene.objects().len(), false);
-        for &id in &f.occluders {
-            is_occluder[id as usize] = true;
-        }
+        let (bvh, f) = (self.model.bvh(), self.frame);
         let v = &mut Visit {
             temporal,
             is_occluded,
@@ -393,15 +391,13 @@ impl Traversal<'_> {
             &f.eye,
             false,
             v,
-            |v, i, node, inside| self.node(i, node, inside, is_occluder, v),
+            |v, i, node, inside| self.node(i, node, inside, v),
             |v, i, node| v.temporal.pull_up(i, node.first, node.first + 1),
         );
         // Objects added since the BVH was built.
         for &id in self.model.extra() {
-            self.object(id, false, is_occluder, v);
+            self.object(id, false, v);
         }
-        // This frame's occluders are drawn (they were selected in the frustum).
-        v.visible.extend_from_slice(&f.occluders);
         v.visible.sort_unstable();
         v.occluded.sort_unstable();
         v.stats
@@ -414,7 +410,6 @@ impl Traversal<'_> {
         i: u32,
         node: &BvhNode,
         inside: bool,
-        is_occluder: &[bool],
         v: &mut Visit<'_, F>,
     ) -> Option<bool> {
         let (f, bvh) = (self.frame, self.model.bvh());
@@ -436,13 +431,13 @@ impl Traversal<'_> {
         if step == Step::Open {
             v.stats.skipped += 1;
             if node.is_leaf() {
-                self.leaf(i, node, inside, is_occluder, v);
+                self.leaf(i, node, inside, v);
             }
             return Some(inside);
         }
         if step == Step::Assume {
             v.stats.skipped += 1;
-            self.assume_visible(node, inside, is_occluder, v.visible);
+            self.assume_visible(node, inside, v.visible);
             v.temporal.assume_node(i);
             return None;
         }
@@ -451,31 +446,23 @@ impl Traversal<'_> {
             if (v.is_occluded)(&r) {
                 // Only live objects in the frustum count as occlusion-culled.
                 let items = bvh.subtree_items(node).iter().copied();
-                v.occluded.extend(items.filter(|&id| {
-                    !is_occluder[id as usize] && self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside))
-                }));
+                v.occluded
+                    .extend(items.filter(|&id| self.scene.get(id).is_some_and(|o| self.meets_frustum(o, inside))));
                 v.temporal.set_node(i, Vis::Invisible);
                 return None;
             }
         }
         if node.is_leaf() {
-            self.leaf(i, node, inside, is_occluder, v);
+            self.leaf(i, node, inside, v);
         }
         Some(inside)
     }
 
     /// The objects of leaf `i`, then (coherence on) the leaf's pull-up from them.
-    fn leaf<F: FnMut(&ScreenRect) -> bool>(
-        &self,
-        i: u32,
-        node: &BvhNode,
-        inside: bool,
-        is_occluder: &[bool],
-        v: &mut Visit<'_, F>,
-    ) {
+    fn leaf<F: FnMut(&ScreenRect) -> bool>(&self, i: u32, node: &BvhNode, inside: bool, v: &mut Visit<'_, F>) {
         let (mut seen, mut unseen) = (0, 0);
         for &id in self.model.bvh().leaf_items(node) {
-            match self.object(id, inside, is_occluder, v) {
+            match self.object(id, inside, v) {
                 Some(Vis::Invisible) => unseen += 1,
                 Some(_) => seen += 1,
                 None => {}
@@ -491,15 +478,9 @@ impl Traversal<'_> {
         &self,
         id: u32,
         inside: bool,
-        is_occluder: &[bool],
         v: &mut Visit<'_, F>,
     ) -> Option<Vis> {
         let o = self.scene.get(id)?;
-        if is_occluder[id as usize] {
-            // Added at the end, whatever its subtree's fate.
-            v.temporal.set_object(id, Vis::Visible);
-            return Some(Vis::Visible);
-        }
         let vis = if !self.meets_frustum(o, inside) {
             Vis::Invisible
         } else if v.temporal.object_assumed(id) {
@@ -530,12 +511,12 @@ impl Traversal<'_> {
     }
 
     /// Conservative hierarchy updating: every live object of `node`'s subtree
-    /// that is not an occluder and meets the frustum (all of them when the
-    /// node is wholly `inside`) into `visible`, without an occlusion test.
-    fn assume_visible(&self, node: &BvhNode, inside: bool, is_occluder: &[bool], visible: &mut Vec<u32>) {
+    /// that meets the frustum (all of them when the node is wholly `inside`)
+    /// into `visible`, without an occlusion test.
+    fn assume_visible(&self, node: &BvhNode, inside: bool, visible: &mut Vec<u32>) {
         for &id in self.model.bvh().subtree_items(node) {
             let Some(o) = self.scene.get(id) else { continue };
-            if !is_occluder[id as usize] && self.meets_frustum(o, inside) {
+            if self.meets_frustum(o, inside) {
                 visible.push(id);
             }
         }
