@@ -289,7 +289,7 @@ fn rasterized_depth_cells_are_never_nearer_than_the_renderers_depth() {
 #[test]
 fn an_occluder_behind_a_nearer_occluder_is_culled() {
     let mut b = SceneBuilder::new("two walls");
-    let mut wall = |b: &mut SceneBuilder, z: f32, s: f32| {
+    let wall = |b: &mut SceneBuilder, z: f32, s: f32| {
         let m = b.add_mesh(cube());
         b.add_object(
             "wall",
