@@ -96,6 +96,47 @@ pub fn permissive_occluders() -> OccluderDbConfig {
     }
 }
 
+/// HOM's defaults with every object an occluder candidate
+/// ([`permissive_occluders`]) and an occluder budget of `budget` triangles:
+/// the configuration the cullers' conservativeness tests share.
+pub fn permissive_hom(budget: u32) -> HomConfig {
+    let mut hom = HomConfig {
+        occluders: hom::cull::OccluderConfig {
+            occluder_db: permissive_occluders(),
+            ..Default::default()
+        },
+        ..HomConfig::default()
+    };
+    hom.occluders.selection.budget = budget;
+    hom
+}
+
+/// A random camera path of `frames` 64×48 frames looking mostly down −z
+/// towards a scene at the origin: small steps and turns, with a jump to a
+/// random place and direction every `cut` frames (the coherence tests' walk).
+pub fn cut_camera_path(seed: u64, frames: usize, cut: usize) -> Vec<Camera> {
+    let mut rng = Rng::new(seed);
+    let mut rnd = move || rng.unit();
+    let place = |rnd: &mut dyn FnMut() -> f32| {
+        let eye = Vec3::new(rnd() * 24.0 - 12.0, rnd() * 4.0 - 1.0, 12.0 + rnd() * 4.0);
+        (eye, rnd() * 6.3)
+    };
+    let (mut eye, mut yaw) = place(&mut rnd);
+    (0..frames)
+        .map(|i| {
+            if i > 0 && i % cut == 0 {
+                (eye, yaw) = place(&mut rnd);
+            } else {
+                eye += Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 0.6;
+                yaw += (rnd() - 0.5) * 0.2;
+            }
+            // Mostly towards the scene's middle, turned by yaw.
+            let target = eye + Vec3::new(yaw.sin() * 0.5, 0.0, -1.0);
+            Camera::new(eye, target, Vec3::Y, 1.1, 0.1, 100.0, 64, 48)
+        })
+        .collect()
+}
+
 /// The three occluder cullers built for `scene` from one HOM configuration:
 /// HOM, the HZB with per-sample depth, and the masked buffer (HZB with
 /// [`ZDepth::Masked`]), which take its occluder, coherence and cost settings.

@@ -5,51 +5,25 @@
 //! what the oracle sees and draws a superset of `Exact`; an object that comes
 //! out from behind a wall is drawn in the frame it does, in every mode.
 
-use hom::cull::{Coherence, CullOutput, Culler, HomConfig, HomCuller, OccluderConfig, PSkip};
+use hom::cull::{Coherence, CullOutput, Culler, HomConfig, HomCuller, PSkip};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Vec3};
 use hom::scene::{Scene, SceneBuilder};
-use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_occluders, random_moving_scene, Rng};
+use hom_testkit::{
+    assert_no_false_culls, cube, cut_camera_path, occluder_cullers, permissive_hom, random_moving_scene, Rng,
+};
 use proptest::prelude::*;
 
 /// HOM, HZB and masked with every object an occluder candidate, `budget`
 /// occluder triangles and `coherence`.
 fn cullers(scene: &Scene, coherence: Coherence, budget: u32) -> Vec<Box<dyn Culler>> {
-    let mut hom = HomConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
+    occluder_cullers(
+        scene,
+        &HomConfig {
+            coherence,
+            ..permissive_hom(budget)
         },
-        coherence,
-        ..HomConfig::default()
-    };
-    hom.occluders.selection.budget = budget;
-    occluder_cullers(scene, &hom)
-}
-
-/// A camera path of `frames` frames: small steps and turns, with a jump to
-/// a random place and direction every `cut` frames.
-fn camera_path(seed: u64, frames: usize, cut: usize) -> Vec<Camera> {
-    let mut rng = Rng::new(seed);
-    let mut rnd = move || rng.unit();
-    let place = |rnd: &mut dyn FnMut() -> f32| {
-        let eye = Vec3::new(rnd() * 24.0 - 12.0, rnd() * 4.0 - 1.0, 12.0 + rnd() * 4.0);
-        (eye, rnd() * 6.3)
-    };
-    let (mut eye, mut yaw) = place(&mut rnd);
-    (0..frames)
-        .map(|i| {
-            if i > 0 && i % cut == 0 {
-                (eye, yaw) = place(&mut rnd);
-            } else {
-                eye += Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 0.6;
-                yaw += (rnd() - 0.5) * 0.2;
-            }
-            // Mostly towards the scene's middle, turned by yaw.
-            let target = eye + Vec3::new(yaw.sin() * 0.5, 0.0, -1.0);
-            Camera::new(eye, target, Vec3::Y, 1.1, 0.1, 100.0, 64, 48)
-        })
-        .collect()
+    )
 }
 
 proptest! {
@@ -63,7 +37,7 @@ proptest! {
         let mut coherent = cullers(&scene, Coherence::Exact, 40);
         let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
         let mut rng = Rng::new(seed ^ 0x5eed);
-        for (frame, camera) in camera_path(seed, 24, cut).iter().enumerate() {
+        for (frame, camera) in cut_camera_path(seed, 24, cut).iter().enumerate() {
             animation.apply(&mut scene, frame as f32 / 10.0);
             if frame == 12 {
                 // The engine changes the scene's structure mid-walk (a static object goes).
@@ -94,7 +68,7 @@ proptest! {
         let mut exact = cullers(&scene, Coherence::Exact, 40);
         let mut skip = cullers(&scene, Coherence::Skip(p), 40);
         let mut a = CullOutput::default();
-        for (frame, camera) in camera_path(seed, 16, cut).iter().enumerate() {
+        for (frame, camera) in cut_camera_path(seed, 16, cut).iter().enumerate() {
             animation.apply(&mut scene, frame as f32 / 10.0);
             for (x, y) in exact.iter_mut().zip(skip.iter_mut()) {
                 x.cull(&scene, &camera.to_view(), &mut a).unwrap();

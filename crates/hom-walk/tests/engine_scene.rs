@@ -3,23 +3,16 @@
 //! no object the oracle sees is ever culled, no removed object is ever
 //! reported, and frustum culling equals a linear scan of the live objects.
 
-use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HvConfig, HvCuller, OccluderConfig};
+use hom::cull::{CullOutput, Culler, FrustumCuller, HvConfig, HvCuller};
 use hom::geom::{Camera, Containment};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::scene::Scene;
-use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_occluders, random_scene, Rng};
+use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_hom, random_scene, Rng};
 use proptest::prelude::*;
 
 /// The cullers under test, built for `scene`, with an occluder budget of `budget` triangles.
 fn cullers(scene: &Scene, budget: u32) -> Vec<Box<dyn Culler>> {
-    let mut hom = HomConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
-        ..HomConfig::default()
-    };
-    hom.occluders.selection.budget = budget;
+    let hom = permissive_hom(budget);
     let mut all: Vec<Box<dyn Culler>> = vec![Box::new(FrustumCuller::new(scene))];
     all.extend(occluder_cullers(scene, &hom));
     all.push(Box::new(HvCuller::new(scene, HvConfig::default())));

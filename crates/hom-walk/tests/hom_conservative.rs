@@ -1,7 +1,7 @@
 //! HOM in conservative mode never culls an object the oracle sees: random
 //! scenes and cameras, plus the adversarial cases named in the HOM issue.
 
-use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, OccluderConfig, Opacity};
+use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occlusion::{HomBuffer, MapOptions};
@@ -9,21 +9,13 @@ use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use hom_testkit::{
     assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_cullers,
-    occluder_raster_case, permissive_occluders, random_moving_scene, random_scene,
+    occluder_raster_case, permissive_hom, random_moving_scene, random_scene,
 };
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the depth and overlap logic.
 fn permissive() -> HomConfig {
-    let mut c = HomConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
-        ..HomConfig::default()
-    };
-    c.occluders.selection.budget = 60;
-    c
+    permissive_hom(60)
 }
 
 proptest! {
@@ -302,15 +294,10 @@ fn an_occluder_behind_a_nearer_occluder_is_culled() {
     let far = wall(&mut b, -12.0, 4.0);
     let scene = b.build().unwrap();
     let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 64, 48);
-    let mut hom = HomConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
+    let hom = HomConfig {
         cost_model: false,
-        ..HomConfig::default()
+        ..permissive_hom(1000)
     };
-    hom.occluders.selection.budget = 1000;
     for mut culler in occluder_cullers(&scene, &hom) {
         let out = assert_no_false_culls(&scene, &camera, culler.as_mut());
         assert_eq!(

@@ -3,29 +3,23 @@
 //! depth representation (per sample, or masked), and the occluder
 //! rasterizer's per-sample depth is the reference renderer's depth.
 
-use hom::cull::{Culler, HzbConfig, HzbCuller, OccluderConfig, ZDepth};
+use hom::cull::{Culler, HzbConfig, HzbCuller, ZDepth};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::occlusion::HzBuffer;
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use hom_testkit::{
-    assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_occluders,
+    assert_culls_a_fair_share, assert_no_false_culls, draw_objects, exact, occluder_raster_case, permissive_hom,
     random_moving_scene,
 };
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the depth logic.
 fn permissive(depth: ZDepth) -> HzbConfig {
-    let mut c = HzbConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
+    HzbConfig {
         depth,
-        ..HzbConfig::default()
-    };
-    c.occluders.selection.budget = 60;
-    c
+        ..HzbConfig::from_hom(&permissive_hom(60))
+    }
 }
 
 proptest! {

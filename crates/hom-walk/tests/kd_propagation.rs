@@ -8,12 +8,13 @@
 //! boxes make other tests (a kD region may be found occluded where the BVH
 //! node around the same objects is not, and the reverse).
 
-use hom::cull::{Coherence, Culler, Hierarchy, HomConfig, OccluderConfig, PSkip};
-use hom::geom::Camera;
+use hom::cull::{Coherence, Culler, Hierarchy, HomConfig, PSkip};
 use hom::glam::{Mat4, Vec3};
 use hom::scene::Scene;
 use hom_render::Renderer;
-use hom_testkit::{assert_no_false_culls, cube, occluder_cullers, permissive_occluders, random_moving_scene, Rng};
+use hom_testkit::{
+    assert_no_false_culls, cube, cut_camera_path, occluder_cullers, permissive_hom, random_moving_scene, Rng,
+};
 use hom_walk::{cullers, walk, WalkOptions};
 use proptest::prelude::*;
 
@@ -21,40 +22,12 @@ const PROPAGATE: Hierarchy = Hierarchy::KdTree { propagation: true };
 
 /// HOM, HZB and masked over `hierarchy` with every object an occluder candidate.
 fn kd_cullers(scene: &Scene, hierarchy: Hierarchy, coherence: Coherence, budget: u32) -> Vec<Box<dyn Culler>> {
-    let mut hom = HomConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
+    let hom = HomConfig {
         coherence,
         hierarchy,
-        ..HomConfig::default()
+        ..permissive_hom(budget)
     };
-    hom.occluders.selection.budget = budget;
     occluder_cullers(scene, &hom)
-}
-
-/// Small steps and turns, with a jump every `cut` frames.
-fn camera_path(seed: u64, frames: usize, cut: usize) -> Vec<Camera> {
-    let mut rng = Rng::new(seed);
-    let mut rnd = move || rng.unit();
-    let place = |rnd: &mut dyn FnMut() -> f32| {
-        let eye = Vec3::new(rnd() * 24.0 - 12.0, rnd() * 4.0 - 1.0, 12.0 + rnd() * 4.0);
-        (eye, rnd() * 6.3)
-    };
-    let (mut eye, mut yaw) = place(&mut rnd);
-    (0..frames)
-        .map(|i| {
-            if i > 0 && i % cut == 0 {
-                (eye, yaw) = place(&mut rnd);
-            } else {
-                eye += Vec3::new(rnd() - 0.5, 0.0, rnd() - 0.5) * 0.6;
-                yaw += (rnd() - 0.5) * 0.2;
-            }
-            let target = eye + Vec3::new(yaw.sin() * 0.5, 0.0, -1.0);
-            Camera::new(eye, target, Vec3::Y, 1.1, 0.1, 100.0, 64, 48)
-        })
-        .collect()
 }
 
 proptest! {
@@ -67,7 +40,7 @@ proptest! {
         let coherence = [Coherence::Off, Coherence::Exact, Coherence::Skip(PSkip::Auto)][mode as usize];
         let mut cullers = kd_cullers(&scene, PROPAGATE, coherence, 40);
         let mut rng = Rng::new(seed ^ 0x5eed);
-        for (frame, camera) in camera_path(seed, 16, cut).iter().enumerate() {
+        for (frame, camera) in cut_camera_path(seed, 16, cut).iter().enumerate() {
             animation.apply(&mut scene, frame as f32 / 10.0);
             if frame == 8 {
                 // The engine changes the scene's structure mid-walk.

@@ -1,26 +1,16 @@
 //! The occlusion-tree culler (Bittner et al. 1998) never culls an object the
 //! oracle sees: random static and dynamic scenes with every object a
-//! possible occluder, and a few frames of every built-in walk.
+//! possible occluder (the built-in walks: `builtin_walks.rs`).
 
-use hom::cull::{Culler, OccluderConfig, OtreeConfig, OtreeCuller};
+use hom::cull::{Culler, OtreeConfig, OtreeCuller};
 use hom::geom::Camera;
 use hom::glam::Vec3;
-use hom_render::Renderer;
-use hom_testkit::{assert_culls_a_fair_share, assert_no_false_culls, permissive_occluders, random_moving_scene};
-use hom_walk::{cullers, walk, WalkOptions};
+use hom_testkit::{assert_culls_a_fair_share, assert_no_false_culls, permissive_hom, random_moving_scene};
 use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the tree.
 fn permissive() -> OtreeConfig {
-    let mut c = OtreeConfig {
-        occluders: OccluderConfig {
-            occluder_db: permissive_occluders(),
-            ..OccluderConfig::default()
-        },
-        ..OtreeConfig::default()
-    };
-    c.occluders.selection.budget = 60;
-    c
+    OtreeConfig::from_hom(&permissive_hom(60))
 }
 
 proptest! {
@@ -48,47 +38,4 @@ proptest! {
 #[test]
 fn random_scenes_are_really_culled() {
     assert_culls_a_fair_share(|scene| Box::new(OtreeCuller::new(scene, permissive())));
-}
-
-/// A few frames of every built-in walk (default settings) at a reduced
-/// size, against the oracle; and it culls on the city walk.
-#[test]
-fn sampled_builtin_walks_have_no_false_culls() {
-    let renderer = Renderer::new(0).unwrap();
-    for (name, _) in hom_scene::BUILTIN_SCENES {
-        let built = hom_scene::builtin(name).unwrap();
-        let (mut scene, animation) = (built.scene, built.animation);
-        let mut path = built.path.with_viewport(240, 180);
-        path.frames = path.frames.iter().copied().step_by(30).collect();
-        let mut culler = cullers::make("otree", &scene, &cullers::CullerSettings::for_scene(&scene)).unwrap();
-        assert_eq!(culler.name(), "otree");
-        let options = WalkOptions {
-            oracle: true,
-            baseline: false,
-            ..WalkOptions::default()
-        };
-        let result = walk(
-            &mut scene,
-            &animation,
-            &path,
-            culler.as_mut(),
-            &renderer,
-            &options,
-            |_| {},
-        )
-        .unwrap();
-        for f in &result.frames {
-            let oracle = f.oracle.as_ref().unwrap();
-            assert!(
-                oracle.false_culls.is_empty(),
-                "{name} frame {}: false culls {:?}",
-                f.frame,
-                oracle.false_culls
-            );
-        }
-        if *name == "city" {
-            let culled: u64 = result.frames.iter().map(|f| f.objects_occlusion_culled).sum();
-            assert!(culled > 0, "the occlusion tree culls something on the city walk");
-        }
-    }
 }
