@@ -2,7 +2,7 @@
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use hom::cull::{Coherence, DepthMode, Hierarchy, PSkip};
-use hom::occluders::SelectionMode;
+use hom::occluders::{OccluderMeshes, SelectionMode};
 use hom_walk::cullers;
 use std::path::PathBuf;
 
@@ -37,6 +37,38 @@ pub enum Command {
         /// Which tool.
         #[command(subcommand)]
         command: SceneCommand,
+    },
+    /// Virtual occluders (Law & Tan 1999, section 4): info, export.
+    Occluders {
+        /// Which tool.
+        #[command(subcommand)]
+        command: OccludersCommand,
+    },
+}
+
+/// `hom occluders` tools.
+#[derive(Subcommand)]
+pub enum OccludersCommand {
+    /// Per occluder: original and virtual triangles, coverage kept and guarantee over six axis views.
+    Info {
+        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+        #[arg(long)]
+        scene: String,
+        /// Samples per side of each axis view.
+        #[arg(long, default_value_t = 96)]
+        side: u32,
+        /// Print only the summary, not a line per occluder.
+        #[arg(long)]
+        summary: bool,
+    },
+    /// Write the virtual occluders in world space as OBJ, one `o` per source object.
+    Export {
+        /// Built-in scene name or scene file.
+        #[arg(long)]
+        scene: String,
+        /// Output .obj file.
+        #[arg(long)]
+        out: PathBuf,
     },
 }
 
@@ -114,6 +146,10 @@ pub struct HomArgs {
     /// HOM: occluder polygon budget L (triangles per frame).
     #[arg(long)]
     pub budget: Option<u32>,
+    /// HOM, HZB, masked, otree: the meshes occluders are drawn with: `original`, or `virtual`
+    /// (occlusion-preserving stand-ins inside the originals, Law & Tan 1999 section 4).
+    #[arg(long, value_enum)]
+    pub occluders: Option<OccludersArg>,
     /// HOM: adapt the budget per frame from frame time and culled percentage.
     #[arg(long)]
     pub adaptive_budget: bool,
@@ -161,6 +197,25 @@ pub struct HomArgs {
     /// node tests but not raster work, BENCHMARKS "HV: coherence and priming").
     #[arg(long)]
     pub hv_priming: bool,
+}
+
+/// `--occluders`: which meshes occluders are drawn with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OccludersArg {
+    /// Each occluder's own mesh.
+    Original,
+    /// Virtual occluders: a few boxes inside each occluder's solid parts.
+    Virtual,
+}
+
+impl OccludersArg {
+    /// The occluder database's setting.
+    pub fn meshes(self) -> OccluderMeshes {
+        match self {
+            OccludersArg::Original => OccluderMeshes::Original,
+            OccludersArg::Virtual => OccluderMeshes::Virtual,
+        }
+    }
 }
 
 /// `--coherence`: what the occlusion traversal reuses from the last frame.

@@ -9,7 +9,7 @@ mod commands;
 mod setup;
 mod table;
 
-use args::{Cli, Command, SceneCommand};
+use args::{Cli, Command, OccludersCommand, SceneCommand};
 use clap::Parser;
 
 fn main() {
@@ -23,6 +23,10 @@ fn main() {
         Command::Scene { command } => match command {
             SceneCommand::Info { scene } => commands::scene::info(&scene),
             SceneCommand::Export { scene, out } => commands::scene::export(&scene, &out),
+        },
+        Command::Occluders { command } => match command {
+            OccludersCommand::Info { scene, side, summary } => commands::occluders::info(&scene, side, summary),
+            OccludersCommand::Export { scene, out } => commands::occluders::export(&scene, &out),
         },
     };
     if let Err(e) = result {

@@ -82,6 +82,9 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         c.occluders.selection.budget = b;
     }
     c.occluders.selection.adaptive = args.adaptive_budget;
+    if let Some(m) = args.occluders {
+        c.occluders.occluder_db.meshes = m.meshes();
+    }
     c.occluders.selection.hole_filling = !args.no_hole_filling;
     if let Some(o) = args.opacity {
         if !(o > 0.0 && o <= 1.0) {

@@ -54,6 +54,7 @@
 #![forbid(unsafe_code)]
 
 mod raster;
+pub mod stand_in;
 
 use hom::geom::{Camera, MAX_VIEWPORT_SIDE};
 use hom::raster::setup::{setup_triangle, Tri, Vertex, Viewport};

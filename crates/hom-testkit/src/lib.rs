@@ -93,6 +93,7 @@ pub fn permissive_occluders() -> OccluderDbConfig {
         max_triangles: u32::MAX,
         min_fill: 0.0,
         redundancy_margin: -1.0,
+        ..OccluderDbConfig::default()
     }
 }
 
@@ -176,28 +177,13 @@ pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Cu
 
 /// Where a stand-in breaks the virtual-occluder guarantee from `camera`
 /// (Law & Tan 1999, section 4: an occluder's stand-in must never hide what
-/// the original would not). Renders `original` and `stand_in` alone, each
-/// placed by `transform`, with the reference renderer's sampling and depth,
-/// and counts the samples the stand-in covers where the original covers
-/// nothing or lies farther. 0 from every view is the guarantee.
+/// the original would not): the samples the stand-in covers, as the cullers
+/// draw occluders, where the original, as the renderer draws it, covers
+/// nothing or lies farther ([`hom_render::stand_in::compare_stand_in`]).
+/// 0 from every view is the guarantee.
 pub fn stand_in_violations(original: &Mesh, stand_in: &Mesh, transform: Mat4, camera: &Camera) -> usize {
-    let depth = |mesh: &Mesh| {
-        let mut b = SceneBuilder::new("stand-in check");
-        let m = b.add_mesh(mesh.clone());
-        b.add_object("object", m, transform).expect("a valid transform");
-        let scene = b.build().expect("one object");
-        let renderer = Renderer::new(1).expect("one thread");
-        let mut fb = Framebuffer::new(camera.width, camera.height);
-        hom_render::oracle_pixel_counts(&renderer, &scene, camera, &mut fb);
-        fb.depth().to_vec()
-    };
-    let (original, stand_in) = (depth(original), depth(stand_in));
-    // The cleared depth is 1.0: a covered sample is nearer.
-    original
-        .iter()
-        .zip(&stand_in)
-        .filter(|&(&o, &s)| s < 1.0 && (o >= 1.0 || s < o))
-        .count()
+    let renderer = Renderer::new(1).expect("one thread");
+    hom_render::stand_in::compare_stand_in(&renderer, original, stand_in, transform, camera).violations as usize
 }
 
 /// A random scene of `n` boxes around the origin (half of them dynamic when

@@ -25,6 +25,7 @@ pub mod pictures;
 pub mod pvs;
 pub mod raster_bench;
 pub mod report;
+pub mod virtual_occluders;
 mod walk;
 pub use walk::summarize;
 

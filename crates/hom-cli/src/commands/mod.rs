@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod demo;
+pub mod occluders;
 pub mod render;
 pub mod scene;
 pub mod walk;

@@ -241,6 +241,7 @@ impl OccluderCulling {
                 &frame.occluders,
                 &frame.world_to_clip,
                 &frame.eye,
+                &frame.frustum,
             );
             buffer.flush();
             n
@@ -311,7 +312,7 @@ impl OccluderCulling {
 
     /// The configuration entries every occluder-based culler reports: its
     /// selection settings and the occluder database's report.
-    pub fn describe(&self) -> [(&'static str, String); 8] {
+    pub fn describe(&self) -> [(&'static str, String); 9] {
         let c = self.selector.config();
         [
             ("hierarchy", self.hierarchy.to_string()),
@@ -322,6 +323,7 @@ impl OccluderCulling {
             ("adaptive_budget", c.adaptive.to_string()),
             ("hole_filling", c.hole_filling.to_string()),
             ("occluders", self.db.report()),
+            ("occluder_meshes", self.db.config().meshes.to_string()),
         ]
     }
 

@@ -6,9 +6,33 @@
 //! 5.5): their boxes move, so only pose-independent criteria (size, cost,
 //! shape) apply to them, never redundancy.
 
+use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
 use crate::scene::{Mesh, Scene};
+use rayon::prelude::*;
 use std::sync::Arc;
+
+/// Which meshes occluders are drawn with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum OccluderMeshes {
+    /// Each occluder's own mesh.
+    #[default]
+    Original,
+    /// Each occluder's virtual occluder where it has one
+    /// ([`VirtualOccluder`], baked per mesh at build time), else its own mesh.
+    /// Objects over [`OccluderDbConfig::max_triangles`] become occluders
+    /// through their virtual occluders.
+    Virtual,
+}
+
+impl std::fmt::Display for OccluderMeshes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            OccluderMeshes::Original => "original",
+            OccluderMeshes::Virtual => "virtual",
+        })
+    }
+}
 
 /// Thresholds of the occluder database.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,6 +48,10 @@ pub struct OccluderDbConfig {
     /// Drop an object whose box lies inside a kept occluder's box grown by this
     /// margin (metres) — a clock on a wall hides nothing the wall does not.
     pub redundancy_margin: f32,
+    /// Original meshes or virtual occluders.
+    pub meshes: OccluderMeshes,
+    /// How virtual occluders are baked (with [`OccluderMeshes::Virtual`]).
+    pub virtual_config: VirtualConfig,
 }
 
 impl Default for OccluderDbConfig {
@@ -33,6 +61,8 @@ impl Default for OccluderDbConfig {
             max_triangles: 20_000,
             min_fill: 0.2,
             redundancy_margin: 0.05,
+            meshes: OccluderMeshes::Original,
+            virtual_config: VirtualConfig::default(),
         }
     }
 }
@@ -65,9 +95,17 @@ pub struct Occluder {
     /// A simpler stand-in mesh drawn instead of the object's own (in the
     /// object's space, placed by its transform); `None` draws the object's mesh.
     pub stand_in: Option<Arc<Mesh>>,
-    /// Triangles this occluder costs to draw.
+    /// Its virtual occluder (with [`OccluderMeshes::Virtual`]), drawn
+    /// instead of its mesh from wherever [`VirtualOccluder::usable`] says.
+    pub virtual_occluder: Option<Arc<VirtualOccluder>>,
+    /// Triangles this occluder costs to draw (its stand-in's or virtual
+    /// occluder's, when it has one).
     pub triangles: u32,
 }
+
+/// The bake of one mesh: not baked (no occluder uses it, or original
+/// meshes), a virtual occluder, or why there is none.
+pub type MeshBake = Option<Result<Arc<VirtualOccluder>, NoVirtual>>;
 
 /// The preprocessed occluder database.
 #[derive(Clone, Debug)]
@@ -75,6 +113,8 @@ pub struct OccluderDb {
     occluders: Vec<Occluder>,
     verdicts: Vec<Verdict>,
     config: OccluderDbConfig,
+    /// Per mesh id.
+    bakes: Vec<MeshBake>,
 }
 
 /// Surface area of a mesh in its own space.
@@ -99,11 +139,24 @@ impl OccluderDb {
     /// Bytes held on the heap, stand-in meshes excluded (they are the
     /// caller's, shared through `Arc`).
     pub(crate) fn heap_bytes(&self) -> usize {
-        crate::vec_bytes(&self.occluders) + crate::vec_bytes(&self.verdicts)
+        let baked: usize = self
+            .bakes
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|v| std::mem::size_of_val(v.mesh().positions()) + std::mem::size_of_val(v.mesh().triangles()))
+            .sum();
+        crate::vec_bytes(&self.occluders) + crate::vec_bytes(&self.verdicts) + crate::vec_bytes(&self.bakes) + baked
     }
 
     /// Preprocesses `scene` with `config`.
     pub fn build(scene: &Scene, config: &OccluderDbConfig) -> OccluderDb {
+        OccluderDb::build_reusing(scene, config, Vec::new())
+    }
+
+    /// [`OccluderDb::build`], keeping the virtual occluders already baked
+    /// in `bakes` (by mesh id) and baking the rest in parallel.
+    fn build_reusing(scene: &Scene, config: &OccluderDbConfig, mut bakes: Vec<MeshBake>) -> OccluderDb {
         // Per-mesh fill ratio, computed once for meshes shared by many objects.
         let fill: Vec<f32> = scene
             .meshes()
@@ -134,7 +187,7 @@ impl OccluderDb {
                     Verdict::NotAnOccluder
                 } else if second_largest(size) < config.min_size {
                     Verdict::TooSmall
-                } else if o.triangles > config.max_triangles {
+                } else if o.triangles > config.max_triangles && config.meshes == OccluderMeshes::Original {
                     Verdict::TooCostly
                 } else if fill[o.mesh as usize] < config.min_fill {
                     Verdict::IllShaped
@@ -143,22 +196,93 @@ impl OccluderDb {
                 }
             })
             .collect();
+        bakes.resize(scene.meshes().len(), None);
+        if config.meshes == OccluderMeshes::Virtual {
+            let mut wanted = vec![false; scene.meshes().len()];
+            for (o, v) in scene.objects().iter().zip(&verdicts) {
+                wanted[o.mesh as usize] |= *v == Verdict::Kept;
+            }
+            bakes
+                .par_iter_mut()
+                .zip(scene.meshes())
+                .zip(wanted)
+                .filter(|((bake, _), wanted)| *wanted && bake.is_none())
+                .for_each(|((bake, mesh), _)| {
+                    *bake = Some(VirtualOccluder::bake(mesh, &config.virtual_config).map(Arc::new));
+                });
+            // An object over the triangle limit is an occluder only through its virtual occluder.
+            for (o, v) in scene.objects().iter().zip(verdicts.iter_mut()) {
+                let baked = matches!(bakes[o.mesh as usize], Some(Ok(_)));
+                if *v == Verdict::Kept && o.triangles > config.max_triangles && !baked {
+                    *v = Verdict::TooCostly;
+                }
+            }
+        }
         mark_redundant(scene, config.redundancy_margin, &mut verdicts);
         let occluders = verdicts
             .iter()
             .enumerate()
             .filter(|(_, v)| **v == Verdict::Kept)
-            .map(|(id, _)| Occluder {
-                object: id as u32,
-                stand_in: None,
-                triangles: scene.objects()[id].triangles,
+            .map(|(id, _)| {
+                let o = &scene.objects()[id];
+                let virtual_occluder = match &bakes[o.mesh as usize] {
+                    Some(Ok(v)) => Some(Arc::clone(v)),
+                    _ => None,
+                };
+                Occluder {
+                    object: id as u32,
+                    stand_in: None,
+                    triangles: virtual_occluder
+                        .as_ref()
+                        .map_or(o.triangles, |v| v.mesh().triangle_count() as u32),
+                    virtual_occluder,
+                }
             })
             .collect();
         OccluderDb {
             occluders,
             verdicts,
             config: config.clone(),
+            bakes,
         }
+    }
+
+    /// The virtual occluder baked for mesh `mesh`, why there is none, or
+    /// `None` when it was not baked (original meshes, or no occluder uses it).
+    pub fn bake_of_mesh(&self, mesh: u32) -> Option<Result<&VirtualOccluder, &NoVirtual>> {
+        match self.bakes.get(mesh as usize)? {
+            Some(Ok(v)) => Some(Ok(v)),
+            Some(Err(e)) => Some(Err(e)),
+            None => None,
+        }
+    }
+
+    /// The mesh drawn for occluder `object` (its stand-in, its virtual
+    /// occluder when usable from `eye` through `frustum`, or its own), or
+    /// `None` when it should not be drawn at all (an object over the
+    /// triangle limit whose virtual occluder is not usable from here).
+    pub(crate) fn mesh_to_draw<'s>(
+        &'s self,
+        scene: &'s Scene,
+        occluder: &'s Occluder,
+        eye: &crate::geom::Eye,
+        frustum: &crate::geom::Frustum,
+    ) -> Option<&'s Mesh> {
+        let o = scene.object(occluder.object);
+        if let Some(mesh) = &occluder.stand_in {
+            return Some(mesh);
+        }
+        match &occluder.virtual_occluder {
+            Some(v) if v.usable(&o.transform, &o.aabb, eye, frustum) => Some(v.mesh()),
+            _ if o.triangles > self.config.max_triangles => None,
+            _ => Some(scene.mesh_of(o)),
+        }
+    }
+
+    /// The kept occluder `object`, when it is one.
+    pub fn occluder(&self, object: u32) -> Option<&Occluder> {
+        let i = self.occluders.binary_search_by_key(&object, |o| o.object).ok()?;
+        Some(&self.occluders[i])
     }
 
     /// Every object as an occluder, no preprocessing (for tests and tiny scenes),
@@ -173,6 +297,7 @@ impl OccluderDb {
                 .map(|(id, o)| Occluder {
                     object: id as u32,
                     stand_in: None,
+                    virtual_occluder: None,
                     triangles: o.triangles,
                 })
                 .collect(),
@@ -188,6 +313,7 @@ impl OccluderDb {
                 })
                 .collect(),
             config: OccluderDbConfig::default(),
+            bakes: Vec::new(),
         }
     }
 
@@ -211,7 +337,8 @@ impl OccluderDb {
     /// keeping the stand-ins of objects that are still occluders.
     pub fn rebuild(&mut self, scene: &Scene) {
         let config = self.config.clone();
-        let old = std::mem::replace(self, OccluderDb::build(scene, &config));
+        let bakes = std::mem::take(&mut self.bakes);
+        let old = std::mem::replace(self, OccluderDb::build_reusing(scene, &config, bakes));
         for o in old.occluders {
             if let Some(mesh) = o.stand_in {
                 self.set_stand_in(o.object, mesh);
@@ -253,6 +380,21 @@ impl OccluderDb {
             self.config.min_fill,
             count(Verdict::Redundant),
             count(Verdict::NotAnOccluder),
+        ) + &self.virtual_report()
+    }
+
+    /// With virtual occluders: how many occluders have one, and their size.
+    fn virtual_report(&self) -> String {
+        if self.config.meshes != OccluderMeshes::Virtual {
+            return String::new();
+        }
+        let with: Vec<&Occluder> = self.occluders.iter().filter(|o| o.virtual_occluder.is_some()).collect();
+        let triangles: u64 = with.iter().map(|o| u64::from(o.triangles)).sum();
+        format!(
+            "; {} with virtual occluders ({} triangles, {:.1} on average)",
+            with.len(),
+            triangles,
+            triangles as f64 / with.len().max(1) as f64
         )
     }
 }

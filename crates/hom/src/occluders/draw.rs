@@ -5,9 +5,9 @@
 //! nearest cover).
 
 use super::OccluderDb;
-use crate::geom::{Eye, View};
+use crate::geom::{Eye, Frustum, View};
 use crate::occlusion::{FaceCull, OcclusionBuffer};
-use crate::scene::{Mesh, Scene};
+use crate::scene::Scene;
 use glam::Mat4;
 
 /// Queues the occluders `ids` of `scene` in `buffer` (whose clip convention
@@ -20,6 +20,7 @@ pub(crate) fn draw_occluders(
     ids: &[u32],
     world_to_clip: &Mat4,
     eye: &Eye,
+    frustum: &Frustum,
 ) -> u64 {
     let mut order: Vec<(f32, u32)> = ids
         .iter()
@@ -29,13 +30,18 @@ pub(crate) fn draw_occluders(
     let mut submitted = 0;
     for (_, id) in order {
         let o = scene.object(id);
-        let mesh: &Mesh = db.stand_in(id).unwrap_or_else(|| scene.mesh_of(o));
+        let Some(mesh) = db
+            .occluder(id)
+            .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum))
+        else {
+            continue;
+        };
         let mvp = *world_to_clip * o.transform;
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
         let drawn = buffer.render_triangles(mesh.positions(), mesh.triangles(), &mvp, FaceCull::None);
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
-        submitted += u64::from(o.triangles);
+        submitted += mesh.triangle_count() as u64;
     }
     submitted
 }

@@ -4,11 +4,13 @@
 mod database;
 mod draw;
 mod selection;
+mod virtual_occluder;
 
-pub use database::{Occluder, OccluderDb, OccluderDbConfig, Verdict};
+pub use database::{MeshBake, Occluder, OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 pub(crate) use draw::draw_occluders;
 pub(crate) use selection::{ObjectBoxes, OccluderSelector, SelectionStats};
 pub use selection::{SelectionConfig, SelectionMode};
+pub use virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 
 use crate::scene::Scene;
 

@@ -1,0 +1,107 @@
+//! An occluder's stand-in against its original: the stand-in as the cullers
+//! draw it, the original as the renderer draws it. The check behind virtual
+//! occluders' guarantee (Law & Tan 1999, section 4.1: a stand-in may hide
+//! only what the original hides) and the coverage they keep.
+
+use crate::{oracle_pixel_counts, Framebuffer, Renderer};
+use glam::{Mat4, Vec3};
+use hom::geom::{Aabb, Camera};
+use hom::occlusion::{BufferOptions, FaceCull, HzBuffer, OcclusionBuffer};
+use hom::scene::{Mesh, SceneBuilder};
+
+/// Samples of one view: what each mesh covers alone, and where the stand-in
+/// breaks the guarantee.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StandInComparison {
+    /// Samples the original covers.
+    pub original: u64,
+    /// Samples the stand-in covers.
+    pub stand_in: u64,
+    /// Samples the stand-in covers where the original covers nothing or lies
+    /// farther (0 is the guarantee).
+    pub violations: u64,
+}
+
+impl std::ops::AddAssign for StandInComparison {
+    fn add_assign(&mut self, o: StandInComparison) {
+        self.original += o.original;
+        self.stand_in += o.stand_in;
+        self.violations += o.violations;
+    }
+}
+
+impl StandInComparison {
+    /// Stand-in ÷ original covered samples (1 when the original covers none).
+    pub fn kept(&self) -> f64 {
+        if self.original == 0 {
+            1.0
+        } else {
+            self.stand_in as f64 / self.original as f64
+        }
+    }
+}
+
+/// Draws `original` alone with the renderer (the truth) and `stand_in`
+/// alone as the cullers draw occluders (hom's z-buffer, conservative
+/// sampling: only samples the unsnapped triangle covers, depth no nearer
+/// than its own), each placed by `transform`, seen from `camera`, and
+/// compares them sample by sample.
+pub fn compare_stand_in(
+    renderer: &Renderer,
+    original: &Mesh,
+    stand_in: &Mesh,
+    transform: Mat4,
+    camera: &Camera,
+) -> StandInComparison {
+    let mut b = SceneBuilder::new("stand-in check");
+    let m = b.add_mesh(original.clone());
+    let placed = b.add_object("object", m, transform);
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    if let Ok(scene) = placed.and_then(|_| b.build()) {
+        oracle_pixel_counts(renderer, &scene, camera, &mut fb);
+    }
+    let mut drawn = Vec::new();
+    if let Ok(mut buffer) = HzBuffer::new(camera.width, camera.height, BufferOptions::default()) {
+        let mvp = camera.view_proj() * transform;
+        if buffer
+            .render_triangles(stand_in.positions(), stand_in.triangles(), &mvp, FaceCull::None)
+            .is_ok()
+        {
+            buffer.zbuffer().to_row_major(&mut drawn);
+        }
+    }
+    drawn.resize((camera.width * camera.height) as usize, f32::INFINITY);
+    // The renderer's cleared depth is 1.0 (a covered sample is nearer); the
+    // z-buffer's is infinite.
+    let mut c = StandInComparison::default();
+    for (&o, &s) in fb.depth().iter().zip(&drawn) {
+        let covered = s.is_finite() && s < 1.0;
+        c.original += u64::from(o < 1.0);
+        c.stand_in += u64::from(covered);
+        c.violations += u64::from(covered && (o >= 1.0 || s < o));
+    }
+    c
+}
+
+/// Six `side`×`side` views of `bounds` along the axes (±x, ±y, ±z), from
+/// outside it, each framing the whole box.
+pub fn axis_views(bounds: &Aabb, side: u32) -> [Camera; 6] {
+    let centre = bounds.center();
+    let radius = bounds.half_extent().length().max(1e-3);
+    let fov = 40f32.to_radians();
+    let distance = radius / (fov * 0.5).sin();
+    std::array::from_fn(|i| {
+        let axis = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z][i];
+        let up = if axis.y != 0.0 { Vec3::Z } else { Vec3::Y };
+        Camera::new(
+            centre + axis * distance,
+            centre,
+            up,
+            fov,
+            (distance - radius) * 0.5,
+            distance + radius * 2.0,
+            side,
+            side,
+        )
+    })
+}
