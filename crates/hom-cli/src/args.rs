@@ -146,8 +146,8 @@ pub struct HomArgs {
     /// HOM: occluder polygon budget L (triangles per frame).
     #[arg(long)]
     pub budget: Option<u32>,
-    /// HOM, HZB, masked, otree: the meshes occluders are drawn with: `original`, or `virtual`
-    /// (occlusion-preserving stand-ins inside the originals, Law & Tan 1999 section 4).
+    /// HOM, HZB, masked, otree: the meshes occluders are drawn with: `virtual` (default:
+    /// occlusion-preserving stand-ins inside the originals, Law & Tan 1999 section 4) or `original`.
     #[arg(long, value_enum)]
     pub occluders: Option<OccludersArg>,
     /// HOM: adapt the budget per frame from frame time and culled percentage.

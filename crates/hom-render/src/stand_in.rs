@@ -6,7 +6,7 @@
 use crate::{oracle_pixel_counts, Framebuffer, Renderer};
 use glam::{Mat4, Vec3};
 use hom::geom::{Aabb, Camera};
-use hom::occlusion::{BufferOptions, FaceCull, HzBuffer, OcclusionBuffer};
+use hom::occlusion::{BufferOptions, FaceCull, HzBuffer, OcclusionBuffer, Sampling};
 use hom::scene::{Mesh, SceneBuilder};
 
 /// Samples of one view: what each mesh covers alone, and where the stand-in
@@ -61,10 +61,15 @@ pub fn compare_stand_in(
         oracle_pixel_counts(renderer, &scene, camera, &mut fb);
     }
     let mut drawn = Vec::new();
-    if let Ok(mut buffer) = HzBuffer::new(camera.width, camera.height, BufferOptions::default()) {
+    // The cullers' buffers sample exactly; stand-ins go in conservatively.
+    let exact = BufferOptions {
+        sampling: Sampling::Exact,
+        ..BufferOptions::default()
+    };
+    if let Ok(mut buffer) = HzBuffer::new(camera.width, camera.height, exact) {
         let mvp = camera.view_proj() * transform;
         if buffer
-            .render_triangles(stand_in.positions(), stand_in.triangles(), &mvp, FaceCull::None)
+            .render_stand_in_triangles(stand_in.positions(), stand_in.triangles(), &mvp, FaceCull::None)
             .is_ok()
         {
             buffer.zbuffer().to_row_major(&mut drawn);

@@ -3,6 +3,7 @@
 //! (`hom occluders info`), the guarantee checked on the same views, and the
 //! virtual occluders as a scene of their own (`hom occluders export`).
 
+use hom::geom::{Eye, Frustum};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 use hom::scene::{Scene, SceneBuilder, SceneError};
 use hom_render::stand_in::{axis_views, compare_stand_in, StandInComparison};
@@ -20,7 +21,8 @@ pub struct VirtualRow {
     pub original_triangles: u32,
     /// The virtual occluder's triangles, or why there is none.
     pub outcome: Result<u32, String>,
-    /// Over six axis views: covered samples of each, and violations.
+    /// Over the six axis views it may stand in from: covered samples of
+    /// each, and violations.
     pub views: StandInComparison,
 }
 
@@ -54,9 +56,13 @@ pub fn virtual_rows(scene: &Scene, db: &OccluderDb, side: u32) -> Vec<VirtualRow
             let renderer = Renderer::new(1).expect("one thread");
             let (outcome, views) = match db.bake_of_mesh(o.mesh) {
                 Some(Ok(v)) => {
+                    // The views it may stand in from (not from below a floor cap).
                     let mut views = StandInComparison::default();
                     for camera in axis_views(&o.aabb, side) {
-                        views += compare_stand_in(&renderer, original, v.mesh(), o.transform, &camera);
+                        let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("a valid view");
+                        if v.usable(&o.transform, &o.aabb, &Eye::Point(camera.eye), &frustum) {
+                            views += compare_stand_in(&renderer, original, v.mesh(), o.transform, &camera);
+                        }
                     }
                     (Ok(v.mesh().triangle_count() as u32), views)
                 }

@@ -12,7 +12,7 @@ use hom::glam::camera::rh::view::look_at_mat4;
 use hom::glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use hom::occlusion::{
     BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, OcclusionError,
-    OcclusionTree, Visibility,
+    OcclusionTree, Sampling, Visibility,
 };
 use hom_testkit::Rng;
 use proptest::prelude::*;
@@ -650,4 +650,54 @@ fn statistics_count_what_was_done() {
     assert_eq!((s.triangles_submitted, s.triangles_drawn), (2, 2));
     assert_eq!((s.tests, s.occluded, s.view_culled), (2, 1, 1));
     assert!(s.tiles_drawn > 0 && s.setup_ms >= 0.0 && s.raster_ms >= 0.0);
+}
+
+/// Stand-in triangles go in conservatively whatever the buffer's sampling:
+/// into an exact buffer they answer as the same triangles do in a
+/// conservative one.
+#[test]
+fn stand_in_triangles_are_sampled_conservatively_in_every_buffer() {
+    fn check(mut make: impl FnMut(BufferOptions) -> Box<dyn OcclusionBuffer>) -> usize {
+        let exact = BufferOptions {
+            sampling: Sampling::Exact,
+            ..BufferOptions::default()
+        };
+        let conservative = BufferOptions {
+            sampling: Sampling::Conservative,
+            ..BufferOptions::default()
+        };
+        let mut differs = 0;
+        for seed in 0..12 {
+            let cam = Cam {
+                eye: Vec3::new(0.0, 0.5, 0.0),
+                target: Vec3::new(0.1, 0.4, -1.0),
+                ortho: false,
+                width: 61,
+                height: 43,
+            };
+            let w = world(seed, 14, 60, &cam);
+            let vp = cam.view_proj(ClipConvention::ZeroToOne);
+            let run = |buf: &mut Box<dyn OcclusionBuffer>, stand_in: bool| -> Vec<Visibility> {
+                buf.clear();
+                if stand_in {
+                    buf.render_stand_in_triangles(&w.positions, &w.triangles, &vp, FaceCull::None)
+                } else {
+                    buf.render_triangles(&w.positions, &w.triangles, &vp, FaceCull::None)
+                }
+                .unwrap();
+                w.boxes.iter().map(|b| buf.test_aabb(b, &vp)).collect()
+            };
+            let stand_in = run(&mut make(exact), true);
+            assert_eq!(stand_in, run(&mut make(conservative), false), "seed {seed}");
+            let exactly = run(&mut make(exact), false);
+            differs += stand_in.iter().zip(&exactly).filter(|(s, e)| s != e).count();
+        }
+        differs
+    }
+    // Drawn exactly, some answers differ: the check can tell the rules apart.
+    let differs = check(|o| Box::new(HzBuffer::new(61, 43, o).unwrap()))
+        + check(|o| Box::new(HomBuffer::new(61, 43, o).unwrap()))
+        + check(|o| Box::new(MaskedBuffer::new(61, 43, o).unwrap()))
+        + check(|o| Box::new(OcclusionTree::new(61, 43, o).unwrap()));
+    assert!(differs > 0);
 }

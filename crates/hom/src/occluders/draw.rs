@@ -1,5 +1,6 @@
 //! Handing the selected occluders to an occlusion buffer: each occluder's
-//! mesh (its stand-in where it has one) under `world_to_clip · transform`,
+//! mesh (its stand-in or virtual occluder where it has a usable one, drawn
+//! conservatively) under `world_to_clip · transform`,
 //! two-sided, nearest occluder first — the order both buffers want (the
 //! HZB then skips what is already hidden; HOM's depth cells keep the first,
 //! nearest cover).
@@ -30,7 +31,7 @@ pub(crate) fn draw_occluders(
     let mut submitted = 0;
     for (_, id) in order {
         let o = scene.object(id);
-        let Some(mesh) = db
+        let Some((mesh, stands_in)) = db
             .occluder(id)
             .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum))
         else {
@@ -39,7 +40,12 @@ pub(crate) fn draw_occluders(
         let mvp = *world_to_clip * o.transform;
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
-        let drawn = buffer.render_triangles(mesh.positions(), mesh.triangles(), &mvp, FaceCull::None);
+        let (p, t) = (mesh.positions(), mesh.triangles());
+        let drawn = if stands_in {
+            buffer.render_stand_in_triangles(p, t, &mvp, FaceCull::None)
+        } else {
+            buffer.render_triangles(p, t, &mvp, FaceCull::None)
+        };
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
         submitted += mesh.triangle_count() as u64;
     }

@@ -239,6 +239,20 @@ pub trait OcclusionBuffer {
         cull: FaceCull,
     ) -> Result<(), OcclusionError>;
 
+    /// [`OcclusionBuffer::render_triangles`] for triangles that stand in for
+    /// an occluder's own (a virtual occluder inside it): always sampled
+    /// conservatively, whatever [`BufferOptions::sampling`] says. Exact
+    /// sampling would snap the stand-in, and where its edge runs within the
+    /// snapping error of the original's, the snapped stand-in can cover a
+    /// sample the snapped original does not.
+    fn render_stand_in_triangles(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+        cull: FaceCull,
+    ) -> Result<(), OcclusionError>;
+
     /// Queues occluder triangles whose vertices are already in clip space (the buffer's convention).
     fn render_clip_triangles(
         &mut self,
@@ -383,12 +397,13 @@ impl Front {
         indices: &[[u32; 3]],
         model_to_clip: &Mat4,
         cull: FaceCull,
+        inner: bool,
     ) -> Result<(), OcclusionError> {
         if !model_to_clip.is_finite() {
             return Err(OcclusionError::NonFiniteMatrix);
         }
         let m = self.options.clip.to_zero_to_one() * *model_to_clip;
-        self.queue.push_model(positions, indices, &m, cull)?;
+        self.queue.push_model_with(positions, indices, &m, cull, inner)?;
         self.stats.triangles_submitted += indices.len() as u64;
         Ok(())
     }
@@ -520,7 +535,18 @@ macro_rules! occlusion_buffer {
                 cull: $crate::occlusion::FaceCull,
             ) -> Result<(), $crate::occlusion::OcclusionError> {
                 self.front
-                    .render_triangles(positions, indices, model_to_clip, cull)
+                    .render_triangles(positions, indices, model_to_clip, cull, false)
+            }
+
+            fn render_stand_in_triangles(
+                &mut self,
+                positions: &[glam::Vec3],
+                indices: &[[u32; 3]],
+                model_to_clip: &glam::Mat4,
+                cull: $crate::occlusion::FaceCull,
+            ) -> Result<(), $crate::occlusion::OcclusionError> {
+                self.front
+                    .render_triangles(positions, indices, model_to_clip, cull, true)
             }
 
             fn render_clip_triangles(

@@ -30,11 +30,13 @@ pub(crate) enum QueueError {
     Full { queued: usize, adding: usize },
 }
 
-/// One submission: its first triangle and which winding it drops.
+/// One submission: its first triangle, which winding it drops, and whether
+/// it is set up by the inner rule whatever the buffer's sampling.
 #[derive(Clone, Copy, Debug)]
 struct Batch {
     first: usize,
     cull: FaceCull,
+    inner: bool,
 }
 
 /// Clip-space triangles in submission order, with their face culling; see the module docs.
@@ -84,10 +86,11 @@ impl TriangleQueue {
         Ok(())
     }
 
-    fn push_indices(&mut self, base: usize, indices: &[[u32; 3]], cull: FaceCull) {
+    fn push_indices(&mut self, base: usize, indices: &[[u32; 3]], cull: FaceCull, inner: bool) {
         self.batches.push(Batch {
             first: self.tris.len(),
             cull,
+            inner,
         });
         let base = base as u32;
         self.tris.extend(indices.iter().map(|t| t.map(|i| base + i)));
@@ -95,6 +98,7 @@ impl TriangleQueue {
 
     /// Queues `indices` over `positions` transformed by `model_to_clip`
     /// (which must already produce hom's clip convention).
+    #[cfg(test)]
     pub fn push_model(
         &mut self,
         positions: &[Vec3],
@@ -102,11 +106,24 @@ impl TriangleQueue {
         model_to_clip: &Mat4,
         cull: FaceCull,
     ) -> Result<(), QueueError> {
+        self.push_model_with(positions, indices, model_to_clip, cull, false)
+    }
+
+    /// [`TriangleQueue::push_model`], set up by the inner rule when `inner`
+    /// whatever the rule asked at setup.
+    pub fn push_model_with(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+        cull: FaceCull,
+        inner: bool,
+    ) -> Result<(), QueueError> {
         self.check(indices, positions.len())?;
         let base = self.verts.len();
         self.verts
             .extend(positions.iter().map(|p| *model_to_clip * p.extend(1.0)));
-        self.push_indices(base, indices, cull);
+        self.push_indices(base, indices, cull, inner);
         Ok(())
     }
 
@@ -122,7 +139,7 @@ impl TriangleQueue {
         self.check(indices, vertices.len())?;
         let base = self.verts.len();
         self.verts.extend(vertices.iter().map(|&v| to_hom(v)));
-        self.push_indices(base, indices, cull);
+        self.push_indices(base, indices, cull, false);
         Ok(())
     }
 
@@ -157,7 +174,7 @@ impl TriangleQueue {
                     }
                     let rule = SetupRule {
                         cull: batches[b].cull,
-                        inner,
+                        inner: inner || batches[b].inner,
                     };
                     // Four of one batch at once; where one of them is clipped,
                     // all four by the scalar setup (not tried again from the next).
