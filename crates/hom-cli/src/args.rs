@@ -60,6 +60,9 @@ pub enum OccludersCommand {
         /// Print only the summary, not a line per occluder.
         #[arg(long)]
         summary: bool,
+        /// Also write pictures of the densest occluders against their stand-ins into this folder.
+        #[arg(long)]
+        pictures: Option<PathBuf>,
     },
     /// Write the virtual occluders in world space as OBJ, one `o` per source object.
     Export {

@@ -25,7 +25,12 @@ fn main() {
             SceneCommand::Export { scene, out } => commands::scene::export(&scene, &out),
         },
         Command::Occluders { command } => match command {
-            OccludersCommand::Info { scene, side, summary } => commands::occluders::info(&scene, side, summary),
+            OccludersCommand::Info {
+                scene,
+                side,
+                summary,
+                pictures,
+            } => commands::occluders::info(&scene, side, summary, pictures.as_deref()),
             OccludersCommand::Export { scene, out } => commands::occluders::export(&scene, &out),
         },
     };

@@ -42,10 +42,10 @@ impl StandInComparison {
 }
 
 /// Draws `original` alone with the renderer (the truth) and `stand_in`
-/// alone as the cullers draw occluders (hom's z-buffer, conservative
-/// sampling: only samples the unsnapped triangle covers, depth no nearer
-/// than its own), each placed by `transform`, seen from `camera`, and
-/// compares them sample by sample.
+/// alone as the cullers draw occluders (an exact-sampling z-buffer, the
+/// stand-in set up by the inner rule: only samples the unsnapped triangle
+/// covers, depth no nearer than its own), each placed by `transform`, seen
+/// from `camera`, and compares them sample by sample.
 pub fn compare_stand_in(
     renderer: &Renderer,
     original: &Mesh,
@@ -53,6 +53,26 @@ pub fn compare_stand_in(
     transform: Mat4,
     camera: &Camera,
 ) -> StandInComparison {
+    let (o, s) = stand_in_depths(renderer, original, stand_in, transform, camera);
+    let mut c = StandInComparison::default();
+    for (&o, &s) in o.iter().zip(&s) {
+        c.original += u64::from(o < 1.0);
+        c.stand_in += u64::from(s < 1.0);
+        c.violations += u64::from(s < 1.0 && (o >= 1.0 || s < o));
+    }
+    c
+}
+
+/// The two depth images [`compare_stand_in`] compares, row-major, 1.0 where
+/// nothing is drawn: the original's as the renderer draws it, the stand-in's
+/// as the cullers do.
+pub fn stand_in_depths(
+    renderer: &Renderer,
+    original: &Mesh,
+    stand_in: &Mesh,
+    transform: Mat4,
+    camera: &Camera,
+) -> (Vec<f32>, Vec<f32>) {
     let mut b = SceneBuilder::new("stand-in check");
     let m = b.add_mesh(original.clone());
     let placed = b.add_object("object", m, transform);
@@ -76,16 +96,12 @@ pub fn compare_stand_in(
         }
     }
     drawn.resize((camera.width * camera.height) as usize, f32::INFINITY);
-    // The renderer's cleared depth is 1.0 (a covered sample is nearer); the
-    // z-buffer's is infinite.
-    let mut c = StandInComparison::default();
-    for (&o, &s) in fb.depth().iter().zip(&drawn) {
-        let covered = s.is_finite() && s < 1.0;
-        c.original += u64::from(o < 1.0);
-        c.stand_in += u64::from(covered);
-        c.violations += u64::from(covered && (o >= 1.0 || s < o));
-    }
-    c
+    // The z-buffer's cleared depth is infinite; the renderer's is 1.0.
+    let drawn = drawn
+        .into_iter()
+        .map(|d| if d.is_finite() && d < 1.0 { d } else { 1.0 })
+        .collect();
+    (fb.depth().to_vec(), drawn)
 }
 
 /// Six `side`×`side` views of `bounds` along the axes (±x, ±y, ±z), from

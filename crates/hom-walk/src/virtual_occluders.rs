@@ -93,3 +93,56 @@ pub fn virtual_scene(scene: &Scene, db: &OccluderDb) -> Result<Scene, SceneError
     }
     b.build()
 }
+
+/// Pictures of the `count` occluders with the most original triangles that
+/// have a virtual occluder, each from three views (front, side, above), in
+/// `dir`: the original grey, the part of it the stand-in covers blue, and
+/// any violation red (Law & Tan's figure 2: the stand-in's silhouette inside
+/// the original's). Returns the files written.
+pub fn write_pictures(
+    scene: &Scene,
+    db: &OccluderDb,
+    dir: &std::path::Path,
+    count: usize,
+    side: u32,
+) -> Result<Vec<std::path::PathBuf>, hom_render::RenderError> {
+    let mut with: Vec<&hom::occluders::Occluder> =
+        db.occluders().iter().filter(|o| o.virtual_occluder.is_some()).collect();
+    with.sort_by_key(|o| (std::cmp::Reverse(scene.object(o.object).triangles), o.object));
+    // One per mesh: instances of a mesh look alike.
+    let mut meshes = std::collections::HashSet::new();
+    with.retain(|o| meshes.insert(scene.object(o.object).mesh));
+    let renderer = Renderer::new(0).expect("threads");
+    let mut files = Vec::new();
+    for occ in with.into_iter().take(count) {
+        let o = scene.object(occ.object);
+        let v = occ.virtual_occluder.as_ref().expect("filtered");
+        for (k, camera) in axis_views(&o.aabb, side)
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| [0, 4, 2].contains(k))
+        {
+            let (original, stand_in) =
+                hom_render::stand_in::stand_in_depths(&renderer, scene.mesh_of(o), v.mesh(), o.transform, camera);
+            let rgba: Vec<[u8; 4]> = original
+                .iter()
+                .zip(&stand_in)
+                .map(|(&a, &b)| match (a < 1.0, b < 1.0) {
+                    (_, true) if a >= 1.0 || b < a => [220, 30, 30, 255],
+                    (true, true) => [70, 110, 220, 255],
+                    (true, false) => [150, 150, 150, 255],
+                    _ => [255, 255, 255, 255],
+                })
+                .collect();
+            let name: String = o
+                .name
+                .chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                .collect();
+            let file = dir.join(format!("virtual_{}_{name}_view{k}.png", occ.object));
+            hom_render::write_png(&file, side, side, &rgba)?;
+            files.push(file);
+        }
+    }
+    Ok(files)
+}

@@ -1,13 +1,13 @@
 //! `hom occluders info` and `hom occluders export`: the virtual occluders of
 //! a scene, counted, checked and written out.
 
-use anyhow::{bail, Result};
-use hom_walk::virtual_occluders::{virtual_db, virtual_rows, virtual_scene};
+use anyhow::{bail, Context, Result};
+use hom_walk::virtual_occluders::{virtual_db, virtual_rows, virtual_scene, write_pictures};
 use std::path::Path;
 use std::time::Instant;
 
 /// `hom occluders info`: a line per kept occluder, then the totals.
-pub fn info(spec: &str, side: u32, summary_only: bool) -> Result<()> {
+pub fn info(spec: &str, side: u32, summary_only: bool, pictures: Option<&Path>) -> Result<()> {
     if !(8..=1024).contains(&side) {
         bail!("--side must be 8..=1024 samples, got {side}");
     }
@@ -74,6 +74,15 @@ pub fn info(spec: &str, side: u32, summary_only: bool) -> Result<()> {
         baked_tris,
         rayon::current_num_threads()
     );
+    if let Some(dir) = pictures {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let files = write_pictures(&scene, &db, dir, 4, 256)?;
+        println!(
+            "pictures:       {} in {} (grey: original, blue: covered by its stand-in too, red: a violation)",
+            files.len(),
+            dir.display()
+        );
+    }
     Ok(())
 }
 
