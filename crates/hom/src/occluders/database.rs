@@ -139,8 +139,9 @@ fn second_largest(v: glam::Vec3) -> f32 {
 }
 
 impl OccluderDb {
-    /// Bytes held on the heap, stand-in meshes excluded (they are the
-    /// caller's, shared through `Arc`).
+    /// Bytes held on the heap: the occluders, verdicts and the baked virtual
+    /// occluders; stand-in meshes excluded (they are the caller's, shared
+    /// through `Arc`).
     pub(crate) fn heap_bytes(&self) -> usize {
         let baked: usize = self
             .bakes
