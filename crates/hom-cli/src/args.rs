@@ -381,6 +381,10 @@ pub struct BenchArgs {
     /// coherence modes): bvh, kd, kd-propagate (default: the BVH only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_hierarchy)]
     pub hierarchy: Vec<Hierarchy>,
+    /// Comma-separated occluder meshes to walk HOM, HZB, masked and otree with, a row each:
+    /// original, virtual (default: virtual only).
+    #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_occluders)]
+    pub occluders: Vec<OccluderMeshes>,
     /// HOM, HZB, masked, otree: never rest where occlusion culling costs more than it saves.
     #[arg(long)]
     pub no_cost_model: bool,

@@ -10,6 +10,7 @@ use crate::pictures::StageBar;
 use crate::report::{median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
 use hom::cull::{Coherence, Hierarchy, PSkip};
+use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
 use serde::Serialize;
@@ -39,6 +40,11 @@ pub struct BenchOptions {
     /// each (times the coherence modes); empty: the default (BVH) only.
     #[serde(serialize_with = "hierarchy_labels")]
     pub hierarchy: Vec<Hierarchy>,
+    /// The occluder meshes to walk each of HOM, HZB, masked and otree with, one
+    /// row each (times the hierarchies and coherence modes); empty: the default
+    /// ([`OccluderMeshes::Virtual`]) only.
+    #[serde(serialize_with = "occluder_labels")]
+    pub occluders: Vec<OccluderMeshes>,
     /// Whether HOM, HZB, masked and otree rest while occlusion culling does not pay.
     pub cost_model: bool,
     /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
@@ -59,6 +65,7 @@ impl Default for BenchOptions {
             threads: 0,
             coherence: Vec::new(),
             hierarchy: Vec::new(),
+            occluders: Vec::new(),
             cost_model: true,
             speed: None,
             cuts: None,
@@ -70,7 +77,8 @@ impl Default for BenchOptions {
 /// The cullers whose traversal takes a [`Coherence`].
 const COHERENT_CULLERS: &[&str] = &["hom", "hzb", "masked", "otree", "hv"];
 
-/// The cullers whose occlusion traversal takes a [`Hierarchy`] (HV has its octree).
+/// The cullers whose occlusion traversal takes a [`Hierarchy`] (HV has its octree),
+/// and that draw occluders picked from the [`OccluderMeshes`].
 const HIERARCHY_CULLERS: &[&str] = &["hom", "hzb", "masked", "otree"];
 
 /// A coherence mode as `hom bench --coherence` spells it: `off`, `exact`,
@@ -110,6 +118,15 @@ pub fn parse_coherence(s: &str) -> Result<Coherence, String> {
     }
 }
 
+/// Occluder meshes as `--occluders` spells them: `original` or `virtual`.
+pub fn parse_occluders(s: &str) -> Result<OccluderMeshes, String> {
+    match s {
+        "original" => Ok(OccluderMeshes::Original),
+        "virtual" => Ok(OccluderMeshes::Virtual),
+        _ => Err(format!("expected original or virtual, got `{s}`")),
+    }
+}
+
 /// A hierarchy as `--hierarchy` spells it: `bvh`, `kd` or `kd-propagate`.
 pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
     match s {
@@ -122,6 +139,10 @@ pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
 
 fn hierarchy_labels<S: serde::Serializer>(h: &[Hierarchy], s: S) -> Result<S::Ok, S::Error> {
     s.collect_seq(h.iter().map(|h| h.to_string()))
+}
+
+fn occluder_labels<S: serde::Serializer>(m: &[OccluderMeshes], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(m.iter().map(|m| m.to_string()))
 }
 
 fn coherence_labels<S: serde::Serializer>(modes: &[Coherence], s: S) -> Result<S::Ok, S::Error> {
@@ -210,6 +231,9 @@ pub struct BenchRow {
     /// The traversal's hierarchy (`bvh`, `kd`, `kd-propagate`) when the bench
     /// was given hierarchies and the culler takes one.
     pub hierarchy: Option<String>,
+    /// The occluder meshes (`original`, `virtual`) when the bench was given
+    /// several and the culler draws occluders.
+    pub occluders: Option<String>,
     /// Mean node tests per frame (`node_tests`).
     pub node_tests_per_frame: Option<f64>,
     /// Mean object tests per frame (`object_tests`).
@@ -347,11 +371,24 @@ pub fn run_bench(
                     } else {
                         options.hierarchy.iter().copied().map(Some).collect()
                     };
+                let meshes: Vec<Option<OccluderMeshes>> =
+                    if options.occluders.is_empty() || !HIERARCHY_CULLERS.contains(&name) {
+                        vec![None]
+                    } else {
+                        options.occluders.iter().copied().map(Some).collect()
+                    };
                 hierarchies.into_iter().flat_map(move |hierarchy| {
-                    modes
-                        .clone()
-                        .into_iter()
-                        .map(move |coherence| (name, Mode { coherence, hierarchy }))
+                    let modes = modes.clone();
+                    meshes.clone().into_iter().flat_map(move |occluders| {
+                        modes.clone().into_iter().map(move |coherence| {
+                            let mode = Mode {
+                                coherence,
+                                hierarchy,
+                                occluders,
+                            };
+                            (name, mode)
+                        })
+                    })
                 })
             })
             .collect();
@@ -373,6 +410,9 @@ pub fn run_bench(
             }
             if let Some(h) = mode.hierarchy {
                 settings.hom.hierarchy = h;
+            }
+            if let Some(m) = mode.occluders {
+                settings.hom.occluders.occluder_db.meshes = m;
             }
             settings.hom.cost_model = options.cost_model;
             settings.hv.priming = options.hv_priming;
@@ -430,23 +470,29 @@ fn scene_oracle_speedup(walks: &[(String, Mode, WalkResult)]) -> Option<f64> {
 struct Mode {
     coherence: Option<Coherence>,
     hierarchy: Option<Hierarchy>,
+    occluders: Option<OccluderMeshes>,
 }
 
+/// A row's labels: hierarchy, occluder meshes, coherence mode (each as its flag spells it).
+type Labels = [Option<String>; 3];
+
 impl Mode {
-    /// The hierarchy's and coherence's labels, as the row shows them.
-    fn labels(&self) -> (Option<String>, Option<String>) {
-        (
+    /// The hierarchy's, occluder meshes' and coherence's labels, as the row shows them.
+    fn labels(&self) -> Labels {
+        [
             self.hierarchy.map(|h| h.to_string()),
+            self.occluders.map(|m| m.to_string()),
             self.coherence.as_ref().map(coherence_label),
-        )
+        ]
     }
 }
 
-/// `culler`, then `/hierarchy` and `/mode` for those it was walked with
-/// (hierarchy as `--hierarchy` spells it, mode as [`coherence_label`]).
-fn row_label(culler: &str, (hierarchy, coherence): (Option<String>, Option<String>)) -> String {
+/// `culler`, then `/hierarchy`, `/occluders` and `/mode` for those it was
+/// walked with (as `--hierarchy` and `--occluders` spell them, mode as
+/// [`coherence_label`]).
+fn row_label(culler: &str, labels: Labels) -> String {
     let mut s = culler.to_string();
-    for part in [hierarchy, coherence].into_iter().flatten() {
+    for part in labels.into_iter().flatten() {
         s.push('/');
         s.push_str(&part);
     }
@@ -456,7 +502,8 @@ fn row_label(culler: &str, (hierarchy, coherence): (Option<String>, Option<Strin
 impl BenchRow {
     /// The row's name in the table: `culler`, or `culler/mode` with a coherence mode.
     pub fn label(&self) -> String {
-        row_label(&self.culler, (self.hierarchy.clone(), self.coherence.clone()))
+        let labels = [self.hierarchy.clone(), self.occluders.clone(), self.coherence.clone()];
+        row_label(&self.culler, labels)
     }
 }
 
@@ -473,12 +520,13 @@ fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
 
 fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
     let s: &Summary = &w.summary;
-    let (hierarchy, coherence) = mode.labels();
+    let [hierarchy, occluders, coherence] = mode.labels();
     BenchRow {
         scene: scene.to_string(),
         culler: culler.to_string(),
         coherence,
         hierarchy,
+        occluders,
         node_tests_per_frame: mean_counter(w, &["node_tests"]),
         object_tests_per_frame: mean_counter(w, &["object_tests"]),
         propagated_per_frame: mean_counter(w, &["propagated_invisible"]),
@@ -547,6 +595,7 @@ fn oracle_row(
         culler: ORACLE_ROW.to_string(),
         coherence: None,
         hierarchy: None,
+        occluders: None,
         node_tests_per_frame: None,
         object_tests_per_frame: None,
         propagated_per_frame: None,
@@ -693,13 +742,39 @@ mod tests {
         let mode = Mode {
             coherence: Some(Coherence::Exact),
             hierarchy: Some(Hierarchy::KdTree { propagation: false }),
+            occluders: None,
         };
         assert_eq!(row_label("hom", mode.labels()), "hom/kd/exact");
+        let all = Mode {
+            occluders: Some(OccluderMeshes::Original),
+            ..mode
+        };
+        assert_eq!(row_label("hom", all.labels()), "hom/kd/original/exact");
         let plain = Mode {
             coherence: None,
             hierarchy: None,
+            occluders: None,
         };
         assert_eq!(row_label("hom", plain.labels()), "hom");
+    }
+
+    #[test]
+    fn occluder_meshes_get_a_row_each_for_the_cullers_that_draw_occluders() {
+        let options = BenchOptions {
+            occluders: ["original", "virtual"].map(|m| parse_occluders(m).unwrap()).to_vec(),
+            ..small()
+        };
+        let report = run_bench(&["machine-room"], &["frustum", "hom", "hv"], &options, |_| {}).unwrap();
+        let labels: Vec<String> = report.rows.iter().map(|r| r.label()).collect();
+        assert_eq!(labels, ["frustum", "hom/original", "hom/virtual", "hv", ORACLE_ROW]);
+        // The walk header records the meshes each row drew its occluders with.
+        for (row, meshes) in [(1, "original"), (2, "virtual")] {
+            assert_eq!(report.rows[row].config["occluder_meshes"], meshes);
+        }
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["options"]["occluders"][1], "virtual");
+        assert_eq!(json["rows"][1]["occluders"], "original");
+        assert!(parse_occluders("simplified").is_err());
     }
 
     #[test]

@@ -25,6 +25,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         threads: a.threads,
         coherence: a.coherence.clone(),
         hierarchy: a.hierarchy.clone(),
+        occluders: a.occluders.clone(),
         cost_model: !a.no_cost_model,
         hv_priming: a.hv_priming,
         speed: a.speed,

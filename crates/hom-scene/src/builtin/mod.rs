@@ -13,6 +13,7 @@
 //! | `dynamic` | moving Utah teapots, tori, spheres and boxes | ≈1M |
 //! | `office` | a building floor of rooms, corridors and furnished offices | ≈270k |
 //! | `terrain` | rolling height-field hills with villages and forests, low flight | ≈480k |
+//! | `sculpture-park` | courtyards of densely tessellated walls and high-poly statues, then a grove of small trees | ≈350k |
 //!
 //! [`SCALE_SCENES`] are generated the same way but too big for the walk
 //! suite every test and `hom bench` runs by default:
@@ -27,6 +28,7 @@ mod machine_room;
 mod metropolis;
 mod office;
 mod rng;
+mod sculpture_park;
 mod shapes;
 pub(crate) mod spheres;
 mod teapot;
@@ -76,6 +78,10 @@ pub const BUILTIN_SCENES: &[(&str, &str)] = &[
         "terrain",
         "rolling height-field hills in tiles with villages and forests; low flight over the hills",
     ),
+    (
+        "sculpture-park",
+        "walled courtyards of densely tessellated walls, statues and monuments, then a grove of small trees; walk through",
+    ),
 ];
 
 /// Built-in scenes for measuring at scale, made by [`builtin`] like the others
@@ -102,6 +108,7 @@ pub fn builtin_with_seed(name: &str, seed: u64) -> Result<Builtin, LoadError> {
         "dynamic" => dynamic::generate(seed),
         "office" => office::generate(seed),
         "terrain" => terrain::generate(seed),
+        "sculpture-park" => sculpture_park::generate(seed),
         "metropolis" => metropolis::generate(seed),
         _ => {
             return Err(LoadError::UnknownBuiltin {
@@ -172,6 +179,7 @@ mod tests {
         ("dynamic", 1_000_000),
         ("office", 270_000),
         ("terrain", 480_000),
+        ("sculpture-park", 350_000),
     ];
 
     fn fingerprint(b: &Builtin) -> (usize, u64, u64) {
@@ -240,7 +248,7 @@ mod tests {
 
     #[test]
     fn walks_never_start_a_frame_inside_an_object() {
-        for name in ["city", "spheres", "machine-room", "office", "dynamic"] {
+        for name in ["city", "spheres", "machine-room", "office", "dynamic", "sculpture-park"] {
             let b = builtin(name).unwrap();
             let bad = eyes_inside(&b);
             assert!(bad.is_empty(), "{name}: eye inside {:?}", &bad[..bad.len().min(10)]);
@@ -296,7 +304,7 @@ mod tests {
         b.animation.apply(s, 2.0);
         let moved = s.objects().iter().zip(&before).filter(|(o, b)| o.aabb != **b).count();
         assert_eq!(moved, s.dynamic_count());
-        for name in ["city", "spheres", "machine-room", "office", "terrain"] {
+        for name in ["city", "spheres", "machine-room", "office", "terrain", "sculpture-park"] {
             let b = builtin(name).unwrap();
             assert!(b.scene.dynamic_count() == 0 && b.animation.is_empty(), "{name}");
         }
@@ -310,7 +318,7 @@ mod tests {
         assert_eq!(name, "nope");
         assert_eq!(
             known,
-            "city, spheres, machine-room, dynamic, office, terrain, metropolis"
+            "city, spheres, machine-room, dynamic, office, terrain, sculpture-park, metropolis"
         );
         assert!(builtin("Machine_Room").is_ok());
     }

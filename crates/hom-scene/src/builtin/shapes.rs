@@ -261,6 +261,60 @@ impl MeshBuilder {
         }
     }
 
+    /// An axis-aligned box whose faces are grids of squares about `step` wide
+    /// (closed; corners and edges shared exactly between faces): a dense
+    /// occluder that a 12-triangle box stands in for.
+    pub(crate) fn add_tessellated_box(&mut self, min: Vec3, max: Vec3, step: f32) {
+        // One coordinate list per axis, so faces meeting at an edge share its points bit for bit.
+        let ticks = |a: f32, b: f32| -> Vec<f32> {
+            let n = ((b - a) / step).ceil().max(1.0) as usize;
+            (0..=n)
+                .map(|i| if i == n { b } else { a + (b - a) * i as f32 / n as f32 })
+                .collect()
+        };
+        let axes = [ticks(min.x, max.x), ticks(min.y, max.y), ticks(min.z, max.z)];
+        // Each face: the axis it faces, which side, and the two axes it spans (u × v outward).
+        for (n, hi) in [(0, false), (0, true), (1, false), (1, true), (2, false), (2, true)] {
+            let (mut u, mut v) = ((n + 1) % 3, (n + 2) % 3);
+            if !hi {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let at = |i: usize, j: usize| {
+                let mut p = [0.0; 3];
+                p[n] = if hi { axes[n][axes[n].len() - 1] } else { axes[n][0] };
+                p[u] = axes[u][i];
+                p[v] = axes[v][j];
+                Vec3::from(p)
+            };
+            let (nu, nv) = (axes[u].len(), axes[v].len());
+            let base = self.positions.len() as u32;
+            for i in 0..nu {
+                for j in 0..nv {
+                    self.positions.push(at(i, j));
+                }
+            }
+            let id = |i: usize, j: usize| base + (i * nv + j) as u32;
+            for i in 0..nu - 1 {
+                for j in 0..nv - 1 {
+                    self.quad(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                }
+            }
+        }
+    }
+
+    /// A superellipsoid: |x/rx|^p + |y/ry|^p + |z/rz|^p = 1 (p = 2 is an ellipsoid,
+    /// larger p squarer), tessellated like [`MeshBuilder::add_ellipsoid`].
+    pub(crate) fn add_superellipsoid(&mut self, c: Vec3, r: Vec3, p: f32, slices: u32, stacks: u32) {
+        let e = 2.0 / p;
+        let pow = |x: f32| x.signum() * x.abs().powf(e);
+        let first = self.positions.len();
+        self.add_ellipsoid(Vec3::ZERO, Vec3::ONE, slices, stacks);
+        for q in &mut self.positions[first..] {
+            // Map the unit sphere's (cos, sin) pairs through the signed power, per axis.
+            *q = c + Vec3::new(pow(q.x), pow(q.y), pow(q.z)) * r;
+        }
+    }
+
     /// Appends another builder's triangles transformed by `xf`.
     pub(crate) fn append(&mut self, other: &MeshBuilder, xf: &Mat4) {
         let base = self.positions.len() as u32;
@@ -336,5 +390,50 @@ mod tests {
             .positions()
             .iter()
             .all(|q| (q - Vec3::new(0.0, 0.0, 5.0)).length() > 0.2));
+    }
+
+    /// Signed volume of a triangle soup (positive for a closed, outward-wound mesh).
+    fn signed_volume(b: &MeshBuilder) -> f32 {
+        let p = &b.positions;
+        b.triangles
+            .iter()
+            .map(|t| p[t[0] as usize].dot(p[t[1] as usize].cross(p[t[2] as usize])) / 6.0)
+            .sum()
+    }
+
+    /// Edges (as welded position pairs) used by other than exactly two triangles.
+    fn open_edges(b: &MeshBuilder) -> usize {
+        let key = |i: u32| b.positions[i as usize].to_array().map(f32::to_bits);
+        let mut edges = std::collections::HashMap::new();
+        for t in &b.triangles {
+            for k in 0..3 {
+                let (a, c) = (key(t[k]), key(t[(k + 1) % 3]));
+                *edges.entry(if a < c { (a, c) } else { (c, a) }).or_insert(0) += 1;
+            }
+        }
+        edges.values().filter(|&&n| n != 2).count()
+    }
+
+    #[test]
+    fn dense_solids_are_closed_and_wound_outward() {
+        let mut b = MeshBuilder::new();
+        let (min, max) = (Vec3::new(-1.0, 0.0, 0.5), Vec3::new(2.0, 0.7, 1.1));
+        b.add_tessellated_box(min, max, 0.1);
+        // 30 x 7, 30 x 6 and 7 x 6 squares on opposite face pairs.
+        assert_eq!(b.tri_count(), 2 * 2 * (30 * 7 + 30 * 6 + 7 * 6));
+        assert_eq!(open_edges(&b), 0);
+        let v = (max - min).x * (max - min).y * (max - min).z;
+        assert!((signed_volume(&b) - v).abs() < 1e-4 * v, "{}", signed_volume(&b));
+        let m = b.build("box");
+        assert_eq!((m.bounds().min, m.bounds().max), (min, max));
+
+        let mut s = MeshBuilder::new();
+        s.add_superellipsoid(Vec3::Y, Vec3::new(1.0, 2.0, 0.5), 6.0, 32, 16);
+        assert_eq!(open_edges(&s), 0);
+        // Squarer than the ellipsoid (4/3 pi abc), inside the box (8abc).
+        let vol = signed_volume(&s);
+        assert!(vol > 4.0 / 3.0 * PI * 1.0 && vol < 8.0 * 1.0, "{vol}");
+        let m = s.build("blob");
+        assert!((m.bounds().max - Vec3::new(1.0, 3.0, 0.5)).abs().max_element() < 1e-5);
     }
 }
