@@ -346,3 +346,62 @@ fn hostile_meshes_get_a_stand_in_or_a_reason() {
         Err(NoVirtual::BadConfig(_))
     ));
 }
+
+/// The spheres' walk: `(frames drawing some original for its virtual
+/// occluder, triangles HOM culled by occlusion)`, with or without the
+/// budget left over buying originals back.
+fn spheres_walk(originals_from_leftover: bool) -> (usize, u64) {
+    let built = hom_scene::builtin("spheres").unwrap();
+    let (mut scene, animation) = (built.scene, built.animation);
+    let mut path = built.path.with_viewport(320, 240);
+    path.frames = path.frames.iter().copied().step_by(4).collect();
+    let mut settings = hom_walk::cullers::CullerSettings::for_scene(&scene);
+    settings.hom.occluders.selection.originals_from_leftover = originals_from_leftover;
+    // Every frame culls (no resting), so every frame selects.
+    settings.hom.cost_model = false;
+    let mut culler = hom_walk::cullers::make("hom", &scene, &settings).unwrap();
+    let options = hom_walk::WalkOptions {
+        oracle: true,
+        baseline: false,
+        ..hom_walk::WalkOptions::default()
+    };
+    let renderer = Renderer::new(0).unwrap();
+    let result = hom_walk::walk(
+        &mut scene,
+        &animation,
+        &path,
+        culler.as_mut(),
+        &renderer,
+        &options,
+        |_| {},
+    )
+    .unwrap();
+    let mut with_originals = 0;
+    for f in &result.frames {
+        assert!(f.oracle.as_ref().unwrap().false_culls.is_empty(), "frame {}", f.frame);
+        let budget = f.counters["budget"];
+        // Stand-ins count their own triangles; originals bought back fit the budget.
+        if f.counters["occluder_originals"] > 0 {
+            with_originals += 1;
+            assert!(
+                f.counters["occluder_triangles"] <= budget,
+                "frame {}: {:?}",
+                f.frame,
+                f.counters
+            );
+        }
+    }
+    let culled = result.frames.iter().map(|f| f.triangles_occlusion_culled).sum();
+    (with_originals, culled)
+}
+
+#[test]
+fn budget_left_over_buys_originals_back_and_culls_more() {
+    // Ten 2,208-triangle spheres, a 3,000-triangle budget: ten 48-triangle
+    // hulls leave room for one original.
+    let (on, culled_on) = spheres_walk(true);
+    let (off, culled_off) = spheres_walk(false);
+    assert!(on > 0, "no frame drew an original");
+    assert_eq!(off, 0);
+    assert!(culled_on > culled_off, "{culled_on} <= {culled_off}");
+}

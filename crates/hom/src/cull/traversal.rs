@@ -84,6 +84,8 @@ pub(crate) struct Selected {
     pub height: u32,
     /// This frame's occluders (ascending ids), rasterized by the culler.
     pub occluders: Vec<u32>,
+    /// Those of them drawn as their originals though they have a virtual occluder.
+    originals: Vec<u32>,
     stats: SelectionStats,
 }
 
@@ -196,6 +198,7 @@ impl OccluderCulling {
             None
         };
         let mut occluders = std::mem::take(&mut out.occluders);
+        let mut originals = Vec::new();
         let stats = out.time("selection", || {
             self.selector.select(
                 &self.db,
@@ -209,6 +212,7 @@ impl OccluderCulling {
                 &frustum,
                 hole.as_ref(),
                 &mut occluders,
+                &mut originals,
             )
         });
         Ok(Selected {
@@ -218,6 +222,7 @@ impl OccluderCulling {
             width: view.width,
             height: view.height,
             occluders,
+            originals,
             stats,
         })
     }
@@ -239,6 +244,7 @@ impl OccluderCulling {
                 scene,
                 &self.db,
                 &frame.occluders,
+                &frame.originals,
                 &frame.world_to_clip,
                 &frame.eye,
                 &frame.frustum,
@@ -553,6 +559,7 @@ fn count_occluders(out: &mut CullOutput, sel: &SelectionStats, occluder_triangle
     out.count("occluder_triangles", occluder_triangles);
     out.count("hole_fillers", sel.hole_fillers as u64);
     out.count("queued_occluders", sel.queued as u64);
+    out.count("occluder_originals", sel.originals as u64);
     out.count("budget", sel.budget as u64);
     out.count("candidates", sel.candidates as u64);
 }

@@ -263,22 +263,23 @@ impl OccluderDb {
 
     /// The mesh drawn for occluder `occluder` and whether it stands in for
     /// the object's own (its stand-in, or its virtual occluder when usable
-    /// from `eye` through `frustum`), or `None` when nothing should be drawn
-    /// (an object over the triangle limit whose virtual occluder is not
-    /// usable from here).
+    /// from `eye` through `frustum`, unless `original` asks for the object's
+    /// own), or `None` when nothing should be drawn (an object over the
+    /// triangle limit whose virtual occluder is not usable from here).
     pub(crate) fn mesh_to_draw<'s>(
         &'s self,
         scene: &'s Scene,
         occluder: &'s Occluder,
         eye: &crate::geom::Eye,
         frustum: &crate::geom::Frustum,
+        original: bool,
     ) -> Option<(&'s Mesh, bool)> {
         let o = scene.object(occluder.object);
         if let Some(mesh) = &occluder.stand_in {
             return Some((mesh, true));
         }
         match &occluder.virtual_occluder {
-            Some(v) if v.usable(&o.transform, &o.aabb, eye, frustum) => Some((v.mesh(), true)),
+            Some(v) if !original && v.usable(&o.transform, &o.aabb, eye, frustum) => Some((v.mesh(), true)),
             _ if o.triangles > self.config.max_triangles => None,
             _ => Some((scene.mesh_of(o), false)),
         }

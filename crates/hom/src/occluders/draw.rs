@@ -13,12 +13,15 @@ use glam::Mat4;
 
 /// Queues the occluders `ids` of `scene` in `buffer` (whose clip convention
 /// is hom's, [`crate::geom::ClipConvention::ZeroToOne`]), nearest first as
-/// seen from `eye`. Returns the number of occluder triangles submitted.
+/// seen from `eye`, those in `originals` (ascending) as their own meshes.
+/// Returns the number of occluder triangles submitted.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn draw_occluders(
     buffer: &mut impl OcclusionBuffer,
     scene: &Scene,
     db: &OccluderDb,
     ids: &[u32],
+    originals: &[u32],
     world_to_clip: &Mat4,
     eye: &Eye,
     frustum: &Frustum,
@@ -33,7 +36,7 @@ pub(crate) fn draw_occluders(
         let o = scene.object(id);
         let Some((mesh, stands_in)) = db
             .occluder(id)
-            .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum))
+            .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum, originals.binary_search(&id).is_ok()))
         else {
             continue;
         };

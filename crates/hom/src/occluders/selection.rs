@@ -64,6 +64,11 @@ pub struct SelectionConfig {
     pub queue_limit: u32,
     /// Rise in culled percentage (points) that proves hole fillers useful.
     pub queue_gain_pct: f32,
+    /// Budget left once every candidate that fits is chosen buys selected
+    /// occluders their originals back, nearest first, in place of their
+    /// virtual occluders (an original covers what its stand-in covers, and
+    /// more): the spheres' walk fits all ten stand-ins and one original.
+    pub originals_from_leftover: bool,
 }
 
 impl Default for SelectionConfig {
@@ -79,6 +84,7 @@ impl Default for SelectionConfig {
             hole_share: 0.25,
             queue_limit: 10_000,
             queue_gain_pct: 2.0,
+            originals_from_leftover: true,
         }
     }
 }
@@ -96,6 +102,9 @@ pub struct SelectionStats {
     pub hole_fillers: u32,
     /// Of those, from the queue.
     pub queued: u32,
+    /// Of those, drawn as their originals in place of their virtual
+    /// occluders ([`SelectionConfig::originals_from_leftover`]).
+    pub originals: u32,
     /// The budget L used.
     pub budget: u32,
 }
@@ -146,7 +155,9 @@ impl OccluderSelector {
         &self.config
     }
 
-    /// Selects this frame's occluders into `out` (ids, ascending). `hole` is the
+    /// Selects this frame's occluders into `out` (ids, ascending), and into
+    /// `originals` (ascending) those of them to draw as their originals
+    /// though they have a virtual occluder. `hole` is the
     /// worst hole of the last frame's coarsest map, if the caller found one.
     ///
     /// `world_to_clip` is the view in hom's clip convention, `eye` its viewer
@@ -162,8 +173,10 @@ impl OccluderSelector {
         frustum: &Frustum,
         hole: Option<&Hole>,
         out: &mut Vec<u32>,
+        originals: &mut Vec<u32>,
     ) -> SelectionStats {
         out.clear();
+        originals.clear();
         let count = scene.objects().len();
         self.last_selected.resize(count, false);
         let mut stats = SelectionStats {
@@ -247,6 +260,23 @@ impl OccluderSelector {
         for &(_, id, tris) in &self.candidates {
             take(id, tris, budget, &mut spent, out);
         }
+        // 4. What is left buys originals back, nearest first.
+        if self.config.originals_from_leftover && spent < budget {
+            for &(_, id, tris) in &self.candidates {
+                let occ = match db.occluder(id) {
+                    Some(o) if chosen[id as usize] && o.stand_in.is_none() && o.virtual_occluder.is_some() => o,
+                    _ => continue,
+                };
+                let full = u64::from(scene.object(occ.object).triangles);
+                let extra = full.saturating_sub(u64::from(tris));
+                if full <= u64::from(db.config().max_triangles) && spent + extra <= budget {
+                    spent += extra;
+                    originals.push(id);
+                }
+            }
+            originals.sort_unstable();
+        }
+        stats.originals = originals.len() as u32;
         out.sort_unstable();
         self.last_selected.fill(false);
         for &id in out.iter() {

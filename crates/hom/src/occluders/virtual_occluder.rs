@@ -17,19 +17,25 @@
 //!    open-bottomed building, a tree on the ground), closed there by a
 //!    virtual cap that rays from above the floor never reach. Other
 //!    components (open pipes, sheets) enclose nothing and give nothing.
-//! 2. **Inside cells.** A grid of `resolution³` cells over the mesh's box.
+//! 2. **Convex solids** get hulls instead of cells: a closed component
+//!    proven convex (`convex_part.rs`) offers hulls of a few of its own
+//!    vertices, shrunk a hair, each inside it because the body is convex
+//!    (a sphere's boxes keep 55 % of its coverage, its 48-point hull 90 %).
+//! 3. **Inside cells.** A grid of `resolution³` cells over the mesh's box.
 //!    A cell is a *surface* cell when a solid's triangle touches it (the
 //!    separating-axis test on the cell grown by a margin); a cell that is not
 //!    is wholly inside or wholly outside each solid, and its centre's parity
 //!    along a vertical ray says which. Orientation tests whose sign rounding
 //!    could flip drop the whole column, so no cell is called inside by luck.
-//! 3. **Boxes.** Greedy: grown from seed cells through inside cells, the box
-//!    that adds the most uncovered surface area is taken, until the triangle
-//!    budget or the gains run out. The union of the boxes is the stand-in
-//!    (12 triangles a box), deterministic for a given mesh and configuration.
+//! 4. **Boxes.** Greedy by area per triangle: the box grown from seed cells
+//!    through inside cells that adds the most uncovered surface area, an
+//!    open part kept whole, or a convex part's next larger hull (paying the
+//!    triangles it adds), until the triangle budget or the gains run out.
+//!    The union of the picks is the stand-in (12 triangles a box),
+//!    deterministic for a given mesh and configuration.
 //!
 //! **The guarantee.** A sample the stand-in covers is a ray from the eye
-//! through a point `p` of a box, inside some solid `V`. When the eye is
+//! through a point `p` of a box or hull, inside some solid `V`. When the eye is
 //! outside `V` the segment from eye to `p` crosses `V`'s surface at a point
 //! no farther than `p`, on one of the original's triangles (never on a floor
 //! cap, when the eye is above the floor): the original covers that sample
@@ -39,6 +45,7 @@
 //! solids, the eye above the floor. Holes survive: a tunnel through a solid
 //! is outside it, and a hole in an open sheet makes no solid at all.
 
+use super::convex_part::{convex_part, ConvexPart};
 use crate::geom::{Aabb, Eye, Frustum};
 use crate::scene::{Mesh, SceneError};
 use glam::{Mat4, Vec3};
@@ -63,7 +70,8 @@ pub struct VirtualConfig {
     pub min_gain: f32,
     /// Refuse a stand-in that keeps less than this share of the original's
     /// covered area along the three axes (estimated on a 64² grid a view):
-    /// a sphere behind a sphere peeks out past any inscribed box.
+    /// a round part that is not convex (so gets no hull) peeks out past any
+    /// inscribed box.
     pub min_coverage: f32,
 }
 
@@ -202,7 +210,8 @@ impl VirtualOccluder {
                 min: config.min_original.max(48),
             });
         }
-        let parts = Parts::find(mesh);
+        let mut parts = Parts::find(mesh);
+        let convex = parts.take_convex();
         let grid = Grid::new(mesh, config.resolution);
         let inside = match &grid {
             Some(g) if !parts.solid.is_empty() => g.inside_cells(mesh, &parts),
@@ -210,49 +219,73 @@ impl VirtualOccluder {
         };
         let total = inside.iter().filter(|&&c| c).count();
         // Greedy by area shown (along the three axes) per triangle: the next
-        // box of inside cells, or the next open part kept as it is.
+        // box of inside cells, the next open part kept as it is, or a convex
+        // part's next larger hull.
         let mut uncovered = inside.clone();
         let inside_sum = grid
             .as_ref()
             .filter(|_| total > 0)
             .map(|g| PrefixSum::new(g.dims, &inside));
         let (mut boxes, mut kept) = (Vec::new(), vec![false; parts.open.len()]);
+        let mut hull_of: Vec<Option<usize>> = vec![None; convex.len()];
         let (mut left, mut first) = (budget, None);
         loop {
             let next_box = match (&grid, &inside_sum) {
                 (Some(g), Some(sum)) if left >= 12 => {
-                    g.best_box(sum, &uncovered).map(|(gain, b)| (gain / 12.0, Some(b), 0))
+                    g.best_box(sum, &uncovered).map(|(gain, b)| (gain / 12.0, Pick::Box(b)))
                 }
                 _ => None,
             };
             let next_part = (0..parts.open.len())
                 .filter(|&i| !kept[i] && parts.open[i].triangles.len() <= left)
-                .map(|i| (parts.open[i].value / parts.open[i].triangles.len() as f32, None, i))
-                .max_by(|x, y| x.0.total_cmp(&y.0).then(y.2.cmp(&x.2)));
-            let best = match (next_box, next_part) {
-                (Some(b), Some(p)) => Some(if p.0 > b.0 { p } else { b }),
-                (b, p) => b.or(p),
-            };
-            let Some((per_triangle, cells, part)) = best else { break };
+                .map(|i| {
+                    (
+                        parts.open[i].value / parts.open[i].triangles.len() as f32,
+                        Pick::Open(i),
+                    )
+                });
+            let next_hull = convex.iter().enumerate().flat_map(|(c, part)| {
+                let (had, had_tris) = match hull_of[c] {
+                    Some(l) => (part.hulls[l].value, part.hulls[l].triangles.len()),
+                    None => (0.0, 0),
+                };
+                let from = hull_of[c].map_or(0, |l| l + 1);
+                part.hulls.iter().enumerate().skip(from).filter_map(move |(l, h)| {
+                    let more = h.triangles.len().saturating_sub(had_tris);
+                    (more > 0 && more <= left).then(|| ((h.value - had) / more as f32, Pick::Hull(c, l)))
+                })
+            });
+            // Ties go to the first candidate: boxes, then open parts, then hulls, each in order.
+            let best = next_box
+                .into_iter()
+                .chain(next_part)
+                .chain(next_hull)
+                .reduce(|best, x| if x.0 > best.0 { x } else { best });
+            let Some((per_triangle, pick)) = best else { break };
             let first = *first.get_or_insert(per_triangle);
             let gains = per_triangle > first * config.min_gain;
             if !gains {
                 break;
             }
-            match cells {
-                Some(b) => {
+            match pick {
+                Pick::Box(b) => {
                     grid.as_ref().expect("a box needs the grid").cover(&mut uncovered, &b);
                     boxes.push(b);
                     left -= 12;
                 }
-                None => {
+                Pick::Open(part) => {
                     kept[part] = true;
                     left -= parts.open[part].triangles.len();
                 }
+                Pick::Hull(c, l) => {
+                    let had = hull_of[c].map_or(0, |h| convex[c].hulls[h].triangles.len());
+                    left -= convex[c].hulls[l].triangles.len() - had;
+                    hull_of[c] = Some(l);
+                }
             }
         }
-        if boxes.is_empty() && !kept.contains(&true) {
-            return Err(if parts.solid.is_empty() {
+        if boxes.is_empty() && !kept.contains(&true) && hull_of.iter().all(Option::is_none) {
+            return Err(if parts.solid.is_empty() && convex.is_empty() {
                 NoVirtual::NoSolid {
                     open_edges: parts.open_edges,
                 }
@@ -267,11 +300,19 @@ impl VirtualOccluder {
             None => (Vec::new(), Vec::new()),
         };
         let p = mesh.positions();
+        let mut push = |corners: [Vec3; 3]| {
+            let base = positions.len() as u32;
+            positions.extend(corners);
+            triangles.push([base, base + 1, base + 2]);
+        };
         for (part, _) in parts.open.iter().zip(&kept).filter(|(_, &k)| k) {
             for &t in &part.triangles {
-                let base = positions.len() as u32;
-                positions.extend(mesh.triangles()[t as usize].map(|i| p[i as usize]));
-                triangles.push([base, base + 1, base + 2]);
+                push(mesh.triangles()[t as usize].map(|i| p[i as usize]));
+            }
+        }
+        for (part, level) in convex.iter().zip(&hull_of) {
+            if let Some(l) = level {
+                part.hulls[*l].triangles.iter().for_each(|&t| push(t));
             }
         }
         let covered = inside.iter().zip(&uncovered).filter(|(&i, &u)| i && !u).count();
@@ -292,6 +333,16 @@ impl VirtualOccluder {
     }
 }
 
+/// What the greedy bake takes next.
+enum Pick {
+    /// A box of inside cells.
+    Box(CellBox),
+    /// An open part, whole.
+    Open(usize),
+    /// Convex part `.0`'s hull `.1` (replacing a smaller one taken before).
+    Hull(usize, usize),
+}
+
 /// An open component (it encloses nothing): kept whole or not at all.
 struct OpenPart {
     triangles: Vec<u32>,
@@ -310,6 +361,9 @@ struct Parts {
     floor: f32,
     /// Odd edges outside the floor plane, over all components.
     open_edges: usize,
+    /// Welded vertex positions, and every triangle over them.
+    welded_positions: Vec<Vec3>,
+    welded: Vec<[u32; 3]>,
 }
 
 impl Parts {
@@ -405,7 +459,24 @@ impl Parts {
             capped,
             floor,
             open_edges,
+            welded_positions: position,
+            welded: tris,
         }
+    }
+
+    /// Takes the provably convex solids out of [`Parts::solid`] (the grid
+    /// need not find their inside cells) and returns their hulls.
+    fn take_convex(&mut self) -> Vec<ConvexPart> {
+        let mut of_solid: Vec<Vec<[u32; 3]>> = vec![Vec::new(); self.count as usize];
+        for &(t, s) in &self.solid {
+            of_solid[s as usize].push(self.welded[t as usize]);
+        }
+        let convex: Vec<Option<ConvexPart>> = of_solid
+            .iter()
+            .map(|tris| convex_part(&self.welded_positions, tris))
+            .collect();
+        self.solid.retain(|&(_, s)| convex[s as usize].is_none());
+        convex.into_iter().flatten().collect()
     }
 }
 
@@ -949,9 +1020,44 @@ mod tests {
         Mesh::new("sphere", p, t).unwrap()
     }
 
+    /// Every corner of `v` on the centre's side of the plane of every face
+    /// of `m` but those touching vertex `skip`.
+    fn assert_inside_faces(m: &Mesh, v: &VirtualOccluder, skip: Option<u32>) {
+        let q = m.positions();
+        for p in v.mesh().positions() {
+            for t in m.triangles().iter().filter(|t| skip.is_none_or(|s| !t.contains(&s))) {
+                let [a, b, c] = t.map(|i| q[i as usize]);
+                let n = (b - a).cross(c - a);
+                if n.length() > 1e-6 {
+                    assert_eq!((*p - a).dot(n) > 0.0, (-a).dot(n) > 0.0, "{p}");
+                }
+            }
+        }
+    }
+
     #[test]
-    fn a_sphere_gets_boxes_inside_it_but_they_keep_too_little_coverage() {
+    fn a_convex_sphere_gets_a_hull_that_keeps_its_coverage() {
         let m = sphere(24);
+        let v = VirtualOccluder::bake(&m, &VirtualConfig::default()).unwrap();
+        assert!(v.coverage() > 0.85, "{}", v.coverage());
+        assert!(
+            v.mesh().triangle_count() * 20 <= m.triangle_count(),
+            "{}",
+            v.mesh().triangle_count()
+        );
+        assert!(v.floor().is_none());
+        // No grid cells: the hull is the whole stand-in.
+        assert_eq!(v.inside_share(), 0.0);
+        assert_inside_faces(&m, &v, None);
+    }
+
+    #[test]
+    fn a_dented_sphere_gets_boxes_inside_it_but_they_keep_too_little_coverage() {
+        // One vertex pushed halfway to the centre: no longer convex, so no hull.
+        let m = sphere(24);
+        let mut p = m.positions().to_vec();
+        p[300] *= 0.5;
+        let m = Mesh::new("dented sphere", p, m.triangles().to_vec()).unwrap();
         assert!(matches!(
             VirtualOccluder::bake(&m, &VirtualConfig::default()),
             Err(NoVirtual::TooLittleCoverage { .. })
@@ -968,19 +1074,9 @@ mod tests {
             v.mesh().triangle_count()
         );
         assert!(v.floor().is_none());
-        // The tessellated sphere is convex: every stand-in corner lies on the
-        // centre's side of every face's plane.
-        let q = m.positions();
-        for p in v.mesh().positions() {
-            for t in m.triangles() {
-                let [a, b, c] = t.map(|i| q[i as usize]);
-                let n = (b - a).cross(c - a);
-                if n.length() > 1e-6 {
-                    assert_eq!((*p - a).dot(n) > 0.0, (-a).dot(n) > 0.0, "{p}");
-                }
-            }
-        }
         assert!(v.inside_share() > 0.3, "{}", v.inside_share());
+        // The boxes lie inside: on the centre's side of every face away from the dent.
+        assert_inside_faces(&m, &v, Some(300));
     }
 
     /// `t` with an even number of copies of its first triangle added (edge
