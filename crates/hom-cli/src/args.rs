@@ -63,6 +63,11 @@ pub enum OccludersCommand {
         /// Also write pictures of the densest occluders against their stand-ins into this folder.
         #[arg(long)]
         pictures: Option<PathBuf>,
+        /// Also compare, on this many frames spread over the scene's camera path (at its
+        /// viewport), every occluder in view whose stand-in is usable: violations and
+        /// coverage kept on the views the cullers meet (more than the path has: every frame).
+        #[arg(long, default_value_t = 0)]
+        walk_frames: usize,
     },
     /// Write the virtual occluders in world space as OBJ, one `o` per source object.
     Export {

@@ -30,7 +30,8 @@ fn main() {
                 side,
                 summary,
                 pictures,
-            } => commands::occluders::info(&scene, side, summary, pictures.as_deref()),
+                walk_frames,
+            } => commands::occluders::info(&scene, side, summary, pictures.as_deref(), walk_frames),
             OccludersCommand::Export { scene, out } => commands::occluders::export(&scene, &out),
         },
     };

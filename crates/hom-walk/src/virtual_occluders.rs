@@ -1,13 +1,15 @@
 //! Virtual occluders seen from outside the culler: per object, the original
 //! and virtual triangle counts and the coverage kept over six axis views
-//! (`hom occluders info`), the guarantee checked on the same views, and the
-//! virtual occluders as a scene of their own (`hom occluders export`).
+//! (`hom occluders info`), the guarantee checked on the same views and over
+//! the frames of a walk (`--walk-frames`), and the virtual occluders as a
+//! scene of their own (`hom occluders export`).
 
-use hom::geom::{Eye, Frustum};
+use hom::geom::{Containment, Eye, Frustum};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 use hom::scene::{Scene, SceneBuilder, SceneError};
 use hom_render::stand_in::{axis_views, compare_stand_in, StandInComparison};
 use hom_render::Renderer;
+use hom_scene::{Animation, CameraPath};
 use rayon::prelude::*;
 
 /// One occluder's virtual occluder, or why it has none.
@@ -78,6 +80,85 @@ pub fn virtual_rows(scene: &Scene, db: &OccluderDb, side: u32) -> Vec<VirtualRow
             }
         })
         .collect()
+}
+
+/// Stand-ins against originals over the frames of a walk.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WalkComparison {
+    /// Frames compared.
+    pub frames: usize,
+    /// (occluder, frame) pairs compared: in the frustum, virtual occluder usable.
+    pub compared: u64,
+    /// Their samples summed.
+    pub total: StandInComparison,
+    /// Stand-in ÷ original covered samples per frame, averaged over the
+    /// frames where some original covers a sample.
+    pub mean_kept: f64,
+}
+
+/// Compares, on `frames` frames spread evenly over `path` (all of them when
+/// it has no more), every kept occluder of `db` that is in the frustum and
+/// whose virtual occluder is usable from the frame's eye, at the path's
+/// viewport: the guarantee on the views the cullers meet, and the coverage
+/// kept there. `animation` moves the dynamic objects as a walk does;
+/// `on_frame` hears each frame index compared.
+pub fn walk_comparison(
+    scene: &mut Scene,
+    animation: &Animation,
+    path: &CameraPath,
+    db: &OccluderDb,
+    frames: usize,
+    mut on_frame: impl FnMut(usize),
+) -> WalkComparison {
+    let n = path.frames.len();
+    let frames = frames.min(n);
+    let mut result = WalkComparison {
+        frames,
+        ..WalkComparison::default()
+    };
+    let (mut kept_sum, mut kept_frames) = (0.0, 0);
+    for k in 0..frames {
+        // Evenly spread, first and last frame included.
+        let i = if frames > 1 { k * (n - 1) / (frames - 1) } else { 0 };
+        animation.apply(scene, i as f32 / crate::WalkOptions::default().frame_rate);
+        let camera = path.camera(i);
+        let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("a validated path has views");
+        let eye = Eye::Point(camera.eye);
+        let scene = &*scene;
+        let add = |(n, mut a): (u64, StandInComparison), (m, c): (u64, StandInComparison)| {
+            a += c;
+            (n + m, a)
+        };
+        let (compared, frame) = db
+            .occluders()
+            .par_iter()
+            .filter_map(|occ| {
+                let v = occ.virtual_occluder.as_ref()?;
+                let o = scene.object(occ.object);
+                let in_view = frustum.test_obb(&o.obb) != Containment::Outside;
+                (in_view && v.usable(&o.transform, &o.aabb, &eye, &frustum)).then(|| {
+                    let renderer = Renderer::new(1).expect("one thread");
+                    (
+                        1,
+                        compare_stand_in(&renderer, scene.mesh_of(o), v.mesh(), o.transform, &camera),
+                    )
+                })
+            })
+            .reduce(|| (0, StandInComparison::default()), add);
+        result.compared += compared;
+        if frame.original > 0 {
+            kept_sum += frame.kept();
+            kept_frames += 1;
+        }
+        result.total += frame;
+        on_frame(i);
+    }
+    result.mean_kept = if kept_frames > 0 {
+        kept_sum / kept_frames as f64
+    } else {
+        1.0
+    };
+    result
 }
 
 /// The virtual occluders of `db`'s occluders as a scene: one object per

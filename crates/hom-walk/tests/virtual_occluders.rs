@@ -405,3 +405,18 @@ fn budget_left_over_buys_originals_back_and_culls_more() {
     assert_eq!(off, 0);
     assert!(culled_on > culled_off, "{culled_on} <= {culled_off}");
 }
+
+#[test]
+fn stand_ins_hold_and_keep_their_coverage_on_the_walks_they_were_built_for() {
+    for name in ["machine-room", "sculpture-park", "spheres"] {
+        let built = hom_scene::builtin(name).unwrap();
+        let (mut scene, animation) = (built.scene, built.animation);
+        let path = built.path.with_viewport(320, 240);
+        let db = hom_walk::virtual_occluders::virtual_db(&scene);
+        let w = hom_walk::virtual_occluders::walk_comparison(&mut scene, &animation, &path, &db, 24, |_| {});
+        assert_eq!(w.frames, 24);
+        assert!(w.compared >= 24, "{name}: {w:?}");
+        assert_eq!(w.total.violations, 0, "{name}: {w:?}");
+        assert!(w.mean_kept > 0.85 && w.mean_kept <= 1.0, "{name}: {w:?}");
+    }
+}

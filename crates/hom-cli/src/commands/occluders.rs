@@ -2,16 +2,17 @@
 //! a scene, counted, checked and written out.
 
 use anyhow::{bail, Context, Result};
-use hom_walk::virtual_occluders::{virtual_db, virtual_rows, virtual_scene, write_pictures};
+use hom_walk::virtual_occluders::{virtual_db, virtual_rows, virtual_scene, walk_comparison, write_pictures};
 use std::path::Path;
 use std::time::Instant;
 
-/// `hom occluders info`: a line per kept occluder, then the totals.
-pub fn info(spec: &str, side: u32, summary_only: bool, pictures: Option<&Path>) -> Result<()> {
+/// `hom occluders info`: a line per kept occluder, then the totals; with
+/// `walk_frames`, the comparison over that many frames of the camera path.
+pub fn info(spec: &str, side: u32, summary_only: bool, pictures: Option<&Path>, walk_frames: usize) -> Result<()> {
     if !(8..=1024).contains(&side) {
         bail!("--side must be 8..=1024 samples, got {side}");
     }
-    let (scene, _, _) = hom_walk::open_scene(spec)?;
+    let (mut scene, path, animation) = hom_walk::open_scene(spec)?;
     let start = Instant::now();
     let db = virtual_db(&scene);
     let bake_s = start.elapsed().as_secs_f64();
@@ -74,6 +75,23 @@ pub fn info(spec: &str, side: u32, summary_only: bool, pictures: Option<&Path>) 
         baked_tris,
         rayon::current_num_threads()
     );
+    if walk_frames > 0 {
+        let bar = crate::setup::progress(walk_frames.min(path.frames.len()), "comparing");
+        let w = walk_comparison(&mut scene, &animation, &path, &db, walk_frames, |_| bar.inc(1));
+        bar.finish_and_clear();
+        println!(
+            "walk:           {} of {} frames at {}x{}: {} stand-ins in view compared; coverage kept {:.1} % \
+             (mean over frames), {:.1} % of all samples; violations {} samples (0 is the guarantee)",
+            w.frames,
+            path.frames.len(),
+            path.width,
+            path.height,
+            w.compared,
+            100.0 * w.mean_kept,
+            100.0 * w.total.kept(),
+            w.total.violations
+        );
+    }
     if let Some(dir) = pictures {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let files = write_pictures(&scene, &db, dir, 4, 256)?;

@@ -317,8 +317,11 @@ mod x86 {
             let abs = |v: __m256d| _mm256_andnot_pd(_mm256_set1_pd(-0.0), v);
             let plane = _mm256_mul_pd(_mm256_add_pd(abs(dzdx), abs(dzdy)), _mm256_set1_pd(4.0 / ONE as f64));
             let round = _mm256_mul_pd(
-                _mm256_mul_pd(abs(zref), _mm256_set1_pd(f64::from(f32::EPSILON))),
-                _mm256_set1_pd(4.0),
+                _mm256_add_pd(
+                    _mm256_mul_pd(abs(zref), _mm256_set1_pd(4.0)),
+                    _mm256_set1_pd(crate::raster::setup::INNER_DEPTH_SLACK),
+                ),
+                _mm256_set1_pd(f64::from(f32::EPSILON)),
             );
             zref = _mm256_add_pd(zref, _mm256_add_pd(plane, round));
         }
