@@ -315,3 +315,17 @@ fn unreadable_and_missing_scene_files_name_the_cause_once() {
     assert_cause_once(&o, "no built-in scene or file named");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
+    let o = hom(&["occluders", "info", "--scene", "spheres", "--summary", "--walk-frames", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let walk = out.lines().find(|l| l.starts_with("walk:")).expect("a walk line");
+    assert!(walk.contains("3 of 260 frames"), "{walk}");
+    assert!(walk.contains("violations 0 samples"), "{walk}");
+    // Without the flag there is no walk line; a bad side is a one-line error.
+    let o = hom(&["occluders", "info", "--scene", "spheres", "--summary"]);
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("walk:"));
+    assert_clean_failure(&hom(&["occluders", "info", "--scene", "spheres", "--side", "2"]), "--side");
+}
