@@ -318,7 +318,15 @@ fn unreadable_and_missing_scene_files_name_the_cause_once() {
 
 #[test]
 fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
-    let o = hom(&["occluders", "info", "--scene", "spheres", "--summary", "--walk-frames", "3"]);
+    let o = hom(&[
+        "occluders",
+        "info",
+        "--scene",
+        "spheres",
+        "--summary",
+        "--walk-frames",
+        "3",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     let walk = out.lines().find(|l| l.starts_with("walk:")).expect("a walk line");
@@ -327,5 +335,8 @@ fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
     // Without the flag there is no walk line; a bad side is a one-line error.
     let o = hom(&["occluders", "info", "--scene", "spheres", "--summary"]);
     assert!(!String::from_utf8_lossy(&o.stdout).contains("walk:"));
-    assert_clean_failure(&hom(&["occluders", "info", "--scene", "spheres", "--side", "2"]), "--side");
+    assert_clean_failure(
+        &hom(&["occluders", "info", "--scene", "spheres", "--side", "2"]),
+        "--side",
+    );
 }

@@ -56,7 +56,7 @@
 mod raster;
 pub mod stand_in;
 
-use hom::geom::{Camera, MAX_VIEWPORT_SIDE};
+use hom::geom::{object_to_clip, Camera, MAX_VIEWPORT_SIDE};
 use hom::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
 use hom::scene::Scene;
 use raster::raster_tri;
@@ -523,14 +523,13 @@ impl Chunk {
             let mesh = f.scene.mesh_of(object);
             let t0 = (g - f.starts[k]) as usize;
             let t1 = (g1.min(f.starts[k + 1]) - f.starts[k]) as usize;
-            let m = f.view_proj * object.transform;
             let positions = mesh.positions();
             let triangles = &mesh.triangles()[t0..t1];
             let base = if flat { f.options.colouring.colour(id) } else { [0; 3] };
             // Transform and classify every vertex once when this chunk uses a
             // good share of the mesh; otherwise per triangle. Both use the same
             // arithmetic, so a vertex is bit-identical either way.
-            let vertex = |p: glam::Vec3| Vertex::new(m * p.extend(1.0), &f.viewport);
+            let vertex = |p: glam::Vec3| Vertex::new(object_to_clip(&f.view_proj, &object.transform, p), &f.viewport);
             let cached = triangles.len() * 3 >= positions.len();
             if cached {
                 self.vertices.clear();

@@ -258,14 +258,16 @@ pub fn occluder_raster_case(seed: u64) -> (Scene, Camera, Vec<u32>) {
 }
 
 /// Clears `buf`, queues the meshes of the objects `ids` of `scene` as seen by
-/// `camera` (two-sided) and draws them: an occlusion buffer as an engine fills it.
+/// `camera` (two-sided) and draws them: an occlusion buffer as the cullers
+/// fill it, vertices placed in the world first as the renderer places them
+/// ([`hom::geom::object_to_clip`]), so exact sampling matches the renderer's.
 pub fn draw_objects(buf: &mut impl OcclusionBuffer, scene: &Scene, ids: &[u32], camera: &Camera) {
     buf.clear();
     for &id in ids {
         let o = scene.object(id);
         let m = scene.mesh_of(o);
-        let mvp = camera.view_proj() * o.transform;
-        buf.render_triangles(m.positions(), m.triangles(), &mvp, FaceCull::None)
+        let world: Vec<Vec3> = m.positions().iter().map(|&p| o.transform.transform_point3(p)).collect();
+        buf.render_triangles(&world, m.triangles(), &camera.view_proj(), FaceCull::None)
             .expect("scene meshes are valid");
     }
     buf.flush();

@@ -40,7 +40,7 @@
 //!    large ones an inner node keeps: `OctreeConfig::keep_large`), before
 //!    its children are visited: each triangle is set up by
 //!    [`setup_triangle`] exactly as the renderer sets it up (same vertex
-//!    transform `view_proj * transform`, same clipping, snapping and fill
+//!    transform, `object_to_clip`, same clipping, snapping and fill
 //!    rule); each set-up triangle's bounding rectangle (when larger than one
 //!    tile) at its smallest depth is first tested against the pyramid, then
 //!    each 8×8-sample tile of it where the triangle covers at least two
@@ -109,7 +109,7 @@
 use super::coherence::{Coherence, Step, TemporalState, Vis};
 use super::{CullError, CullOutput, Culler};
 use crate::depth::{ZPyramid, ZTestStats};
-use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, View};
+use crate::geom::{object_to_clip, project_points, Containment, Eye, Footprint, Frustum, View};
 use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::raster::zbuffer::{Dirty, ZDrawStats, ZTarget};
 use crate::scene::Revision;
@@ -191,8 +191,9 @@ pub struct HvCuller {
     primed: Vec<bool>,
     pyramid: ZPyramid,
     items: Vec<u32>,
-    /// `view_proj * transform` per object, this frame.
-    mvp: Vec<Mat4>,
+    /// This frame's world-to-clip matrix (vertices go through
+    /// [`object_to_clip`], as the renderer's do).
+    view_proj: Mat4,
     passed: Vec<bool>,
     owned: Vec<bool>,
     tris: Vec<Tri>,
@@ -241,7 +242,7 @@ fn covered_samples(t: &Tri) -> u64 {
 struct Drawing<'a> {
     scene: &'a Scene,
     viewport: Viewport,
-    mvp: &'a [Mat4],
+    view_proj: Mat4,
     /// The depth, item buffer and pyramid triangles go into.
     z: ZTarget<'a>,
     passed: &'a mut [bool],
@@ -268,10 +269,13 @@ impl Drawing<'_> {
     fn draw_triangle(&mut self, t: TriRef) {
         let o = self.scene.object(t.object);
         let mesh = self.scene.mesh_of(o);
-        let m = self.mvp[t.object as usize];
         let p = mesh.positions();
-        let v =
-            mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), &self.viewport));
+        let v = mesh.triangles()[t.triangle as usize].map(|i| {
+            Vertex::new(
+                object_to_clip(&self.view_proj, &o.transform, p[i as usize]),
+                &self.viewport,
+            )
+        });
         self.stats.triangles_submitted += 1;
         self.tris.clear();
         setup_triangle(
@@ -331,7 +335,7 @@ impl HvCuller {
             primed: Vec::new(),
             pyramid: ZPyramid::default(),
             items: Vec::new(),
-            mvp: Vec::new(),
+            view_proj: Mat4::IDENTITY,
             passed: Vec::new(),
             owned: Vec::new(),
             tris: Vec::new(),
@@ -425,12 +429,12 @@ impl HvCuller {
     /// frustum: the covered samples of each, with the renderer's setup.
     fn zbuffer_comparisons(&mut self, scene: &Scene, frustum: &Frustum, viewport: &Viewport) -> u64 {
         let mut total = 0u64;
-        let count = |tris: &mut Vec<Tri>, mvp: &[Mat4], t: TriRef| {
+        let count = |tris: &mut Vec<Tri>, view_proj: &Mat4, t: TriRef| {
             let o = scene.object(t.object);
             let mesh = scene.mesh_of(o);
-            let m = mvp[t.object as usize];
             let p = mesh.positions();
-            let v = mesh.triangles()[t.triangle as usize].map(|i| Vertex::new(m * p[i as usize].extend(1.0), viewport));
+            let v = mesh.triangles()[t.triangle as usize]
+                .map(|i| Vertex::new(object_to_clip(view_proj, &o.transform, p[i as usize]), viewport));
             tris.clear();
             setup_triangle([&v[0], &v[1], &v[2]], viewport, t.object, [0; 4], tris);
             tris.iter().map(covered_samples).sum::<u64>()
@@ -438,7 +442,7 @@ impl HvCuller {
         let Self {
             octree,
             tris,
-            mvp,
+            view_proj,
             stack,
             dynamic,
             in_tree,
@@ -459,7 +463,7 @@ impl HvCuller {
                 continue;
             }
             for &t in octree.own_triangles(node).iter().filter(|t| in_tree[t.object as usize]) {
-                total += count(tris, mvp, t);
+                total += count(tris, view_proj, t);
             }
             if !node.is_leaf() {
                 let first = node.children;
@@ -470,7 +474,7 @@ impl HvCuller {
             let o = scene.object(id);
             if frustum.test_obb(&o.obb) != Containment::Outside {
                 for triangle in 0..scene.mesh_of(o).triangle_count() as u32 {
-                    total += count(tris, mvp, TriRef { object: id, triangle });
+                    total += count(tris, view_proj, TriRef { object: id, triangle });
                 }
             }
         }
@@ -547,8 +551,7 @@ impl Culler for HvCuller {
             self.pyramid.reset(w, h, 1.0);
             self.items.clear();
             self.items.resize(w as usize * h as usize, NO_OBJECT);
-            self.mvp.clear();
-            self.mvp.extend(scene.objects().iter().map(|o| view_proj * o.transform));
+            self.view_proj = view_proj;
             self.passed.clear();
             self.passed.resize(n, false);
             self.owned.resize(n, false);
@@ -567,7 +570,7 @@ impl Culler for HvCuller {
             dynamic,
             pyramid,
             items,
-            mvp,
+            view_proj: frame_view_proj,
             passed,
             tris,
             spans,
@@ -596,7 +599,7 @@ impl Culler for HvCuller {
         let mut d = Drawing {
             scene,
             viewport,
-            mvp,
+            view_proj: *frame_view_proj,
             z: ZTarget {
                 pyramid,
                 items,

@@ -1,7 +1,8 @@
 //! Handing the selected occluders to an occlusion buffer: each occluder's
 //! mesh (its stand-in or virtual occluder where it has a usable one, drawn
-//! conservatively) under `world_to_clip · transform`,
-//! two-sided, nearest occluder first — the order both buffers want (the
+//! conservatively, under `world_to_clip · transform`; an original placed in
+//! the world first, as the renderer places it), two-sided, nearest occluder
+//! first — the order both buffers want (the
 //! HZB then skips what is already hidden; HOM's depth cells keep the first,
 //! nearest cover).
 
@@ -32,6 +33,7 @@ pub(crate) fn draw_occluders(
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut submitted = 0;
+    let mut world = Vec::new();
     for (_, id) in order {
         let o = scene.object(id);
         let Some((mesh, stands_in)) = db
@@ -40,14 +42,17 @@ pub(crate) fn draw_occluders(
         else {
             continue;
         };
-        let mvp = *world_to_clip * o.transform;
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
         let (p, t) = (mesh.positions(), mesh.triangles());
         let drawn = if stands_in {
-            buffer.render_stand_in_triangles(p, t, &mvp, FaceCull::None)
+            buffer.render_stand_in_triangles(p, t, &(*world_to_clip * o.transform), FaceCull::None)
         } else {
-            buffer.render_triangles(p, t, &mvp, FaceCull::None)
+            // World first, as the renderer transforms (`geom::object_to_clip`):
+            // an exactly sampled original covers the renderer's samples, no more.
+            world.clear();
+            world.extend(p.iter().map(|&q| o.transform.transform_point3(q)));
+            buffer.render_triangles(&world, t, world_to_clip, FaceCull::None)
         };
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
         submitted += mesh.triangle_count() as u64;

@@ -35,9 +35,10 @@
 //!
 //! # World-space boxes
 //! Triangle boxes are computed from `Object::transform.transform_point3` and
-//! grown by a relative margin of 4e-7 of the coordinates' magnitude (a few ulps), so
-//! the rounding of the renderer's own transform (`view_proj * transform`
-//! applied to object-space vertices) cannot put a drawn point outside them.
+//! grown by a relative margin of 4e-7 of the coordinates' magnitude (a few ulps):
+//! the renderer places vertices in the world by the same `transform_point3`
+//! (`geom::object_to_clip`), and the margin keeps boxes safe for any caller
+//! that rounds the transform differently.
 
 use crate::geom::Aabb;
 use crate::scene::Scene;
