@@ -92,7 +92,7 @@ pub struct WalkComparison {
     /// Their samples summed.
     pub total: StandInComparison,
     /// Stand-in ÷ original covered samples per frame, averaged over the
-    /// frames where some original covers a sample.
+    /// frames where some original covers a sample (1 when none does).
     pub mean_kept: f64,
 }
 
@@ -117,10 +117,11 @@ pub fn walk_comparison(
         ..WalkComparison::default()
     };
     let (mut kept_sum, mut kept_frames) = (0.0, 0);
+    let frame_rate = crate::WalkOptions::default().frame_rate;
     for k in 0..frames {
         // Evenly spread, first and last frame included.
         let i = if frames > 1 { k * (n - 1) / (frames - 1) } else { 0 };
-        animation.apply(scene, i as f32 / crate::WalkOptions::default().frame_rate);
+        animation.apply(scene, i as f32 / frame_rate);
         let camera = path.camera(i);
         let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("a validated path has views");
         let eye = Eye::Point(camera.eye);

@@ -20,7 +20,7 @@
 //! 2. **Convex solids** get hulls instead of cells: a closed component
 //!    proven convex (`convex_part.rs`) offers hulls of a few of its own
 //!    vertices, shrunk a hair, each inside it because the body is convex
-//!    (a sphere's boxes keep 55 % of its coverage, its 48-point hull 90 %).
+//!    (a sphere's boxes keep 55 % of its axis coverage, its 48-point hull 88 %).
 //! 3. **Inside cells.** A grid of `resolution³` cells over the mesh's box.
 //!    A cell is a *surface* cell when a solid's triangle touches it (the
 //!    separating-axis test on the cell grown by a margin); a cell that is not
@@ -81,8 +81,9 @@ impl Default for VirtualConfig {
     /// efficiency): a coverage floor of 0.7 / 0.8 / 0.9 gave 38.0 / 37.9 /
     /// 33.9 % and 87.8 / 87.8 / 82.2 %; none gave the spheres 35.5 % instead of
     /// 63.5 %. With convex hulls, 0.6 / 0.7 / 0.8 gave the machine room
-    /// 35.7 / 35.7 / 40.3 % (the city, office, spheres, dynamic unchanged). A floor of 128 original triangles: city 87.8 -> 87.7 %,
-    /// terrain 42.4 -> 43.2 %, machine room unchanged (256: 87.4, 43.2).
+    /// 35.7 / 35.7 / 40.3 % (the city, office, spheres, dynamic unchanged).
+    /// A floor of 128 original triangles: city 87.8 -> 87.7 %, terrain
+    /// 42.4 -> 43.2 %, machine room unchanged (256: 87.4, 43.2).
     fn default() -> Self {
         VirtualConfig {
             resolution: 32,
@@ -960,7 +961,7 @@ fn box_meshes(grid: &Grid, boxes: &[CellBox]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 /// Appends the box `lo..hi`: eight corners (bit 0 picks `hi.x`, bit 1
 /// `hi.y`, bit 2 `hi.z`), two triangles a face, the -y face third.
-fn push_box(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, lo: Vec3, hi: Vec3) {
+pub(super) fn push_box(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, lo: Vec3, hi: Vec3) {
     const FACES: [[u32; 4]; 6] = [
         [0, 2, 3, 1],
         [4, 5, 7, 6],
@@ -983,6 +984,33 @@ fn push_box(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, lo: Vec3, 
     }
 }
 
+/// A unit UV sphere for tests: poles on ±y, `n - 1` rings of `2n` vertices,
+/// wound outward.
+#[cfg(test)]
+pub(super) fn uv_sphere(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut p = vec![Vec3::Y];
+    let mut t = Vec::new();
+    for s in 1..n {
+        let phi = s as f32 / n as f32 * std::f32::consts::PI;
+        for i in 0..2 * n {
+            let th = i as f32 / (2 * n) as f32 * std::f32::consts::TAU;
+            p.push(Vec3::new(phi.sin() * th.cos(), phi.cos(), phi.sin() * th.sin()));
+        }
+    }
+    p.push(-Vec3::Y);
+    let ring = |s: u32, i: u32| 1 + (s - 1) * 2 * n + i % (2 * n);
+    let south = p.len() as u32 - 1;
+    for i in 0..2 * n {
+        t.push([0, ring(1, i + 1), ring(1, i)]);
+        t.push([south, ring(n - 1, i), ring(n - 1, i + 1)]);
+        for s in 1..n - 1 {
+            t.push([ring(s, i), ring(s, i + 1), ring(s + 1, i + 1)]);
+            t.push([ring(s, i), ring(s + 1, i + 1), ring(s + 1, i)]);
+        }
+    }
+    (p, t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -998,26 +1026,7 @@ mod tests {
     }
 
     fn sphere(n: u32) -> Mesh {
-        let mut p = vec![Vec3::Y];
-        let mut t = Vec::new();
-        for s in 1..n {
-            let phi = s as f32 / n as f32 * std::f32::consts::PI;
-            for i in 0..2 * n {
-                let th = i as f32 / (2 * n) as f32 * std::f32::consts::TAU;
-                p.push(Vec3::new(phi.sin() * th.cos(), phi.cos(), phi.sin() * th.sin()));
-            }
-        }
-        p.push(-Vec3::Y);
-        let ring = |s: u32, i: u32| 1 + (s - 1) * 2 * n + i % (2 * n);
-        let south = p.len() as u32 - 1;
-        for i in 0..2 * n {
-            t.push([0, ring(1, i + 1), ring(1, i)]);
-            t.push([south, ring(n - 1, i), ring(n - 1, i + 1)]);
-            for s in 1..n - 1 {
-                t.push([ring(s, i), ring(s, i + 1), ring(s + 1, i + 1)]);
-                t.push([ring(s, i), ring(s + 1, i + 1), ring(s + 1, i)]);
-            }
-        }
+        let (p, t) = uv_sphere(n);
         Mesh::new("sphere", p, t).unwrap()
     }
 
