@@ -4,7 +4,9 @@
 //! stage. For A/B measurements on a noisy machine, build two binaries and
 //! run them alternately.
 //!
-//! `cargo run --release -p hom-walk --example cull_time -- masked city`
+//! `cargo run --release -p hom-walk --example cull_time -- masked city [PASSES]`
+//! (PASSES, default 3, counts the warm-up; more passes give a profiler more
+//! cull time to sample beside the occluder bake).
 
 use hom::cull::CullOutput;
 use hom_walk::cullers::{make, CullerSettings};
@@ -21,7 +23,15 @@ fn main() {
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let (Some(culler), Some(scene_name)) = (args.get(1), args.get(2)) else {
-        return Err("usage: cull_time CULLER SCENE (e.g. masked city)".into());
+        return Err("usage: cull_time CULLER SCENE [PASSES] (e.g. masked city)".into());
+    };
+    let passes: usize = match args.get(3) {
+        Some(p) => p
+            .parse()
+            .ok()
+            .filter(|&n| n >= 2)
+            .ok_or("PASSES must be an integer >= 2")?,
+        None => 3,
     };
     let built = hom_scene::builtin(scene_name)?;
     let (scene, path) = (built.scene, built.path);
@@ -34,7 +44,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut out = CullOutput::default();
     let mut stages: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut timed = 0.0;
-    for pass in 0..3 {
+    for pass in 0..passes {
         let start = Instant::now();
         for i in 0..frames {
             pool.install(|| c.cull(&scene, &path.camera(i).to_view(), &mut out))?;
@@ -49,7 +59,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             timed += start.elapsed().as_secs_f64() * 1e3;
         }
     }
-    let n = (2 * frames) as f64;
+    let n = ((passes - 1) * frames) as f64;
     println!("{culler} {scene_name}: {:.3} ms per frame", timed / n);
     for (k, v) in stages {
         println!("  {k}: {:.3} ms", v / n);

@@ -139,20 +139,51 @@ fn or_mask_reporting(row: &mut [u64], x: u32, mask: u64, mut fresh: impl FnMut(u
     }
 }
 
+/// A column's depth cell without a division: `x / w` as a multiply and a
+/// shift, exact for every column `x < 2^16` and width `1 <= w < 2^16` (the
+/// product's error is below `x / 2^32 < 1 / w`, less than the distance from
+/// `x / w` to the next integer).
+#[derive(Clone, Copy, Debug)]
+struct CellOf {
+    w: u32,
+    recip: u64,
+}
+
+impl CellOf {
+    fn new(w: u32) -> CellOf {
+        debug_assert!((1..1 << 16).contains(&w));
+        CellOf {
+            w,
+            recip: (1u64 << 32) / u64::from(w) + 1,
+        }
+    }
+
+    #[inline(always)]
+    fn of(self, x: u32) -> u32 {
+        debug_assert!(x < 1 << 16);
+        ((u64::from(x) * self.recip) >> 32) as u32
+    }
+}
+
 /// Raises each depth cell over the newly covered samples `fresh` (bit `i` is
 /// sample `base + i`) to the farthest depth `z` at them. `z` is monotone along
-/// the row, so the farthest of a cell's new samples is its first or last one.
+/// the row (its roundings are), rising when `rising`, so the farthest of a
+/// cell's new samples is its last one then, its first one otherwise.
 #[inline]
-fn raise_cells(cells: &mut [f32], cell_w: u32, base: u32, fresh: u64, z: impl Fn(u32) -> f32) {
+fn raise_cells(cells: &mut [f32], cell_of: CellOf, base: u32, fresh: u64, rising: bool, z: impl Fn(u32) -> f32) {
     let mut m = fresh;
     while m != 0 {
         let first = base + m.trailing_zeros();
-        let cell = first / cell_w;
-        let upto = ((cell + 1) * cell_w).min(base + 64) - base;
+        let cell = cell_of.of(first);
+        let upto = ((cell + 1) * cell_of.w).min(base + 64) - base;
         let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
-        let last = base + 63 - in_cell.leading_zeros();
+        let far = if rising {
+            base + 63 - in_cell.leading_zeros()
+        } else {
+            first
+        };
         let c = &mut cells[cell as usize];
-        *c = c.max(z(first)).max(z(last));
+        *c = c.max(z(far));
         m &= !in_cell;
     }
 }
@@ -217,6 +248,7 @@ impl CoverageRasterizer {
             Some(d) => (d.size().0 as usize, d.cell_size().0, d.cell_size().1),
             None => (0, 1, BAND_ROWS),
         };
+        let cell_of = CellOf::new(cell_w);
         let cell_rows_per_band = (BAND_ROWS / cell_h).max(1);
         let band_rows = cell_h * cell_rows_per_band;
         let bands = height.div_ceil(band_rows) as usize;
@@ -262,29 +294,45 @@ impl CoverageRasterizer {
                     }
                 }
                 let mut masks = [0u64; MASK_ROWS];
-                // Word columns (64 samples) that every row of the band covers
-                // wholly: a triangle within them covers no sample first, so it
-                // changes neither coverage nor depth cells and is skipped. (On
-                // layered occluders this is most of them.)
+                // Per word column (64 samples), the samples every row of the band
+                // covers (bits outside the viewport set): a triangle whose columns
+                // in the band are among them covers no sample first, so it changes
+                // neither coverage nor depth cells and is skipped. (On layered
+                // occluders this is most of them.)
                 let rows = words.len() / wpr;
-                let column_full = |words: &[u64], c: usize| {
-                    let inside = if c + 1 == wpr { last_word } else { u64::MAX };
-                    (0..rows).all(|r| words[r * wpr + c] & inside == inside)
+                let covered_by_all = |words: &[u64], c: usize| {
+                    let outside = if c + 1 == wpr { !last_word } else { 0 };
+                    (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
                 };
-                let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
+                let mut all_rows: Vec<u64> = (0..wpr).map(|c| covered_by_all(words, c)).collect();
                 for &i in bin {
                     let t = &tris[i as usize];
-                    let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
-                    if full[wa..=wb].iter().all(|&f| f) {
+                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
+                    // Its box's columns first (no division), then its own columns in the band.
+                    let covered = |(xa, xb): (u32, u32)| {
+                        let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
+                        (wa..=wb).all(|c| {
+                            let lo = (xa as usize).max(c * 64) - c * 64;
+                            let hi = (xb as usize).min(c * 64 + 64) - c * 64;
+                            let within = (u64::MAX >> (64 - (hi - lo))) << lo;
+                            all_rows[c] & within == within
+                        })
+                    };
+                    if covered((u32::from(t.x0), u32::from(t.x1))) {
                         continue;
                     }
-                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
+                    let (xa, xb) = t.columns_in_rows(ta, tb);
+                    if xa >= xb || covered((xa, xb)) {
+                        continue;
+                    }
+                    let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
                     let x0 = u32::from(t.x0);
                     // Depth at sample x of row py. Only samples this triangle covers first
                     // set depth: occluders come nearest first, so that is mostly the
                     // visible occluder, and in any order the first cover's depth bounds
                     // the nearest from above.
                     let z = |zr: f32, x: u32| t.depth_in_row(zr, (x - x0) as i32);
+                    let rising = t.dzdx >= 0.0;
                     if backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX {
                         // Exact spans stepped row to row (`Tri::row_span`'s, without its divisions).
                         let edges = ScanEdges::new(t);
@@ -307,7 +355,7 @@ impl CoverageRasterizer {
                                     let zr = t.depth_row(py);
                                     let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
                                     set_span_reporting(row, lo, hi, |base, fresh| {
-                                        raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                        raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
                                     });
                                 } else {
                                     set_span(row, lo, hi);
@@ -329,7 +377,7 @@ impl CoverageRasterizer {
                                     let zr = t.depth_row(py);
                                     let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
                                     or_mask_reporting(row, x0, m, |base, fresh| {
-                                        raise_cells(cells, cell_w, base, fresh, |x| z(zr, x))
+                                        raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
                                     });
                                 } else {
                                     or_mask(row, x0, m);
@@ -338,8 +386,8 @@ impl CoverageRasterizer {
                             py0 += rows.len() as u32;
                         }
                     }
-                    for (c, f) in full.iter_mut().enumerate().take(wb + 1).skip(wa) {
-                        *f = *f || column_full(words, c);
+                    for (c, m) in all_rows.iter_mut().enumerate().take(wb + 1).skip(wa) {
+                        *m = covered_by_all(words, c);
                     }
                 }
                 for c in cells.iter_mut() {

@@ -78,6 +78,30 @@ impl Tri {
         span.map(|(lo, hi)| (u32::from(self.x0) + lo, u32::from(self.x0) + hi))
     }
 
+    /// Columns `lo..hi` (absolute, within the box) that hold every sample the
+    /// triangle covers in rows `ya..yb` (within the box, `ya < yb`); empty
+    /// (`lo >= hi`) when it covers none there for certain. A sloped edge's
+    /// bound is linear in the row, so its loosest is at the first or the
+    /// last row; `f64` quotients widened by a column each side (a bound,
+    /// not the exact span: for skipping work, never for coverage).
+    pub fn columns_in_rows(&self, ya: u32, yb: u32) -> (u32, u32) {
+        let (ea, eb) = (self.edges_at_row(ya), self.edges_at_row(yb - 1));
+        let (mut lo, mut hi) = (0i64, i64::from(self.x1 - self.x0));
+        for i in 0..3 {
+            // Column offset k (from x0) is inside edge i when e + k·a·ONE >= 0.
+            let (e, d) = (ea[i].max(eb[i]) as f64, (self.a[i] * ONE) as f64);
+            if d > 0.0 {
+                lo = lo.max((-e / d) as i64 - 2); // truncation: within a column of floor
+            } else if d < 0.0 {
+                hi = hi.min((e / -d) as i64 + 2);
+            } else if e < 0.0 {
+                return (0, 0); // a horizontal edge excludes every row here
+            }
+        }
+        let x0 = i64::from(self.x0);
+        ((x0 + lo.max(0)) as u32, (x0 + hi.max(lo.max(0))) as u32)
+    }
+
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
     pub fn covers(&self, px: u32, py: u32) -> bool {
         let sx = i64::from(px) * ONE + HALF;
@@ -638,6 +662,54 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `columns_in_rows` holds every covered sample of the rows it is asked
+    /// about, says "none" only where none is covered, and on one row is no
+    /// more than three columns wider than the span on either side (the f64
+    /// slack), on triangles from slivers to far beyond the screen.
+    #[test]
+    fn columns_in_rows_hold_every_covered_sample() {
+        let mut rng = Rng::new(4242);
+        let (w, h) = (300, 200);
+        let mut nonempty = 0;
+        for _ in 0..5000 {
+            let scale = [3.0, 30.0, 300.0, 3.0e5][rng.below(4) as usize];
+            let (cx, cy) = (rng.range(-50.0, 350.0), rng.range(-50.0, 250.0));
+            let v = [0; 3].map(|_| {
+                let (dx, dy) = (rng.range(-0.5, 0.5) * scale, rng.range(-0.5, 0.5) * scale);
+                at(cx + dx, cy + dy, rng.unit(), w, h)
+            });
+            for t in setup(v, w, h) {
+                let (y0, y1) = (u32::from(t.y0), u32::from(t.y1));
+                let ya = y0 + rng.below(u64::from(y1 - y0)) as u32;
+                let one_row = rng.below(2) == 0;
+                let yb = if one_row {
+                    ya + 1
+                } else {
+                    ya + 1 + rng.below(u64::from(y1 - ya)) as u32
+                };
+                let (lo, hi) = t.columns_in_rows(ya, yb);
+                let covered = (ya..yb)
+                    .filter_map(|y| t.row_span(y))
+                    .fold(None, |acc: Option<(u32, u32)>, (a, b)| {
+                        Some(acc.map_or((a, b), |(p, q)| (p.min(a), q.max(b))))
+                    });
+                match covered {
+                    None => continue,
+                    Some((a, b)) => {
+                        nonempty += 1;
+                        assert!(
+                            lo <= a && b <= hi,
+                            "rows {ya}..{yb} of {t:?}: {a}..{b} not within {lo}..{hi}"
+                        );
+                        let tight = !one_row || (a - lo <= 3 && hi - b <= 3);
+                        assert!(tight, "rows {ya}..{yb} of {t:?}: {lo}..{hi} loose around {a}..{b}");
+                    }
+                }
+            }
+        }
+        assert!(nonempty > 1500, "only {nonempty} non-empty row ranges");
     }
 
     #[test]
