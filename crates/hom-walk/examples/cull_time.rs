@@ -6,7 +6,8 @@
 //!
 //! `cargo run --release -p hom-walk --example cull_time -- masked city [PASSES]`
 //! (PASSES, default 3, counts the warm-up; more passes give a profiler more
-//! cull time to sample beside the occluder bake).
+//! cull time to sample beside the occluder bake). `CULL_THREADS=N` sets the
+//! pool's thread count (default 2).
 
 use hom::cull::CullOutput;
 use hom_walk::cullers::{make, CullerSettings};
@@ -36,7 +37,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let built = hom_scene::builtin(scene_name)?;
     let (scene, path) = (built.scene, built.path);
     let mut c = make(culler, &scene, &CullerSettings::for_scene(&scene))?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build()?;
+    let threads = std::env::var("CULL_THREADS")
+        .ok()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(2);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let frames = path.frames.len().min(100);
     if frames == 0 {
         return Err(format!("scene {scene_name} has an empty walk").into());

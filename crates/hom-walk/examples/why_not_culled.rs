@@ -1,8 +1,10 @@
 //! Why did HOM not cull what the oracle says is hidden? For one frame of a
 //! built-in scene, sorts the triangles of in-frustum objects that own no pixel
-//! by what stopped HOM: culled, selected as an occluder (and not hidden by the others), box
-//! straddling the near plane, rectangle not covered by the occlusion map, not
-//! behind the depth estimation buffer, or neither.
+//! by what stopped HOM: culled, box straddling the near plane, rectangle not
+//! covered by the occlusion map, not behind the depth estimation buffer,
+//! neither, or both tests passing and yet drawn; the selected occluders
+//! among them are counted apart, with the same reasons (occluders are
+//! tested too).
 //!
 //! `cargo run --release -p hom-walk --example why_not_culled -- city 56`
 
@@ -29,8 +31,9 @@ fn main() {
     let f = Frustum::from_view_proj(&vp).unwrap();
     // The culler's own occlusion buffer of this frame, asked its two tests separately.
     let buf = c.buffer_mut().unwrap();
-    let (mut straddle, mut not_cov, mut not_behind, mut both, mut occl, mut occluder) =
-        (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
+    let (mut straddle, mut occl, mut occluder) = (0u64, 0u64, 0u64);
+    // Not covered, not behind, neither, both (and yet drawn).
+    let (mut why, mut occluder_why) = ([0u64; 4], [0u64; 4]);
     for (id, o) in scene.objects().iter().enumerate() {
         if counts[id] > 0 || f.test_aabb(&o.aabb) == Containment::Outside {
             continue;
@@ -40,23 +43,27 @@ fn main() {
             occl += t;
             continue;
         }
-        if out.occluders.binary_search(&(id as u32)).is_ok() {
+        let is_occluder = out.occluders.binary_search(&(id as u32)).is_ok();
+        if is_occluder {
             occluder += t;
-            continue;
         }
         match project_points(&o.aabb.corners(), &vp, cam.width, cam.height) {
             Footprint::Straddles => straddle += t,
             Footprint::Rect(rect) => {
                 let cov = buf.rect_is_opaque(&rect);
                 let beh = buf.depth_is_behind(&rect);
+                let tally = if is_occluder { &mut occluder_why } else { &mut why };
                 match (cov, beh) {
-                    (false, true) => not_cov += t,
-                    (true, false) => not_behind += t,
-                    (false, false) => both += t,
-                    _ => {}
+                    (false, true) => tally[0] += t,
+                    (true, false) => tally[1] += t,
+                    (false, false) => tally[2] += t,
+                    _ => tally[3] += t,
                 }
             }
         }
     }
-    println!("invisible-in-frustum tris: occluded {occl}, selected occluders {occluder}, straddle {straddle}, not covered {not_cov}, not behind {not_behind}, neither {both}");
+    let [not_cov, not_behind, both, passes] = why;
+    println!("invisible-in-frustum tris: occluded {occl}, selected occluders {occluder}, straddle {straddle}, not covered {not_cov}, not behind {not_behind}, neither {both}, both tests pass {passes}");
+    let [not_cov, not_behind, both, passes] = occluder_why;
+    println!("  of the selected occluders': not covered {not_cov}, not behind {not_behind}, neither {both}, both tests pass {passes}");
 }

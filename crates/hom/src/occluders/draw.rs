@@ -1,20 +1,41 @@
 //! Handing the selected occluders to an occlusion buffer: each occluder's
 //! mesh (its stand-in or virtual occluder where it has a usable one, drawn
 //! conservatively, under `world_to_clip · transform`; an original placed in
-//! the world first, as the renderer places it), two-sided, nearest occluder
-//! first — the order both buffers want (the
-//! HZB then skips what is already hidden; HOM's depth cells keep the first,
-//! nearest cover).
+//! the world first, as the renderer places it), two-sided, nearest first by
+//! box centre — the order the buffers want (the HZB then skips what is
+//! already hidden; HOM's depth cells keep the first, mostly nearest, cover).
 
 use super::OccluderDb;
-use crate::geom::{Eye, Frustum, View};
+#[cfg(doc)]
+use crate::geom::View;
+use crate::geom::{Aabb, Eye, Frustum};
 use crate::occlusion::{FaceCull, OcclusionBuffer};
 use crate::scene::Scene;
 use glam::Mat4;
 
+/// The draw order's key (smaller first): the squared distance from the eye
+/// to the box's centre, or for a parallel projection the centre's depth.
+///
+/// Not the box's nearest point ([`View::nearness`], the traversal's order):
+/// HOM's depth cells keep the depth of the first cover, and a large box
+/// (a monument, a long wall) reaches close to the eye while its surface on
+/// screen lies far; drawn first, it sets the cells behind the smaller,
+/// nearer occluders in front of it. Measured with HOM and the oracle over
+/// 100 frames (`hom walk --culler hom --no-cost-model --oracle`): culling
+/// efficiency sculpture-park 37.6 → 72.7 %, city 87.8 → 88.4 %, office
+/// 94.9 → 94.6 %, terrain, spheres, machine-room and dynamic unchanged. The
+/// box's farthest point reached 83.4 % on sculpture-park but lost 2.1
+/// points on office, whose long walls it draws last.
+fn centre_nearness(eye: &Eye, b: &Aabb) -> f32 {
+    match eye {
+        Eye::Point(p) => (b.center() - *p).length_squared(),
+        Eye::Direction(d) => d.dot(b.center()),
+    }
+}
+
 /// Queues the occluders `ids` of `scene` in `buffer` (whose clip convention
-/// is hom's, [`crate::geom::ClipConvention::ZeroToOne`]), nearest first as
-/// seen from `eye`, those in `originals` (ascending) as their own meshes.
+/// is hom's, [`crate::geom::ClipConvention::ZeroToOne`]), nearest centre
+/// first as seen from `eye`, those in `originals` (ascending) as their own meshes.
 /// Returns the number of occluder triangles submitted.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn draw_occluders(
@@ -29,7 +50,7 @@ pub(crate) fn draw_occluders(
 ) -> u64 {
     let mut order: Vec<(f32, u32)> = ids
         .iter()
-        .map(|&id| (View::nearness(eye, &scene.object(id).aabb), id))
+        .map(|&id| (centre_nearness(eye, &scene.object(id).aabb), id))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut submitted = 0;
