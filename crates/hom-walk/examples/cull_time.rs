@@ -7,7 +7,7 @@
 //! `cargo run --release -p hom-walk --example cull_time -- masked city [PASSES]`
 //! (PASSES, default 3, counts the warm-up; more passes give a profiler more
 //! cull time to sample beside the occluder bake). `CULL_THREADS=N` sets the
-//! pool's thread count (default 2).
+//! pool's thread count (default 2), `CULL_BUDGET=L` the occluder budget.
 
 use hom::cull::CullOutput;
 use hom_walk::cullers::{make, CullerSettings};
@@ -36,7 +36,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     };
     let built = hom_scene::builtin(scene_name)?;
     let (scene, path) = (built.scene, built.path);
-    let mut c = make(culler, &scene, &CullerSettings::for_scene(&scene))?;
+    let mut settings = CullerSettings::for_scene(&scene);
+    if let Some(b) = std::env::var("CULL_BUDGET").ok().and_then(|b| b.parse().ok()) {
+        settings.hom.occluders.selection.budget = b;
+    }
+    let mut c = make(culler, &scene, &settings)?;
     let threads = std::env::var("CULL_THREADS")
         .ok()
         .and_then(|t| t.parse().ok())

@@ -188,6 +188,36 @@ fn raise_cells(cells: &mut [f32], cell_of: CellOf, base: u32, fresh: u64, rising
     }
 }
 
+/// Whether none of bits `lo..hi` of a row is set.
+#[inline]
+fn span_is_empty(row: &[u64], lo: u32, hi: u32) -> bool {
+    let (wa, wb) = ((lo / 64) as usize, ((hi - 1) / 64) as usize);
+    let head = u64::MAX << (lo % 64);
+    let tail = u64::MAX >> (63 - (hi - 1) % 64);
+    if wa == wb {
+        return row[wa] & head & tail == 0;
+    }
+    row[wa] & head == 0 && row[wb] & tail == 0 && row[wa + 1..wb].iter().all(|&w| w == 0)
+}
+
+/// [`raise_cells`] for a whole span `lo..hi` of newly covered samples (none
+/// was covered before): each cell's farthest new sample is where the span
+/// enters or leaves it, so no bits are scanned.
+#[inline]
+fn raise_cells_of_span(cells: &mut [f32], cell_of: CellOf, lo: u32, hi: u32, rising: bool, z: impl Fn(u32) -> f32) {
+    let (ca, cb) = (cell_of.of(lo), cell_of.of(hi - 1));
+    for cell in ca..=cb {
+        let start = cell * cell_of.w;
+        let far = if rising {
+            (start + cell_of.w).min(hi) - 1
+        } else {
+            start.max(lo)
+        };
+        let c = &mut cells[cell as usize];
+        *c = c.max(z(far));
+    }
+}
+
 /// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 16;
 
@@ -354,9 +384,15 @@ impl CoverageRasterizer {
                                 if gather {
                                     let zr = t.depth_row(py);
                                     let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
-                                    set_span_reporting(row, lo, hi, |base, fresh| {
-                                        raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
-                                    });
+                                    if span_is_empty(row, lo, hi) {
+                                        // First cover of the whole span (the common case, nearest first).
+                                        set_span(row, lo, hi);
+                                        raise_cells_of_span(cells, cell_of, lo, hi, rising, |x| z(zr, x));
+                                    } else {
+                                        set_span_reporting(row, lo, hi, |base, fresh| {
+                                            raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
+                                        });
+                                    }
                                 } else {
                                     set_span(row, lo, hi);
                                 }
@@ -595,6 +631,23 @@ mod tests {
                 }
                 assert_eq!(deb.cells(), &want[..], "case {case} {backend:?}: depth cells");
             }
+        }
+    }
+
+    /// `span_is_empty` against a bit-by-bit scan, on sparse random rows.
+    #[test]
+    fn span_is_empty_matches_a_bit_scan() {
+        let mut rng = Rng::new(5);
+        for _ in 0..20_000 {
+            let words = 1 + rng.below(5) as usize;
+            let row: Vec<u64> = (0..words)
+                .map(|_| if rng.below(3) == 0 { 1u64 << rng.below(64) } else { 0 })
+                .collect();
+            let n = words as u32 * 64;
+            let lo = rng.below(u64::from(n)) as u32;
+            let hi = lo + 1 + rng.below(u64::from(n - lo)) as u32;
+            let scan = (lo..hi).all(|x| row[(x / 64) as usize] >> (x % 64) & 1 == 0);
+            assert_eq!(span_is_empty(&row, lo, hi), scan, "{row:x?} {lo}..{hi}");
         }
     }
 
