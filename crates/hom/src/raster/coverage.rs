@@ -324,38 +324,44 @@ impl CoverageRasterizer {
                     }
                 }
                 let mut masks = [0u64; MASK_ROWS];
-                // Per word column (64 samples), the samples every row of the band
-                // covers (bits outside the viewport set): a triangle whose columns
-                // in the band are among them covers no sample first, so it changes
-                // neither coverage nor depth cells and is skipped. (On layered
-                // occluders this is most of them.)
+                // Per word column (64 samples): whether every row of the band covers
+                // it wholly, and (made when asked, after the column was drawn in)
+                // the samples every row covers. A triangle whose box lies in full
+                // columns, or whose own columns in the band are covered by every
+                // row, covers no sample first, so it changes neither coverage nor
+                // depth cells and is skipped. (On layered occluders this is most of them.)
                 let rows = words.len() / wpr;
+                let column_full = |words: &[u64], c: usize| {
+                    let inside = if c + 1 == wpr { last_word } else { u64::MAX };
+                    (0..rows).all(|r| words[r * wpr + c] & inside == inside)
+                };
                 let covered_by_all = |words: &[u64], c: usize| {
                     let outside = if c + 1 == wpr { !last_word } else { 0 };
                     (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
                 };
-                let mut all_rows: Vec<u64> = (0..wpr).map(|c| covered_by_all(words, c)).collect();
+                let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
+                let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
                 for &i in bin {
                     let t = &tris[i as usize];
-                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                    // Its box's columns first (no division), then its own columns in the band.
-                    let covered = |(xa, xb): (u32, u32)| {
-                        let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
-                        (wa..=wb).all(|c| {
-                            let lo = (xa as usize).max(c * 64) - c * 64;
-                            let hi = (xb as usize).min(c * 64 + 64) - c * 64;
-                            let within = (u64::MAX >> (64 - (hi - lo))) << lo;
-                            all_rows[c] & within == within
-                        })
-                    };
-                    if covered((u32::from(t.x0), u32::from(t.x1))) {
+                    let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
+                    if full[wa..=wb].iter().all(|&f| f) {
                         continue;
                     }
+                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
                     let (xa, xb) = t.columns_in_rows(ta, tb);
-                    if xa >= xb || covered((xa, xb)) {
+                    if xa >= xb {
                         continue;
                     }
                     let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
+                    let covered = (wa..=wb).all(|c| {
+                        let lo = (xa as usize).max(c * 64) - c * 64;
+                        let hi = (xb as usize).min(c * 64 + 64) - c * 64;
+                        let within = (u64::MAX >> (64 - (hi - lo))) << lo;
+                        *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
+                    });
+                    if covered {
+                        continue;
+                    }
                     let x0 = u32::from(t.x0);
                     // Depth at sample x of row py. Only samples this triangle covers first
                     // set depth: occluders come nearest first, so that is mostly the
@@ -422,8 +428,9 @@ impl CoverageRasterizer {
                             py0 += rows.len() as u32;
                         }
                     }
-                    for (c, m) in all_rows.iter_mut().enumerate().take(wb + 1).skip(wa) {
-                        *m = covered_by_all(words, c);
+                    for c in wa..=wb {
+                        full[c] = full[c] || column_full(words, c);
+                        all_rows[c] = None;
                     }
                 }
                 for c in cells.iter_mut() {
