@@ -274,6 +274,11 @@ pub struct BenchRow {
     pub share_of_oracle: Option<f64>,
     /// Median milliseconds of each stage (the culler's, then `cull` = their sum, and `render`).
     pub median_stage_ms: BTreeMap<String, f64>,
+    /// Mean milliseconds of each stage, as `median_stage_ms`: they add up to
+    /// the mean frame, which the stage chart stacks.
+    pub mean_stage_ms: BTreeMap<String, f64>,
+    /// Mean frustum-only frame time, ms (the stage chart's 100 %).
+    pub mean_baseline_frame_ms: Option<f64>,
     /// The culler's configuration (empty for the oracle row).
     pub config: BTreeMap<String, String>,
 }
@@ -546,6 +551,8 @@ fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_spe
         speedup: s.speedup,
         share_of_oracle: share(s.speedup, oracle_speedup),
         median_stage_ms: s.median_stage_ms.clone(),
+        mean_stage_ms: s.mean_stage_ms.clone(),
+        mean_baseline_frame_ms: s.mean_baseline_frame_ms,
         config: w.header.config.clone(),
     }
 }
@@ -590,6 +597,9 @@ fn oracle_row(
         .sum();
     let mut stages = BTreeMap::new();
     stages.insert("render".to_string(), median_ms);
+    let mean = |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let mean_ms = mean(oracle_frames.iter().map(|(_, o)| o.oracle_set_render_ms).collect()).unwrap_or(0.0);
+    let mean_stages = BTreeMap::from([("render".to_string(), mean_ms)]);
     BenchRow {
         scene: scene.name().to_string(),
         culler: ORACLE_ROW.to_string(),
@@ -615,6 +625,8 @@ fn oracle_row(
         speedup: oracle_speedup,
         share_of_oracle: oracle_speedup.map(|_| 1.0),
         median_stage_ms: stages,
+        mean_stage_ms: mean_stages,
+        mean_baseline_frame_ms: mean(oracle_frames.iter().filter_map(|(f, _)| f.baseline_frame_ms).collect()),
         config: BTreeMap::new(),
     }
 }
@@ -692,8 +704,10 @@ impl BenchReport {
     }
 
     /// One bar per row for [`crate::pictures::plot_stage_breakdown`], labelled
-    /// `scene / culler` (just `culler` when one scene was benched), against the
-    /// row's median frustum-only frame time.
+    /// `scene / culler` (just `culler` when one scene was benched): the mean
+    /// stage times against the row's mean frustum-only frame time, so a bar's
+    /// length is 1 ÷ the row's speedup (medians of stages do not add up: a
+    /// culler resting on most frames would show its probes' raster in full).
     pub fn stage_bars(&self) -> Vec<StageBar> {
         self.rows
             .iter()
@@ -703,8 +717,8 @@ impl BenchReport {
                 } else {
                     r.label()
                 },
-                stages_ms: r.median_stage_ms.clone(),
-                baseline_ms: r.median_baseline_frame_ms.unwrap_or(0.0),
+                stages_ms: r.mean_stage_ms.clone(),
+                baseline_ms: r.mean_baseline_frame_ms.unwrap_or(0.0),
             })
             .collect()
     }

@@ -377,13 +377,13 @@ fn paint_level(rgb: &mut [u8], stride: u32, (x0, y0): (u32, u32), level: &Level,
     )
 }
 
-/// One bar of [`plot_stage_breakdown`]: a scene or culler's median stage
-/// times against its own baseline.
+/// One bar of [`plot_stage_breakdown`]: a scene or culler's stage times
+/// (the bench gives means, which add up to the mean frame) against its own baseline.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StageBar {
     /// Label on the bar's axis, e.g. `"city / hom"`.
     pub label: String,
-    /// Milliseconds per stage, as in [`crate::report::Summary::median_stage_ms`];
+    /// Milliseconds per stage, as in [`crate::report::Summary::mean_stage_ms`];
     /// the sum entry `cull` is ignored.
     pub stages_ms: BTreeMap<String, f64>,
     /// The 100 % mark: frame time rendering everything in the frustum, ms.

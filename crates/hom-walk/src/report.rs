@@ -130,8 +130,15 @@ pub struct Summary {
     pub kind: &'static str,
     /// Frames walked.
     pub frames: usize,
-    /// Median milliseconds of each stage.
+    /// Median milliseconds of each stage over every frame (0 on a frame the
+    /// stage did not run).
     pub median_stage_ms: BTreeMap<String, f64>,
+    /// Mean milliseconds of each stage over every frame (0 on a frame the
+    /// stage did not run): unlike medians these add up, to the mean frame.
+    pub mean_stage_ms: BTreeMap<String, f64>,
+    /// Mean frustum-only frame time, milliseconds (Σ of it ÷ Σ frame time is
+    /// the speedup).
+    pub mean_baseline_frame_ms: Option<f64>,
     /// Median frame time (cull + render), milliseconds.
     pub median_frame_ms: f64,
     /// Median frustum-only frame time, milliseconds.

@@ -22,15 +22,16 @@ pub fn busiest_frame(frames: &[FrameRecord]) -> usize {
         .map_or(0, |f| f.frame)
 }
 
-/// The stage chart of walks: each culler's median stages against frustum-only frames.
+/// The stage chart of walks: each culler's mean stages against its mean
+/// frustum-only frame (means add up, so a bar is 1 ÷ the walk's speedup).
 pub fn write_stage_chart(out: &Path, rows: &[(&str, &WalkResult)]) -> Result<()> {
     let bars: Vec<pictures::StageBar> = rows
         .iter()
         .filter_map(|(name, r)| {
             Some(pictures::StageBar {
                 label: name.to_string(),
-                stages_ms: r.summary.median_stage_ms.clone(),
-                baseline_ms: r.summary.median_baseline_frame_ms?,
+                stages_ms: r.summary.mean_stage_ms.clone(),
+                baseline_ms: r.summary.mean_baseline_frame_ms?,
             })
         })
         .collect();
