@@ -107,22 +107,32 @@ pub fn stand_in_depths(
 /// Six `side`×`side` views of `bounds` along the axes (±x, ±y, ±z), from
 /// outside it, each framing the whole box.
 pub fn axis_views(bounds: &Aabb, side: u32) -> [Camera; 6] {
+    [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z].map(|axis| view_from(bounds, axis, side))
+}
+
+/// A `side` × `side` view of `bounds` from `direction` (from the box's
+/// centre towards the eye, any length but zero), framing the box's
+/// bounding sphere at a 40° field of view, as [`axis_views`] does.
+pub fn view_from(bounds: &Aabb, direction: Vec3, side: u32) -> Camera {
     let centre = bounds.center();
     let radius = bounds.half_extent().length().max(1e-3);
     let fov = 40f32.to_radians();
     let distance = radius / (fov * 0.5).sin();
-    std::array::from_fn(|i| {
-        let axis = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z][i];
-        let up = if axis.y != 0.0 { Vec3::Z } else { Vec3::Y };
-        Camera::new(
-            centre + axis * distance,
-            centre,
-            up,
-            fov,
-            (distance - radius) * 0.5,
-            distance + radius * 2.0,
-            side,
-            side,
-        )
-    })
+    let dir = direction.normalize_or(Vec3::Z);
+    // Y up, unless the view looks along it.
+    let up = if dir.cross(Vec3::Y).length() < 1e-3 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    Camera::new(
+        centre + dir * distance,
+        centre,
+        up,
+        fov,
+        (distance - radius) * 0.5,
+        distance + radius * 2.0,
+        side,
+        side,
+    )
 }

@@ -4,10 +4,11 @@
 //! the frames of a walk (`--walk-frames`), and the virtual occluders as a
 //! scene of their own (`hom occluders export`).
 
+use glam::Vec3;
 use hom::geom::{Containment, Eye, Frustum};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 use hom::scene::{Scene, SceneBuilder, SceneError};
-use hom_render::stand_in::{axis_views, compare_stand_in, StandInComparison};
+use hom_render::stand_in::{axis_views, compare_stand_in, view_from, StandInComparison};
 use hom_render::Renderer;
 use hom_scene::{Animation, CameraPath};
 use rayon::prelude::*;
@@ -177,7 +178,8 @@ pub fn virtual_scene(scene: &Scene, db: &OccluderDb) -> Result<Scene, SceneError
 }
 
 /// Pictures of the `count` occluders with the most original triangles that
-/// have a virtual occluder, each from three views (front, side, above), in
+/// have a virtual occluder, each from five views (front, side, above, and
+/// two oblique ones from above: `view6`, `view7`), in
 /// `dir`: the original grey, the part of it the stand-in covers blue, and
 /// any violation red (Law & Tan's figure 2: the stand-in's silhouette inside
 /// the original's). Returns the files written.
@@ -199,13 +201,18 @@ pub fn write_pictures(
     for occ in with.into_iter().take(count) {
         let o = scene.object(occ.object);
         let v = occ.virtual_occluder.as_ref().expect("filtered");
-        for (k, camera) in axis_views(&o.aabb, side)
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| [0, 4, 2].contains(k))
-        {
+        let axes = axis_views(&o.aabb, side);
+        // Front, side and above, then two oblique views from above, where
+        // silhouettes are not the box's faces.
+        let views = [(0, axes[0]), (4, axes[4]), (2, axes[2])].into_iter().chain(
+            [Vec3::new(1.0, 0.8, 1.0), Vec3::new(-1.0, 0.5, -0.6)]
+                .into_iter()
+                .enumerate()
+                .map(|(j, d)| (6 + j, view_from(&o.aabb, d, side))),
+        );
+        for (k, camera) in views {
             let (original, stand_in) =
-                hom_render::stand_in::stand_in_depths(&renderer, scene.mesh_of(o), v.mesh(), o.transform, camera);
+                hom_render::stand_in::stand_in_depths(&renderer, scene.mesh_of(o), v.mesh(), o.transform, &camera);
             let rgba: Vec<[u8; 4]> = original
                 .iter()
                 .zip(&stand_in)
