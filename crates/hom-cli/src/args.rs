@@ -44,6 +44,111 @@ pub enum Command {
         #[command(subcommand)]
         command: OccludersCommand,
     },
+    /// Precomputed visibility (Law & Tan 1999, section 5): bake, merge, info, check.
+    Pvs {
+        /// Which tool.
+        #[command(subcommand)]
+        command: PvsCommand,
+    },
+}
+
+/// `hom pvs` tools.
+#[derive(Subcommand)]
+pub enum PvsCommand {
+    /// Bake a PVS: view cells around the scene's camera path, and per cell the objects hidden from all of it.
+    Bake(PvsBakeArgs),
+    /// Join the shards of one bake (`bake --shard K/N`) into the whole PVS.
+    Merge {
+        /// The merged .pvs file.
+        #[arg(long)]
+        out: PathBuf,
+        /// The shard files, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+    },
+    /// Cells, set sizes, bytes and the settings of a .pvs file.
+    Info {
+        /// The .pvs file.
+        file: PathBuf,
+        /// Also write a top-down map of the cells coloured by set size (PNG).
+        #[arg(long)]
+        picture: Option<PathBuf>,
+    },
+    /// Check a PVS against the oracle at random viewpoints in its cells: objects seen that it hides
+    /// (must be 0), and how its sets compare with the union of exact visible sets.
+    Check(PvsCheckArgs),
+}
+
+/// `hom pvs bake`.
+#[derive(Args)]
+pub struct PvsBakeArgs {
+    /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+    #[arg(long)]
+    pub scene: String,
+    /// The .pvs file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Edge of a view cell, metres.
+    #[arg(long, default_value_t = 8.0)]
+    pub cell_size: f32,
+    /// The viewing region: cells around this camera path's eyes (default: the scene's own walk).
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
+    /// Bake only shard K of N (the blocks of cells split in N ranges), e.g. `--shard 0/4`; join with `hom pvs merge`.
+    #[arg(long, value_parser = parse_shard)]
+    pub shard: Option<hom::pvs::Shard>,
+    /// Triangles of occluder objects at least this large (m²) are planar occluders; `inf` for none.
+    #[arg(long, default_value_t = 1.0)]
+    pub min_triangle_area: f32,
+    /// How far around each eye of the path cells reach, metres.
+    #[arg(long, default_value_t = 1.0)]
+    pub pad: f32,
+}
+
+/// `hom pvs check`.
+#[derive(Args)]
+pub struct PvsCheckArgs {
+    /// The scene the PVS was baked for.
+    #[arg(long)]
+    pub scene: String,
+    /// The .pvs file.
+    #[arg(long)]
+    pub pvs: PathBuf,
+    /// Random viewpoints in all (spread over the cells), each seen in six directions.
+    #[arg(long, default_value_t = 1000)]
+    pub points: usize,
+    /// Side of each of the six square views, pixels.
+    #[arg(long, default_value_t = 128)]
+    pub side: u32,
+    /// Cells to compare with exact visibility (set size against the union of the visible sets
+    /// at `--cell-points` stratified points in each).
+    #[arg(long, default_value_t = 8)]
+    pub cells: usize,
+    /// Stratified points per compared cell.
+    #[arg(long, default_value_t = 256)]
+    pub cell_points: usize,
+    /// Seed of the random viewpoints.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// Parses `K/N` (shard K of N, from 0).
+fn parse_shard(s: &str) -> Result<hom::pvs::Shard, String> {
+    let (k, n) = s
+        .split_once('/')
+        .ok_or_else(|| format!("'{s}' is not K/N (e.g. 0/4)"))?;
+    let index: u32 = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{k}' in '{s}' is not a shard index"))?;
+    let count: u32 = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{n}' in '{s}' is not a shard count"))?;
+    if count == 0 || index >= count {
+        return Err(format!("shard {index}/{count}: K must be below N (0/4 .. 3/4)"));
+    }
+    Ok(hom::pvs::Shard { index, count })
 }
 
 /// `hom occluders` tools.
@@ -320,6 +425,11 @@ pub struct WalkArgs {
     /// PVS then the culler, and the oracle. Adds `pvs_` fields to the report.
     #[arg(long)]
     pub pvs: bool,
+    /// A PVS baked by `hom pvs bake` for this scene: objects its cell hides are not drawn, after
+    /// `--culler` (frustum: the PVS alone; hom: PVS then HOM). With --oracle the report gains
+    /// `pvs_` fields as with --pvs.
+    #[arg(long)]
+    pub pvs_file: Option<PathBuf>,
 }
 
 /// `hom render`.

@@ -9,7 +9,7 @@ mod commands;
 mod setup;
 mod table;
 
-use args::{Cli, Command, OccludersCommand, SceneCommand};
+use args::{Cli, Command, OccludersCommand, PvsCommand, SceneCommand};
 use clap::Parser;
 
 fn main() {
@@ -33,6 +33,12 @@ fn main() {
                 walk_frames,
             } => commands::occluders::info(&scene, side, summary, pictures.as_deref(), walk_frames),
             OccludersCommand::Export { scene, out } => commands::occluders::export(&scene, &out),
+        },
+        Command::Pvs { command } => match command {
+            PvsCommand::Bake(a) => commands::pvs::bake(a),
+            PvsCommand::Merge { out, shards } => commands::pvs::merge(&out, &shards),
+            PvsCommand::Info { file, picture } => commands::pvs::info(&file, picture.as_deref()),
+            PvsCommand::Check(a) => commands::pvs::check(a),
         },
     };
     if let Err(e) = result {

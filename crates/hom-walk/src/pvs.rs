@@ -62,6 +62,38 @@ impl ClusterPvs for BspMap {
     }
 }
 
+/// A PVS baked by hom ([`hom::pvs::Pvs`]) as the yardstick's cluster
+/// visibility, for one frame's view: its "cluster" is the eye's cell (a node
+/// id), `None` where the PVS does not serve the view. Objects that have
+/// become dynamic are never hidden, as [`hom::cull::PvsCuller`] does.
+pub struct BakedPvsView {
+    cell: Option<i32>,
+    hidden: Vec<u32>,
+}
+
+impl BakedPvsView {
+    /// What `pvs` hides from `view` in `scene`.
+    pub fn new(pvs: &hom::pvs::Pvs, scene: &Scene, view: &hom::geom::View) -> BakedPvsView {
+        let mut hidden = Vec::new();
+        let cell = pvs.serves(view).and_then(|eye| pvs.hidden_from(eye, &mut hidden));
+        hidden.retain(|&id| scene.get(id).is_some_and(|o| !o.is_dynamic()));
+        BakedPvsView {
+            cell: cell.map(|c| c as i32),
+            hidden,
+        }
+    }
+}
+
+impl ClusterPvs for BakedPvsView {
+    fn camera_cluster(&self, _eye: Vec3) -> Option<i32> {
+        self.cell
+    }
+
+    fn object_visible_from(&self, id: u32, _from: i32) -> bool {
+        self.hidden.binary_search(&id).is_err()
+    }
+}
+
 /// What the PVS says about one frame (all triangle counts are of whole objects).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct PvsFrame {

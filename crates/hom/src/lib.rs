@@ -85,6 +85,8 @@ pub mod map;
 pub mod occluders;
 #[forbid(unsafe_code)]
 pub mod occlusion;
+#[forbid(unsafe_code)]
+pub mod pvs;
 pub mod raster;
 #[forbid(unsafe_code)]
 pub mod scene;

@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod demo;
 pub mod occluders;
+pub mod pvs;
 pub mod render;
 pub mod scene;
 pub mod walk;

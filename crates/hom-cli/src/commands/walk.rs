@@ -7,6 +7,8 @@ use crate::args::{HomArgs, WalkArgs};
 use crate::setup::{culler_settings, make_culler, open, open_map_view, progress, Walkthrough};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
+use hom::cull::PvsCuller;
+use hom::pvs::Pvs;
 use hom_render::Renderer;
 use hom_scene::bsp::BspMap;
 use hom_walk::pvs::{self, PvsSummary};
@@ -14,6 +16,7 @@ use hom_walk::report;
 use hom_walk::{pictures, WalkOptions, WalkResult};
 use std::io::{BufWriter, Write};
 use std::path::Path;
+use std::sync::Arc;
 
 /// Runs `hom walk`.
 pub fn run(a: WalkArgs) -> Result<()> {
@@ -33,6 +36,18 @@ pub fn run(a: WalkArgs) -> Result<()> {
     let mut w = match &map {
         Some(m) => open_map_view(&a.view, m)?,
         None => open(&a.view)?,
+    };
+    if a.pvs && a.pvs_file.is_some() {
+        bail!("--pvs (the map's own PVS) and --pvs-file (a baked one) measure one PVS at a time: give one");
+    }
+    let baked = match &a.pvs_file {
+        Some(p) => {
+            let pvs = super::pvs::read(p)?;
+            pvs.check_scene(&w.scene)
+                .with_context(|| format!("using {}", p.display()))?;
+            Some(Arc::new(pvs))
+        }
+        None => None,
     };
     if a.frames == Some(0) {
         bail!("--frames must be at least 1");
@@ -55,6 +70,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
         map.as_ref(),
+        baked,
     )
     .with_context(|| match &a.report {
         Some(p) => format!("walking {} (report {})", a.view.scene, p.display()),
@@ -116,11 +132,13 @@ pub fn run_walk(
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
 ) -> Result<WalkResult> {
-    run_walk_pvs(w, culler_name, hom, renderer, options, report.take(), None).map(|(r, _)| r)
+    run_walk_pvs(w, culler_name, hom, renderer, options, report.take(), None, None).map(|(r, _)| r)
 }
 
 /// [`run_walk`], measuring each frame against `pvs` (a Quake 3 map whose scene is
 /// `scene`) where given: the report's frame and summary lines gain `pvs_` fields.
+/// With `baked`, the culler is that PVS then `culler_name`, and with the oracle
+/// the frames are measured against it the same way.
 #[allow(clippy::too_many_arguments)]
 fn run_walk_pvs(
     w: &mut Walkthrough,
@@ -130,10 +148,18 @@ fn run_walk_pvs(
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
     pvs: Option<&BspMap>,
+    baked: Option<Arc<Pvs>>,
 ) -> Result<(WalkResult, Option<PvsSummary>)> {
     let Walkthrough { scene, path, animation } = w;
     let (scene, path, animation) = (scene, &*path, &*animation);
     let mut culler = make_culler(culler_name, scene, hom)?;
+    if let Some(p) = &baked {
+        culler = Box::new(PvsCuller::new(scene, p.clone(), culler)?);
+    }
+    let measure_baked = baked.as_ref().filter(|_| options.oracle);
+    // The yardstick reads the scene while the walk moves it: a copy as it
+    // starts (the bake left moving objects out, so their motion changes nothing).
+    let start_scene = measure_baked.map(|_| scene.clone());
     if let Some(out) = report.as_deref_mut() {
         let header = report::Header::new(
             scene,
@@ -151,7 +177,16 @@ fn run_walk_pvs(
     let result = hom_walk::walk(scene, animation, path, culler.as_mut(), renderer, options, |record| {
         bar.inc(1);
         // The map's scene is the walked one (Quake 3 maps are static).
-        let frame = pvs.map(|map| pvs::pvs_for_record(map, &map.scene, &path.camera(record.frame), record));
+        let camera = path.camera(record.frame);
+        let frame = match (pvs, measure_baked) {
+            (Some(map), _) => Some(pvs::pvs_for_record(map, &map.scene, &camera, record)),
+            (None, Some(baked)) => {
+                let start = start_scene.as_ref().expect("copied when measuring");
+                let view = pvs::BakedPvsView::new(baked, start, &camera.to_view());
+                Some(pvs::pvs_for_record(&view, start, &camera, record))
+            }
+            (None, None) => None,
+        };
         if let Some(out) = report.as_deref_mut() {
             let written = match &frame {
                 Some(f) => report::write_line(out, &pvs::FrameWithPvs { record, pvs: f }),
@@ -165,7 +200,7 @@ fn run_walk_pvs(
     });
     bar.finish_and_clear();
     let result = result?;
-    let pvs_summary = pvs.map(|_| pvs::summarize_pvs(&pvs_frames));
+    let pvs_summary = (pvs.is_some() || measure_baked.is_some()).then(|| pvs::summarize_pvs(&pvs_frames));
     if let Some(out) = report {
         if let Some(e) = io_error {
             return Err(e).context("writing the report");

@@ -16,6 +16,7 @@ mod hzb;
 mod kd_traversal;
 mod model_db;
 mod otree;
+mod pvs;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
@@ -27,6 +28,7 @@ pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};
 pub use kd_traversal::{Hierarchy, DFS_BUDGET, P_VP};
 pub use otree::{OtreeConfig, OtreeCuller};
+pub use pvs::PvsCuller;
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;

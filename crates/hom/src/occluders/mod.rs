@@ -11,6 +11,8 @@ pub use database::{MeshBake, Occluder, OccluderDb, OccluderDbConfig, OccluderMes
 pub(crate) use draw::draw_occluders;
 pub(crate) use selection::{ObjectBoxes, OccluderSelector, SelectionStats};
 pub use selection::{SelectionConfig, SelectionMode};
+#[cfg(test)]
+pub(crate) use virtual_occluder::push_box;
 pub use virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 
 use crate::scene::Scene;

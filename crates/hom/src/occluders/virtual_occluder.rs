@@ -50,6 +50,7 @@ use crate::geom::{Aabb, Eye, Frustum};
 use crate::scene::{Mesh, SceneError};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
+use std::ops::Range;
 use thiserror::Error;
 
 /// How virtual occluders are baked.
@@ -141,6 +142,9 @@ pub enum NoVirtual {
 #[derive(Clone, Debug, PartialEq)]
 pub struct VirtualOccluder {
     mesh: Mesh,
+    /// Triangle ranges of `mesh` that each bound a convex solid (a box or a
+    /// hull; kept open parts are not among them).
+    convex_pieces: Vec<Range<u32>>,
     floor: Option<f32>,
     inside_share: f32,
     coverage: f32,
@@ -150,6 +154,14 @@ impl VirtualOccluder {
     /// The stand-in, in the original's (object) space.
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
+    }
+
+    /// Triangle ranges of [`VirtualOccluder::mesh`] that each bound a convex
+    /// solid inside the original's (a box or a hull), for object-space
+    /// occlusion tests such as the PVS bake's. Kept open parts are sheets,
+    /// not solids, and are in no range.
+    pub fn convex_pieces(&self) -> &[Range<u32>] {
+        &self.convex_pieces
     }
 
     /// The object-space floor height the eye must stay above, when a solid
@@ -196,10 +208,7 @@ impl VirtualOccluder {
 impl VirtualOccluder {
     /// Bakes the virtual occluder of `mesh` (in its own space).
     pub fn bake(mesh: &Mesh, config: &VirtualConfig) -> Result<VirtualOccluder, NoVirtual> {
-        if !(2..=256).contains(&config.resolution) {
-            return Err(NoVirtual::BadConfig("resolution must be 2..=256 cells per axis"));
-        }
-        if !(config.max_share.is_finite() && config.max_share > 0.0 && config.min_gain.is_finite()) {
+        if !(config.max_share.is_finite() && config.max_share > 0.0) {
             return Err(NoVirtual::BadConfig("max_share must be positive and min_gain finite"));
         }
         let n = mesh.triangle_count();
@@ -211,6 +220,23 @@ impl VirtualOccluder {
                 triangles: n,
                 min: config.min_original.max(48),
             });
+        }
+        Self::bake_within(mesh, config, budget)
+    }
+
+    /// Bakes inscribed solids for object-space tests, where a stand-in's
+    /// triangle count costs nothing at run time: any mesh, at most `budget`
+    /// triangles (boxes cost 12), `min_original` and `max_share` ignored.
+    pub fn bake_solids(mesh: &Mesh, config: &VirtualConfig, budget: usize) -> Result<VirtualOccluder, NoVirtual> {
+        Self::bake_within(mesh, config, budget)
+    }
+
+    fn bake_within(mesh: &Mesh, config: &VirtualConfig, budget: usize) -> Result<VirtualOccluder, NoVirtual> {
+        if !(2..=256).contains(&config.resolution) {
+            return Err(NoVirtual::BadConfig("resolution must be 2..=256 cells per axis"));
+        }
+        if !config.min_gain.is_finite() {
+            return Err(NoVirtual::BadConfig("max_share must be positive and min_gain finite"));
         }
         let mut parts = Parts::find(mesh);
         let convex = parts.take_convex();
@@ -301,20 +327,29 @@ impl VirtualOccluder {
             Some(g) => box_meshes(g, &boxes),
             None => (Vec::new(), Vec::new()),
         };
+        let mut convex_pieces: Vec<Range<u32>> = (0..boxes.len() as u32).map(|b| b * 12..b * 12 + 12).collect();
         let p = mesh.positions();
-        let mut push = |corners: [Vec3; 3]| {
+        let push = |positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, corners: [Vec3; 3]| {
             let base = positions.len() as u32;
             positions.extend(corners);
             triangles.push([base, base + 1, base + 2]);
         };
         for (part, _) in parts.open.iter().zip(&kept).filter(|(_, &k)| k) {
             for &t in &part.triangles {
-                push(mesh.triangles()[t as usize].map(|i| p[i as usize]));
+                push(
+                    &mut positions,
+                    &mut triangles,
+                    mesh.triangles()[t as usize].map(|i| p[i as usize]),
+                );
             }
         }
         for (part, level) in convex.iter().zip(&hull_of) {
             if let Some(l) = level {
-                part.hulls[*l].triangles.iter().for_each(|&t| push(t));
+                let start = triangles.len() as u32;
+                for &t in &part.hulls[*l].triangles {
+                    push(&mut positions, &mut triangles, t);
+                }
+                convex_pieces.push(start..triangles.len() as u32);
             }
         }
         let covered = inside.iter().zip(&uncovered).filter(|(&i, &u)| i && !u).count();
@@ -328,6 +363,7 @@ impl VirtualOccluder {
         }
         Ok(VirtualOccluder {
             mesh: stand_in,
+            convex_pieces,
             coverage,
             floor: (parts.capped && !boxes.is_empty()).then_some(parts.floor),
             inside_share: if total == 0 { 0.0 } else { covered as f32 / total as f32 },
@@ -961,7 +997,7 @@ fn box_meshes(grid: &Grid, boxes: &[CellBox]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
 
 /// Appends the box `lo..hi`: eight corners (bit 0 picks `hi.x`, bit 1
 /// `hi.y`, bit 2 `hi.z`), two triangles a face, the -y face third.
-pub(super) fn push_box(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, lo: Vec3, hi: Vec3) {
+pub(crate) fn push_box(positions: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, lo: Vec3, hi: Vec3) {
     const FACES: [[u32; 4]; 6] = [
         [0, 2, 3, 1],
         [4, 5, 7, 6],

@@ -420,7 +420,6 @@ impl Bvh {
     }
 
     /// All nodes; node 0 is the root. Children come after their parents.
-    #[cfg(test)]
     pub fn nodes(&self) -> &[BvhNode] {
         &self.nodes
     }

@@ -1,0 +1,352 @@
+//! `hom pvs`: bake, merge, info and check precomputed visibility (Law & Tan
+//! 1999, section 5).
+
+use crate::args::{PvsBakeArgs, PvsCheckArgs};
+use anyhow::{bail, Context, Result};
+use hom::geom::{Aabb, Camera};
+use hom::glam::Vec3;
+use hom::pvs::{Pvs, PvsConfig, Shard};
+use hom_render::{Framebuffer, Renderer};
+use hom_scene::CameraPath;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::Path;
+use std::time::Instant;
+
+/// Reads a `.pvs` file.
+pub fn read(path: &Path) -> Result<Pvs> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    Pvs::from_bytes(&bytes).with_context(|| format!("reading {}", path.display()))
+}
+
+/// Writes `pvs` to `path` through a temporary file, so a failed write never
+/// leaves a half file where a good one was.
+fn write(path: &Path, pvs: &Pvs) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let tmp = path.with_extension("pvs.tmp");
+    std::fs::write(&tmp, pvs.to_bytes()).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))
+}
+
+/// The settings a bake uses for a path: its near plane, and a clearance
+/// that covers its near rectangle at any aspect up to 2.4 (21:9), or a
+/// 90° square view (what `hom pvs check` renders).
+pub fn config_for(path: &CameraPath, cell_size: f32, min_triangle_area: f32, pad: f32) -> PvsConfig {
+    let t = (path.fov_y_deg.to_radians() * 0.5).tan();
+    let aspect = (path.width as f32 / path.height as f32).max(2.4);
+    let corner = (1.0 + t * t * (1.0 + aspect * aspect)).sqrt();
+    PvsConfig {
+        cell_size,
+        pad,
+        min_triangle_area,
+        near: path.near,
+        near_clearance: path.near * corner.max(1.8) * 1.01,
+        ..PvsConfig::default()
+    }
+}
+
+/// `hom pvs bake`.
+pub fn bake(a: PvsBakeArgs) -> Result<()> {
+    let (scene, mut path, animation) = hom_walk::open_scene(&a.scene)?;
+    if let Some(file) = &a.camera_path {
+        path = CameraPath::load(file)?;
+    }
+    path.validate(&a.scene)?;
+    let eyes: Vec<Vec3> = path.frames.iter().map(|f| Vec3::from_array(f.eye)).collect();
+    let moving: Vec<u32> = animation.tracks().iter().map(|t| t.object).collect();
+    let config = config_for(&path, a.cell_size, a.min_triangle_area, a.pad);
+    let shard = a.shard.unwrap_or(Shard::WHOLE);
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} blocks, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix("pvs bake");
+    let start = Instant::now();
+    let pvs = Pvs::bake(&scene, &eyes, &moving, &config, shard, &|done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .with_context(|| format!("baking the PVS of {}", a.scene))?;
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    write(&a.out, &pvs)?;
+    println!(
+        "{}: {} cells of {} m, {} occluder objects, shard {}/{}, baked in {:.1} s, {} bytes",
+        a.out.display(),
+        pvs.cells().cell_count(),
+        config.cell_size,
+        pvs.occluder_objects().len(),
+        shard.index,
+        shard.count,
+        seconds,
+        std::fs::metadata(&a.out).map(|m| m.len()).unwrap_or(0)
+    );
+    if shard == Shard::WHOLE {
+        print_sizes(&pvs, scene.objects().len());
+    }
+    Ok(())
+}
+
+/// `hom pvs merge`.
+pub fn merge(out: &Path, shards: &[std::path::PathBuf]) -> Result<()> {
+    let parts = shards.iter().map(|p| read(p)).collect::<Result<Vec<_>>>()?;
+    let whole = Pvs::merge(parts)?;
+    write(out, &whole)?;
+    println!(
+        "{}: {} shards merged, {} cells",
+        out.display(),
+        shards.len(),
+        whole.cells().cell_count()
+    );
+    Ok(())
+}
+
+fn print_sizes(pvs: &Pvs, objects: usize) {
+    let mut sizes: Vec<usize> = pvs.cell_set_sizes().into_iter().map(|(_, n)| n).collect();
+    sizes.sort_unstable();
+    if sizes.is_empty() {
+        return;
+    }
+    let at = |q: f64| sizes[((sizes.len() - 1) as f64 * q).round() as usize];
+    println!(
+        "objects hidden per cell (of {objects}): min {}, median {}, 95th percentile {}, max {}",
+        at(0.0),
+        at(0.5),
+        at(0.95),
+        at(1.0)
+    );
+}
+
+/// `hom pvs info`.
+pub fn info(file: &Path, picture: Option<&Path>) -> Result<()> {
+    let pvs = read(file)?;
+    let c = pvs.config();
+    let bytes = std::fs::metadata(file).map(|m| m.len()).unwrap_or(0);
+    println!("{}: {} bytes", file.display(), bytes);
+    println!(
+        "scene fingerprint {:016x}, shard {}/{}",
+        pvs.scene_fingerprint(),
+        pvs.shard().index,
+        pvs.shard().count
+    );
+    println!(
+        "settings: cell size {} m, {} quadtree levels, pad {} m, margin {} m, near {} m, near clearance {} m, planar occluders from {} m², solids {}",
+        c.cell_size, c.levels, c.pad, c.margin, c.near, c.near_clearance, c.min_triangle_area, c.solids
+    );
+    println!(
+        "{} cells, {} occluder objects, {} moving objects left out",
+        pvs.cells().cell_count(),
+        pvs.occluder_objects().len(),
+        pvs.moving().len()
+    );
+    let stored: usize = pvs.node_sets().map(|(_, s)| s.len()).sum();
+    println!("{stored} ids stored over the hierarchy's nodes");
+    if pvs.shard() == Shard::WHOLE {
+        print_sizes(&pvs, pvs.object_count());
+        if let Some(p) = picture {
+            write_map(&pvs, p)?;
+            println!("picture: {}", p.display());
+        }
+    } else if picture.is_some() {
+        bail!("a shard has no cells to draw: merge the shards first");
+    }
+    Ok(())
+}
+
+/// A top-down map of the cells, each coloured by its set size (dark blue:
+/// none hidden, to yellow: the most), 6 pixels a cell.
+fn write_map(pvs: &Pvs, path: &Path) -> Result<()> {
+    let cells = pvs.cell_set_sizes();
+    let bounds = cells.iter().fold(Aabb::EMPTY, |b, (c, _)| b.union(*c));
+    let size = pvs.config().cell_size;
+    const PX: u32 = 6;
+    let w = (((bounds.max.x - bounds.min.x) / size).round() as u32).max(1) * PX;
+    let h = (((bounds.max.z - bounds.min.z) / size).round() as u32).max(1) * PX;
+    if w > 8192 || h > 8192 {
+        bail!("the map would be {w}x{h} pixels: too many cells to draw");
+    }
+    let most = cells.iter().map(|c| c.1).max().unwrap_or(0).max(1);
+    let mut rgba = vec![[24u8, 24, 24, 255]; (w * h) as usize];
+    for (b, n) in &cells {
+        let t = *n as f32 / most as f32;
+        let colour = [
+            (40.0 + 215.0 * t) as u8,
+            (40.0 + 190.0 * t) as u8,
+            (140.0 * (1.0 - t) + 30.0) as u8,
+            255,
+        ];
+        let x0 = ((b.min.x - bounds.min.x) / size).round() as u32 * PX;
+        let z0 = ((b.min.z - bounds.min.z) / size).round() as u32 * PX;
+        for y in 0..PX - 1 {
+            for x in 0..PX - 1 {
+                let (px, py) = (x0 + x, z0 + y);
+                if px < w && py < h {
+                    rgba[(py * w + px) as usize] = colour;
+                }
+            }
+        }
+    }
+    hom_render::write_png(path, w, h, &rgba)?;
+    Ok(())
+}
+
+/// Six 90° views from `eye` covering every direction.
+fn cube_cameras(eye: Vec3, near: f32, far: f32, side: u32) -> [Camera; 6] {
+    let dirs = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+    dirs.map(|d| {
+        let up = if d.y != 0.0 { Vec3::Z } else { Vec3::Y };
+        Camera::new(eye, eye + d, up, 90f32.to_radians(), near, far, side, side)
+    })
+}
+
+/// The objects owning a pixel of any of six views from `eye`.
+fn seen_from(
+    renderer: &Renderer,
+    scene: &hom::scene::Scene,
+    cams: &[Camera; 6],
+    fb: &mut Framebuffer,
+    seen: &mut [bool],
+) {
+    for cam in cams {
+        let counts = hom_render::oracle_pixel_counts(renderer, scene, cam, fb);
+        for (s, c) in seen.iter_mut().zip(counts) {
+            *s |= c > 0;
+        }
+    }
+}
+
+/// `hom pvs check`.
+pub fn check(a: PvsCheckArgs) -> Result<()> {
+    let (scene, _, _) = hom_walk::open_scene(&a.scene)?;
+    let pvs = read(&a.pvs)?;
+    pvs.check_scene(&scene)?;
+    if pvs.shard() != Shard::WHOLE {
+        bail!("{} is a shard: merge the shards first", a.pvs.display());
+    }
+    if a.side < 8 || a.side > 4096 {
+        bail!("--side must be 8..=4096 pixels");
+    }
+    let cells: Vec<Aabb> = pvs.cells().cells().map(|(_, b)| b).collect();
+    if cells.is_empty() {
+        bail!("{} has no cells", a.pvs.display());
+    }
+    // A square 90° view's near corners lie sqrt(3) near-distances away.
+    let near = pvs.config().near_clearance / 1.75;
+    if near < pvs.config().near {
+        bail!("the PVS's near clearance is too small for 90° views");
+    }
+    let far = scene.bounds().extent().length() * 2.0 + 1.0;
+    let renderer = Renderer::new(0)?;
+    let mut fb = Framebuffer::new(a.side, a.side);
+    let mut rng = Rng(a.seed.max(1));
+    let mut point_in = |b: &Aabb| {
+        let t = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+        b.min + (b.max - b.min) * t
+    };
+    let n = scene.objects().len();
+    let (mut violations, mut bad_points) = (0usize, 0usize);
+    let bar = crate::setup::progress(a.points, "pvs check");
+    let mut hidden = Vec::new();
+    for i in 0..a.points {
+        let eye = point_in(&cells[i % cells.len()]);
+        hidden.clear();
+        pvs.hidden_from(eye, &mut hidden);
+        let mut seen = vec![false; n];
+        seen_from(
+            &renderer,
+            &scene,
+            &cube_cameras(eye, near, far, a.side),
+            &mut fb,
+            &mut seen,
+        );
+        let v = hidden.iter().filter(|&&id| seen[id as usize]).count();
+        if v > 0 {
+            bad_points += 1;
+            eprintln!(
+                "viewpoint {eye}: {v} hidden objects seen, e.g. {:?}",
+                hidden.iter().find(|&&id| seen[id as usize])
+            );
+        }
+        violations += v;
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!(
+        "conservative: {} random viewpoints in {} cells, 6 views of {}² each: {} hidden objects seen (at {} viewpoints)",
+        a.points,
+        cells.len(),
+        a.side,
+        violations,
+        bad_points
+    );
+    // Tightness: the PVS's visible set against the union of exact visible sets.
+    let picks: Vec<usize> = (0..a.cells.min(cells.len()))
+        .map(|k| k * cells.len() / a.cells.min(cells.len()).max(1))
+        .collect();
+    let static_live = scene.objects().iter().filter(|o| !o.is_removed()).count();
+    let mut ratios = Vec::new();
+    let k = (a.cell_points as f64).cbrt().ceil() as usize;
+    for &c in &picks {
+        let b = cells[c];
+        hidden.clear();
+        pvs.hidden_from(b.center(), &mut hidden);
+        let mut seen = vec![false; n];
+        for s in 0..a.cell_points {
+            let (ix, iy, iz) = (s % k, (s / k) % k, s / (k * k) % k);
+            let jitter = Vec3::new(rng_f(&mut rng), rng_f(&mut rng), rng_f(&mut rng));
+            let t = (Vec3::new(ix as f32, iy as f32, iz as f32) + jitter) / k as f32;
+            let eye = b.min + (b.max - b.min) * t;
+            seen_from(
+                &renderer,
+                &scene,
+                &cube_cameras(eye, near, far, a.side),
+                &mut fb,
+                &mut seen,
+            );
+        }
+        let exact = seen.iter().filter(|&&s| s).count().max(1);
+        let pvs_visible = static_live - hidden.len();
+        let ratio = pvs_visible as f64 / exact as f64;
+        println!(
+            "cell at ({:.1}, {:.1}, {:.1}): PVS keeps {pvs_visible} objects, {exact} seen from {} points: {ratio:.2}x",
+            b.center().x,
+            b.center().y,
+            b.center().z,
+            a.cell_points
+        );
+        ratios.push(ratio);
+    }
+    if !ratios.is_empty() {
+        ratios.sort_by(f64::total_cmp);
+        let at = |q: f64| ratios[((ratios.len() - 1) as f64 * q).round() as usize];
+        println!(
+            "tightness over {} cells: PVS set ÷ union of exact sets, median {:.2}x, 95th percentile {:.2}x",
+            ratios.len(),
+            at(0.5),
+            at(0.95)
+        );
+    }
+    if violations > 0 {
+        bail!("{violations} objects the PVS hides were seen");
+    }
+    Ok(())
+}
+
+fn rng_f(rng: &mut Rng) -> f32 {
+    rng.f32()
+}
+
+/// xorshift64: the viewpoints of a check, reproducible from its seed.
+struct Rng(u64);
+
+impl Rng {
+    fn f32(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
