@@ -39,14 +39,7 @@ impl CellGrid {
     /// within `pad` metres (in x and z) and spanning `eye.y ± pad`. The eyes
     /// must be finite and `cell_size` positive (the caller checks).
     pub(crate) fn around(eyes: &[Vec3], cell_size: f32, levels: u32, pad: f32) -> CellGrid {
-        let bounds = Aabb::from_points(eyes.iter().copied());
-        let block = cell_size * (1u32 << levels) as f32;
-        let origin = Vec2::new(bounds.min.x - pad, bounds.min.z - pad);
-        let span = Vec2::new(bounds.max.x + pad, bounds.max.z + pad) - origin;
-        let blocks = [
-            ((span.x / block).floor() as u32 + 1).max(1),
-            ((span.y / block).floor() as u32 + 1).max(1),
-        ];
+        let (origin, blocks) = Self::extent(eyes, cell_size, levels, pad);
         let side = 1usize << levels;
         let (lx, lz) = (blocks[0] as usize * side, blocks[1] as usize * side);
         let mut leaf_y: Vec<Option<(f32, f32)>> = vec![None; lx * lz];
@@ -71,6 +64,26 @@ impl CellGrid {
             blocks,
             leaf_y,
         }
+    }
+
+    /// The first leaf's corner and the blocks along x and z that cells
+    /// around `eyes` need (saturating, so a caller can refuse a huge region
+    /// before anything is allocated).
+    pub(crate) fn extent(eyes: &[Vec3], cell_size: f32, levels: u32, pad: f32) -> (Vec2, [u32; 2]) {
+        let bounds = Aabb::from_points(eyes.iter().copied());
+        let block = cell_size * (1u32 << levels) as f32;
+        let origin = Vec2::new(bounds.min.x - pad, bounds.min.z - pad);
+        let span = Vec2::new(bounds.max.x + pad, bounds.max.z + pad) - origin;
+        let count = |s: f32| ((s / block).floor() as u32).saturating_add(1);
+        (origin, [count(span.x), count(span.y)])
+    }
+
+    /// Nodes a grid of `blocks` with `levels` holds (saturating).
+    pub(crate) fn nodes_for(blocks: [u32; 2], levels: u32) -> usize {
+        let per = ((1usize << (2 * (levels + 1))) - 1) / 3;
+        (blocks[0] as usize)
+            .saturating_mul(blocks[1] as usize)
+            .saturating_mul(per)
     }
 
     /// Leaves along x (over all blocks).

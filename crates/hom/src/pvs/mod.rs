@@ -217,14 +217,13 @@ impl Pvs {
         if let Some((index, &eye)) = eyes.iter().enumerate().find(|(_, e)| !e.is_finite()) {
             return Err(PvsError::BadViewpoint { index, eye });
         }
+        let (_, blocks) = CellGrid::extent(eyes, config.cell_size, config.levels, config.pad);
+        let nodes = CellGrid::nodes_for(blocks, config.levels);
+        if nodes > MAX_NODES {
+            return Err(PvsError::TooManyCells { nodes, max: MAX_NODES });
+        }
         let samples = densify(eyes, config.cell_size / 4.0);
         let grid = CellGrid::around(&samples, config.cell_size, config.levels, config.pad);
-        if grid.node_count() > MAX_NODES {
-            return Err(PvsError::TooManyCells {
-                nodes: grid.node_count(),
-                max: MAX_NODES,
-            });
-        }
         let mut moving = moving.to_vec();
         moving.sort_unstable();
         moving.dedup();
