@@ -73,6 +73,9 @@ pub enum PvsCommand {
         /// Also write a top-down map of the cells coloured by set size (PNG).
         #[arg(long)]
         picture: Option<PathBuf>,
+        /// The scene it was baked for: its objects' footprints under the map, and a check it matches.
+        #[arg(long)]
+        scene: Option<String>,
     },
     /// Check a PVS against the oracle at random viewpoints in its cells: objects seen that it hides
     /// (must be 0), and how its sets compare with the union of exact visible sets.
@@ -447,6 +450,10 @@ pub struct RenderArgs {
     /// Colour by fate: occluders blue, drawn grey, occlusion-culled red.
     #[arg(long)]
     pub false_colour: bool,
+    /// A PVS baked by `hom pvs bake` in front of the culler: with --false-colour, what the
+    /// frame's cell hides is red too (the frustum culler then shows the PVS alone).
+    #[arg(long)]
+    pub pvs_file: Option<PathBuf>,
 }
 
 /// What `hom bench` measures.

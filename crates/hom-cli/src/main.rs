@@ -37,7 +37,9 @@ fn main() {
         Command::Pvs { command } => match command {
             PvsCommand::Bake(a) => commands::pvs::bake(a),
             PvsCommand::Merge { out, shards } => commands::pvs::merge(&out, &shards),
-            PvsCommand::Info { file, picture } => commands::pvs::info(&file, picture.as_deref()),
+            PvsCommand::Info { file, picture, scene } => {
+                commands::pvs::info(&file, picture.as_deref(), scene.as_deref())
+            }
             PvsCommand::Check(a) => commands::pvs::check(a),
         },
     };

@@ -58,6 +58,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         &renderer,
         &picture,
         options.frame_rate,
+        None,
     )?;
     let stages = a.out.join("stages.png");
     write_stage_chart(&stages, &rows)?;

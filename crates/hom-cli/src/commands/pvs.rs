@@ -121,8 +121,16 @@ fn print_sizes(pvs: &Pvs, objects: usize) {
 }
 
 /// `hom pvs info`.
-pub fn info(file: &Path, picture: Option<&Path>) -> Result<()> {
+pub fn info(file: &Path, picture: Option<&Path>, scene: Option<&str>) -> Result<()> {
     let pvs = read(file)?;
+    let scene = match scene {
+        Some(s) => {
+            let (scene, _, _) = hom_walk::open_scene(s)?;
+            pvs.check_scene(&scene)?;
+            Some(scene)
+        }
+        None => None,
+    };
     let c = pvs.config();
     let bytes = std::fs::metadata(file).map(|m| m.len()).unwrap_or(0);
     println!("{}: {} bytes", file.display(), bytes);
@@ -147,7 +155,7 @@ pub fn info(file: &Path, picture: Option<&Path>) -> Result<()> {
     if pvs.shard() == Shard::WHOLE {
         print_sizes(&pvs, pvs.object_count());
         if let Some(p) = picture {
-            write_map(&pvs, p)?;
+            write_map(&pvs, scene.as_ref(), p)?;
             println!("picture: {}", p.display());
         }
     } else if picture.is_some() {
@@ -156,11 +164,15 @@ pub fn info(file: &Path, picture: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// A top-down map of the cells, each coloured by its set size (dark blue:
-/// none hidden, to yellow: the most), 6 pixels a cell.
-fn write_map(pvs: &Pvs, path: &Path) -> Result<()> {
+/// A top-down map of the cells, each coloured by its set size (blue: the
+/// fewest hidden, to yellow: the most), 6 pixels a cell, over the scene's
+/// object footprints in grey when the scene is given.
+fn write_map(pvs: &Pvs, scene: Option<&hom::scene::Scene>, path: &Path) -> Result<()> {
     let cells = pvs.cell_set_sizes();
-    let bounds = cells.iter().fold(Aabb::EMPTY, |b, (c, _)| b.union(*c));
+    let mut bounds = cells.iter().fold(Aabb::EMPTY, |b, (c, _)| b.union(*c));
+    if let Some(s) = scene {
+        bounds = bounds.union(s.bounds());
+    }
     let size = pvs.config().cell_size;
     const PX: u32 = 6;
     let w = (((bounds.max.x - bounds.min.x) / size).round() as u32).max(1) * PX;
@@ -168,18 +180,35 @@ fn write_map(pvs: &Pvs, path: &Path) -> Result<()> {
     if w > 8192 || h > 8192 {
         bail!("the map would be {w}x{h} pixels: too many cells to draw");
     }
-    let most = cells.iter().map(|c| c.1).max().unwrap_or(0).max(1);
+    let most = cells.iter().map(|c| c.1).max().unwrap_or(0);
+    let least = cells.iter().map(|c| c.1).min().unwrap_or(0);
     let mut rgba = vec![[24u8, 24, 24, 255]; (w * h) as usize];
+    let to_px = |x: f32, z: f32| {
+        (
+            ((x - bounds.min.x) / size * PX as f32).clamp(0.0, (w - 1) as f32) as u32,
+            ((z - bounds.min.z) / size * PX as f32).clamp(0.0, (h - 1) as f32) as u32,
+        )
+    };
+    // Footprints of objects standing up (not the ground or roads), grey.
+    let standing = |o: &&hom::scene::Object| !o.is_removed() && o.aabb.extent().y > 0.5;
+    for o in scene.iter().flat_map(|s| s.objects()).filter(standing) {
+        let (x0, z0) = to_px(o.aabb.min.x, o.aabb.min.z);
+        let (x1, z1) = to_px(o.aabb.max.x, o.aabb.max.z);
+        for y in z0..=z1 {
+            for x in x0..=x1 {
+                rgba[(y * w + x) as usize] = [90, 90, 90, 255];
+            }
+        }
+    }
     for (b, n) in &cells {
-        let t = *n as f32 / most as f32;
+        let t = (*n - least) as f32 / (most - least).max(1) as f32;
         let colour = [
             (40.0 + 215.0 * t) as u8,
             (40.0 + 190.0 * t) as u8,
             (140.0 * (1.0 - t) + 30.0) as u8,
             255,
         ];
-        let x0 = ((b.min.x - bounds.min.x) / size).round() as u32 * PX;
-        let z0 = ((b.min.z - bounds.min.z) / size).round() as u32 * PX;
+        let (x0, z0) = to_px(b.min.x, b.min.z);
         for y in 0..PX - 1 {
             for x in 0..PX - 1 {
                 let (px, py) = (x0 + x, z0 + y);

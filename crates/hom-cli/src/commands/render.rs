@@ -2,11 +2,13 @@
 
 use crate::args::{HomArgs, RenderArgs};
 use crate::setup::{culler_settings, make_culler, open, Walkthrough};
-use anyhow::{bail, Result};
-use hom::cull::{CullOutput, Culler, HomCuller};
+use anyhow::{bail, Context, Result};
+use hom::cull::{CullOutput, Culler, HomCuller, PvsCuller};
+use hom::pvs::Pvs;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
 use hom_walk::{pictures, WalkOptions};
 use std::path::Path;
+use std::sync::Arc;
 
 /// Runs `hom render`.
 pub fn run(a: RenderArgs) -> Result<()> {
@@ -20,6 +22,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
     }
     let renderer = Renderer::new(a.view.threads)?;
     let frame_rate = WalkOptions::default().frame_rate;
+    let pvs = match &a.pvs_file {
+        Some(p) => {
+            let pvs = super::pvs::read(p)?;
+            pvs.check_scene(&w.scene)
+                .with_context(|| format!("using {}", p.display()))?;
+            Some(Arc::new(pvs))
+        }
+        None => None,
+    };
     if a.false_colour {
         write_false_colour(
             &mut w,
@@ -29,11 +40,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
             &renderer,
             &a.out,
             frame_rate,
+            pvs.as_ref(),
         )?;
     } else {
         w.go_to(a.frame, frame_rate);
         let camera = w.path.camera(a.frame);
         let mut culler = make_culler(&a.view.culler, &w.scene, &a.view.hom)?;
+        if let Some(p) = &pvs {
+            culler = Box::new(PvsCuller::new(&w.scene, p.clone(), culler)?);
+        }
         let mut cull = CullOutput::default();
         culler.cull(&w.scene, &camera.to_view(), &mut cull)?;
         let mut fb = Framebuffer::new(camera.width, camera.height);
@@ -46,6 +61,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
 
 /// Culls frame `frame` with the named culler and writes it in false colour to
 /// `out`. With HOM, also returns that frame's occlusion pyramid (for pictures).
+#[allow(clippy::too_many_arguments)]
 pub fn write_false_colour(
     w: &mut Walkthrough,
     culler_name: &str,
@@ -54,12 +70,19 @@ pub fn write_false_colour(
     renderer: &Renderer,
     out: &Path,
     frame_rate: f32,
+    pvs: Option<&Arc<Pvs>>,
 ) -> Result<Option<hom::map::Pyramid>> {
     w.go_to(frame, frame_rate);
     let (scene, camera) = (&w.scene, w.path.camera(frame));
     let view = camera.to_view();
     let mut cull = CullOutput::default();
-    let pyramid = if culler_name == "hom" {
+    let pyramid = if let Some(pvs) = pvs {
+        // What the PVS hides is occlusion-culled: red, seen through the rest.
+        let inner = make_culler(culler_name, scene, hom)?;
+        let mut culler = PvsCuller::new(scene, pvs.clone(), inner)?;
+        renderer.install(|| culler.cull(scene, &view, &mut cull))?;
+        None
+    } else if culler_name == "hom" {
         // The concrete type, not a `dyn Culler`: the pyramid is HOM's own.
         let mut culler = HomCuller::new(scene, culler_settings(hom, scene)?.hom);
         renderer.install(|| culler.cull(scene, &view, &mut cull))?;

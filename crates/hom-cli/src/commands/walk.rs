@@ -70,7 +70,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
         map.as_ref(),
-        baked,
+        baked.clone(),
     )
     .with_context(|| match &a.report {
         Some(p) => format!("walking {} (report {})", a.view.scene, p.display()),
@@ -79,7 +79,12 @@ pub fn run(a: WalkArgs) -> Result<()> {
     if let Some(p) = &a.report {
         eprintln!("report: {}", p.display());
     }
-    print_table(&w.scene, &[(&a.view.culler, &result)]);
+    let label = match &a.pvs_file {
+        Some(_) if a.view.culler == "frustum" => "pvs".to_string(),
+        Some(_) => format!("pvs+{}", a.view.culler),
+        None => a.view.culler.clone(),
+    };
+    print_table(&w.scene, &[(&label, &result)]);
     if let Some(p) = &pvs_summary {
         print!("{}", p.table());
     }
@@ -100,6 +105,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
             &renderer,
             &picture,
             frame_rate,
+            baked.as_ref(),
         )?;
         if let Some(p) = pyramid {
             let hole = culler_settings(&a.view.hom, &w.scene)?

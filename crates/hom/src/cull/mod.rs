@@ -116,4 +116,11 @@ pub trait Culler: Send {
     /// rendering) when the caller measured it. Cullers that adapt (HOM's
     /// polygon budget, hole filling) learn from it; the default ignores it.
     fn frame_done(&mut self, _frame_ms: Option<f64>) {}
+
+    /// Objects known hidden from the next frame's view (ascending ids of
+    /// `scene`), e.g. by a precomputed visibility set: a culler may report
+    /// them occluded without testing them and skip them as occluders. Objects
+    /// that move are not hidden by it. The default ignores the hint; a
+    /// caller must still not draw them (as [`PvsCuller`] does).
+    fn set_known_hidden(&mut self, _scene: &Scene, _hidden: &[u32]) {}
 }

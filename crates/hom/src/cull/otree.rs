@@ -165,6 +165,10 @@ impl Culler for OtreeCuller {
         Ok(())
     }
 
+    fn set_known_hidden(&mut self, scene: &Scene, hidden: &[u32]) {
+        self.common.set_known_hidden(scene, hidden);
+    }
+
     fn frame_done(&mut self, frame_ms: Option<f64>) {
         self.common.feedback(frame_ms);
     }

@@ -2,9 +2,11 @@
 //! section 6: the eye's cell is located, its occludee sets merged, and what
 //! they name is not drawn).
 //!
-//! [`PvsCuller`] runs the culler it wraps (frustum culling, or an occlusion
-//! culler: "PVS then HOM"), then takes out of the visible set the objects
-//! the eye's cell hides. It uses the PVS only where that is sound: the view
+//! [`PvsCuller`] looks the eye's cell up, hands what it hides to the culler
+//! it wraps ([`Culler::set_known_hidden`]: HOM, HZB, masked and otree then
+//! neither test those objects nor draw them as occluders), runs it (frustum
+//! culling, or an occlusion culler: "PVS then HOM"), and takes out of the
+//! visible set whatever the cell hides that it kept. It uses the PVS only where that is sound: the view
 //! is served ([`Pvs::serves`]: the eye in a cell, a near plane the bake
 //! allowed for), the object hidden is still static and present, and every
 //! object whose occluders the sets rely on is still static and present
@@ -76,7 +78,6 @@ impl Culler for PvsCuller {
     }
 
     fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
-        self.inner.cull(scene, view, out)?;
         let start = std::time::Instant::now();
         if self.revision != Some(scene.revision()) {
             self.revision = Some(scene.revision());
@@ -91,6 +92,11 @@ impl Culler for PvsCuller {
             (true, Some(eye)) => self.pvs.hidden_from(eye, &mut self.hidden),
             _ => None,
         };
+        let lookup_ms = start.elapsed().as_secs_f64() * 1e3;
+        // The inner culler may skip what the PVS hides (tests, occluders).
+        self.inner.set_known_hidden(scene, &self.hidden);
+        self.inner.cull(scene, view, out)?;
+        let start = std::time::Instant::now();
         let mut culled = 0u64;
         if !self.hidden.is_empty() {
             // Both lists ascending: one merge pass splits `visible`.
@@ -117,7 +123,8 @@ impl Culler for PvsCuller {
                 out.occluded.sort_unstable();
             }
         }
-        out.stages.push(("pvs", start.elapsed().as_secs_f64() * 1e3));
+        out.stages
+            .push(("pvs", lookup_ms + start.elapsed().as_secs_f64() * 1e3));
         out.count("pvs_served", cell.is_some() as u64);
         out.count("pvs_hidden", self.hidden.len() as u64);
         out.count("pvs_culled", culled);

@@ -72,6 +72,10 @@ pub(crate) struct OccluderCulling {
     hierarchy: Hierarchy,
     /// The kD-tree, when it is the hierarchy.
     kd: Option<KdModel>,
+    /// Per object: known hidden this frame ([`super::Culler::set_known_hidden`]).
+    known_hidden: Vec<bool>,
+    /// The ids set in `known_hidden`, to clear them.
+    known_hidden_ids: Vec<u32>,
 }
 
 /// One frame after occluder selection.
@@ -118,6 +122,26 @@ impl OccluderCulling {
             culled_last: false,
             hierarchy,
             kd,
+            known_hidden: Vec::new(),
+            known_hidden_ids: Vec::new(),
+        }
+    }
+
+    /// This frame's objects known hidden (ascending ids; see
+    /// [`super::Culler::set_known_hidden`]): not selected as occluders, and reported
+    /// occluded without a test while they stay static. Cleared by the next call.
+    pub fn set_known_hidden(&mut self, scene: &Scene, hidden: &[u32]) {
+        for &id in &self.known_hidden_ids {
+            self.known_hidden[id as usize] = false;
+        }
+        self.known_hidden_ids.clear();
+        self.known_hidden.resize(scene.objects().len(), false);
+        for &id in hidden {
+            let static_object = scene.get(id).is_some_and(|o| !o.is_dynamic());
+            if static_object {
+                self.known_hidden[id as usize] = true;
+                self.known_hidden_ids.push(id);
+            }
         }
     }
 
@@ -206,6 +230,7 @@ impl OccluderCulling {
                 ObjectBoxes {
                     boxes: self.model.boxes(),
                     dynamic: self.model.dynamic(),
+                    known_hidden: &self.known_hidden,
                 },
                 &world_to_clip,
                 &eye,
@@ -271,6 +296,7 @@ impl OccluderCulling {
             scene,
             model: &self.model,
             frame: &frame,
+            known_hidden: &self.known_hidden,
         };
         let temporal = &mut self.temporal;
         let kd = &mut self.kd;
@@ -348,6 +374,8 @@ pub(super) struct Traversal<'a> {
     pub scene: &'a Scene,
     model: &'a ModelDb,
     pub frame: &'a Selected,
+    /// Per object: known hidden this frame (may be shorter than the objects).
+    known_hidden: &'a [bool],
 }
 
 /// What a traversal did, for the counters.
@@ -491,6 +519,11 @@ impl Traversal<'_> {
         let o = self.scene.get(id)?;
         let vis = if !self.meets_frustum(o, inside) {
             Vis::Invisible
+        } else if self.known_hidden.get(id as usize).copied().unwrap_or(false) && !o.is_dynamic() {
+            v.stats.skipped += 1;
+            v.occluded.push(id);
+            v.temporal.set_object(id, Vis::Invisible);
+            return Some(Vis::Invisible);
         } else if v.temporal.object_assumed(id) {
             v.stats.skipped += 1;
             v.temporal.assume_object(id);

@@ -39,6 +39,9 @@ pub(crate) struct ObjectBoxes<'a> {
     pub boxes: &'a [Aabb],
     /// Whether each object moves (then its oriented box is tested).
     pub dynamic: &'a [bool],
+    /// Objects known hidden this frame (a PVS said so; empty for none):
+    /// never worth drawing as occluders.
+    pub known_hidden: &'a [bool],
 }
 
 /// Settings of the selector.
@@ -186,6 +189,9 @@ impl OccluderSelector {
         self.candidates.clear();
         for occ in db.occluders() {
             let id = occ.object as usize;
+            if objects.known_hidden.get(id).copied().unwrap_or(false) {
+                continue;
+            }
             // The compact boxes and flags: the scan touches no object record
             // but the moving ones' (100k objects: 3.3 -> 0.9 ms a frame).
             let aabb = &objects.boxes[id];

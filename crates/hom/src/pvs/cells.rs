@@ -102,6 +102,7 @@ impl CellGrid {
     }
 
     /// Nodes in all.
+    #[cfg(test)]
     pub(crate) fn node_count(&self) -> usize {
         self.block_count() * self.nodes_per_block()
     }
