@@ -106,6 +106,10 @@ pub struct PvsBakeArgs {
     /// How far around each eye of the path cells reach, metres.
     #[arg(long, default_value_t = 1.0)]
     pub pad: f32,
+    /// Occluder fusion (experimental, found nothing more on the built-in scenes): sample
+    /// points at most this far apart over each cell (metres; 0: off).
+    #[arg(long, default_value_t = 0.0)]
+    pub fusion_spacing: f32,
 }
 
 /// `hom pvs check`.

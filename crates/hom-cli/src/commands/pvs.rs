@@ -55,7 +55,10 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
     path.validate(&a.scene)?;
     let eyes: Vec<Vec3> = path.frames.iter().map(|f| Vec3::from_array(f.eye)).collect();
     let moving: Vec<u32> = animation.tracks().iter().map(|t| t.object).collect();
-    let config = config_for(&path, a.cell_size, a.min_triangle_area, a.pad);
+    let config = PvsConfig {
+        fusion_spacing: a.fusion_spacing,
+        ..config_for(&path, a.cell_size, a.min_triangle_area, a.pad)
+    };
     let shard = a.shard.unwrap_or(Shard::WHOLE);
     let bar = ProgressBar::new(0);
     bar.set_style(

@@ -299,6 +299,24 @@ impl<'a> BakeContext<'a> {
         hidden.retain(|&i| !self.boxes[i as usize].is_empty());
         hidden.sort_unstable();
         hidden.dedup();
+        if level == self.grid.levels && self.config.fusion_spacing > 0.0 {
+            // What no single occluder hides from the whole cell, the solids
+            // may hide together.
+            let candidates: Vec<u32> = (0..self.boxes.len() as u32)
+                .filter(|&i| !flagged[i as usize] && !self.boxes[i as usize].is_empty())
+                .filter(|i| hidden.binary_search(i).is_err())
+                .collect();
+            let fused = super::fusion::fused_hidden(
+                self.occluders,
+                &self.occluder_bvh,
+                &self.boxes,
+                &cell,
+                &candidates,
+                self.config,
+            );
+            hidden.extend(fused);
+            hidden.sort_unstable();
+        }
         for &i in &hidden {
             flagged[i as usize] = true;
         }

@@ -9,7 +9,7 @@
 //! | version (1) | u32 |
 //! | scene fingerprint ([`super::fingerprint`]) | u64 |
 //! | object count | u32 |
-//! | settings: cell size, levels, pad, margin, near, near clearance, min triangle area, solids | 7 × 4 + 1 |
+//! | settings: cell size, levels, pad, margin, near, near clearance, min triangle area, solids, fusion spacing, side, radius | 7 × 4 + 1 + 3 × 4 |
 //! | grid: origin x, origin z, blocks x, blocks z | 16 |
 //! | shard index, shard count | 8 |
 //! | cells: one bit per leaf (x fastest), then two `f32` heights per set bit | |
@@ -78,6 +78,9 @@ impl Pvs {
             w.extend_from_slice(&v.to_bits().to_le_bytes());
         }
         w.push(c.solids as u8);
+        w.extend_from_slice(&c.fusion_spacing.to_bits().to_le_bytes());
+        w.extend_from_slice(&c.fusion_side.to_le_bytes());
+        w.extend_from_slice(&c.fusion_radius.to_bits().to_le_bytes());
         let g = &self.grid;
         for v in [
             g.origin.x.to_bits(),
@@ -144,6 +147,9 @@ impl Pvs {
             1 => true,
             _ => return Err(r.malformed("the solids flag is neither 0 nor 1")),
         };
+        let fusion_spacing = r.f32("the settings")?;
+        let fusion_side = r.u32("the settings")?;
+        let fusion_radius = r.f32("the settings")?;
         let config = PvsConfig {
             cell_size,
             levels,
@@ -153,6 +159,9 @@ impl Pvs {
             near_clearance,
             min_triangle_area,
             solids,
+            fusion_spacing,
+            fusion_side,
+            fusion_radius,
         };
         if config.validate().is_err() {
             return Err(r.malformed("the settings are out of range"));
