@@ -92,7 +92,7 @@ pub struct PvsBakeArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Edge of a view cell, metres.
-    #[arg(long, default_value_t = 8.0)]
+    #[arg(long, default_value_t = 4.0)]
     pub cell_size: f32,
     /// The viewing region: cells around this camera path's eyes (default: the scene's own walk).
     #[arg(long)]

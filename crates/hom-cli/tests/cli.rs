@@ -340,3 +340,64 @@ fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
         "--side",
     );
 }
+
+#[test]
+fn pvs_bake_shards_merge_info_walk_and_refusals() {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let (whole, s0, s1, merged) = (path("whole.pvs"), path("s0.pvs"), path("s1.pvs"), path("merged.pvs"));
+    for (out, shard) in [(&whole, None), (&s0, Some("0/2")), (&s1, Some("1/2"))] {
+        let mut args = vec![
+            "pvs",
+            "bake",
+            "--scene",
+            "spheres",
+            "--out",
+            out.as_str(),
+            "--cell-size",
+            "8",
+        ];
+        if let Some(s) = shard {
+            args.extend(["--shard", s]);
+        }
+        let o = hom(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = hom(&["pvs", "merge", "--out", &merged, &s1, &s0]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&merged).unwrap(), std::fs::read(&whole).unwrap());
+    let o = hom(&["pvs", "info", &whole]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && text.contains("cells") && text.contains("cell size 8 m"),
+        "{text}"
+    );
+    let o = hom(&[
+        "walk",
+        "--scene",
+        "spheres",
+        "--culler",
+        "frustum",
+        "--pvs-file",
+        &whole,
+        "--frames",
+        "3",
+        "--oracle",
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        text.contains("pvs ") && text.contains("oracle-visible objects outside the PVS"),
+        "{text}"
+    );
+    // Refusals: another scene, a shard, a file that is no PVS, a shard missing.
+    let o = hom(&["walk", "--scene", "office", "--pvs-file", &whole, "--frames", "1"]);
+    assert_clean_failure(&o, "baked for another scene");
+    let o = hom(&["walk", "--scene", "spheres", "--pvs-file", &s0, "--frames", "1"]);
+    assert_clean_failure(&o, "merge the shards first");
+    let junk = path("junk.pvs");
+    std::fs::write(&junk, b"hello").unwrap();
+    assert_clean_failure(&hom(&["pvs", "info", &junk]), "not a hom PVS file");
+    assert_clean_failure(&hom(&["pvs", "merge", "--out", &merged, &s0]), "shard 1/2 is missing");
+}

@@ -82,7 +82,7 @@ pub struct PvsConfig {
 impl Default for PvsConfig {
     fn default() -> Self {
         PvsConfig {
-            cell_size: 8.0,
+            cell_size: 4.0,
             levels: 3,
             pad: 1.0,
             margin: 1e-3,
