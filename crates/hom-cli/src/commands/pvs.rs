@@ -10,12 +10,21 @@ use hom_render::{Framebuffer, Renderer};
 use hom_scene::CameraPath;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Reads a `.pvs` file.
 pub fn read(path: &Path) -> Result<Pvs> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     Pvs::from_bytes(&bytes).with_context(|| format!("reading {}", path.display()))
+}
+
+/// Reads a `.pvs` file for `scene`: an error when it was baked for another.
+pub fn read_for(path: &Path, scene: &hom::scene::Scene) -> Result<Arc<Pvs>> {
+    let pvs = read(path)?;
+    pvs.check_scene(scene)
+        .with_context(|| format!("using {}", path.display()))?;
+    Ok(Arc::new(pvs))
 }
 
 /// Writes `pvs` to `path` through a temporary file, so a failed write never
@@ -273,6 +282,9 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
     let far = scene.bounds().extent().length() * 2.0 + 1.0;
     let renderer = Renderer::new(0)?;
     let mut fb = Framebuffer::new(a.side, a.side);
+    let mut look = |eye: Vec3, seen: &mut [bool]| {
+        seen_from(&renderer, &scene, &cube_cameras(eye, near, far, a.side), &mut fb, seen);
+    };
     let mut rng = Rng(a.seed.max(1));
     let mut point_in = |b: &Aabb| {
         let t = Vec3::new(rng.f32(), rng.f32(), rng.f32());
@@ -287,13 +299,7 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
         hidden.clear();
         pvs.hidden_from(eye, &mut hidden);
         let mut seen = vec![false; n];
-        seen_from(
-            &renderer,
-            &scene,
-            &cube_cameras(eye, near, far, a.side),
-            &mut fb,
-            &mut seen,
-        );
+        look(eye, &mut seen);
         let v = hidden.iter().filter(|&&id| seen[id as usize]).count();
         if v > 0 {
             bad_points += 1;
@@ -331,13 +337,7 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
             let jitter = Vec3::new(rng_f(&mut rng), rng_f(&mut rng), rng_f(&mut rng));
             let t = (Vec3::new(ix as f32, iy as f32, iz as f32) + jitter) / k as f32;
             let eye = b.min + (b.max - b.min) * t;
-            seen_from(
-                &renderer,
-                &scene,
-                &cube_cameras(eye, near, far, a.side),
-                &mut fb,
-                &mut seen,
-            );
+            look(eye, &mut seen);
         }
         let exact = seen.iter().filter(|&&s| s).count().max(1);
         let pvs_visible = static_live - hidden.len();

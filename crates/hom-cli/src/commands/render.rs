@@ -2,7 +2,7 @@
 
 use crate::args::{HomArgs, RenderArgs};
 use crate::setup::{culler_settings, make_culler, open, Walkthrough};
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use hom::cull::{CullOutput, Culler, HomCuller, PvsCuller};
 use hom::pvs::Pvs;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
@@ -22,15 +22,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
     }
     let renderer = Renderer::new(a.view.threads)?;
     let frame_rate = WalkOptions::default().frame_rate;
-    let pvs = match &a.pvs_file {
-        Some(p) => {
-            let pvs = super::pvs::read(p)?;
-            pvs.check_scene(&w.scene)
-                .with_context(|| format!("using {}", p.display()))?;
-            Some(Arc::new(pvs))
-        }
-        None => None,
-    };
+    let pvs = a
+        .pvs_file
+        .as_deref()
+        .map(|p| super::pvs::read_for(p, &w.scene))
+        .transpose()?;
     if a.false_colour {
         write_false_colour(
             &mut w,

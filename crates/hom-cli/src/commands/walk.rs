@@ -40,15 +40,11 @@ pub fn run(a: WalkArgs) -> Result<()> {
     if a.pvs && a.pvs_file.is_some() {
         bail!("--pvs (the map's own PVS) and --pvs-file (a baked one) measure one PVS at a time: give one");
     }
-    let baked = match &a.pvs_file {
-        Some(p) => {
-            let pvs = super::pvs::read(p)?;
-            pvs.check_scene(&w.scene)
-                .with_context(|| format!("using {}", p.display()))?;
-            Some(Arc::new(pvs))
-        }
-        None => None,
-    };
+    let baked = a
+        .pvs_file
+        .as_deref()
+        .map(|p| super::pvs::read_for(p, &w.scene))
+        .transpose()?;
     if a.frames == Some(0) {
         bail!("--frames must be at least 1");
     }

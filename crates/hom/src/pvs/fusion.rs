@@ -73,7 +73,12 @@ impl Eroded {
 /// The cube face `k`: axis `k / 2`, looking along `+` for even `k`.
 fn face_axes(k: usize) -> (usize, f64, usize, usize) {
     let a = k / 2;
-    (a, if k % 2 == 0 { 1.0 } else { -1.0 }, (a + 1) % 3, (a + 2) % 3)
+    (
+        a,
+        if k.is_multiple_of(2) { 1.0 } else { -1.0 },
+        (a + 1) % 3,
+        (a + 2) % 3,
+    )
 }
 
 /// The range of pixels (inclusive, x then y) of face `k` that the box `b`
@@ -331,12 +336,7 @@ mod tests {
     #[test]
     fn fused_means_every_sampled_segment_meets_a_solid() {
         let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut rnd = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
         let mut found = 0;
         for case in 0..40 {
             let walls: Vec<ConvexOccluder> = (0..6)

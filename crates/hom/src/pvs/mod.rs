@@ -100,24 +100,22 @@ impl Default for PvsConfig {
 impl PvsConfig {
     fn validate(&self) -> Result<(), PvsError> {
         let positive = |v: f32| v.is_finite() && v > 0.0;
+        let non_negative = |v: f32| v.is_finite() && v >= 0.0;
         if !positive(self.cell_size) {
             return Err(PvsError::BadConfig("cell size must be a positive number of metres"));
         }
         if self.levels > 8 {
             return Err(PvsError::BadConfig("at most 8 quadtree levels above a cell"));
         }
-        if !(self.pad.is_finite() && self.pad >= 0.0) || !(self.margin.is_finite() && self.margin >= 0.0) {
+        if !non_negative(self.pad) || !non_negative(self.margin) {
             return Err(PvsError::BadConfig("pad and margin must be finite and not negative"));
         }
-        if !positive(self.near) || !(self.near_clearance.is_finite() && self.near_clearance >= self.near) {
+        if !positive(self.near) || !non_negative(self.near_clearance - self.near) {
             return Err(PvsError::BadConfig(
                 "near must be positive and the near clearance at least the near distance",
             ));
         }
-        if !(self.fusion_spacing.is_finite() && self.fusion_spacing >= 0.0)
-            || !(self.fusion_radius.is_finite() && self.fusion_radius >= 0.0)
-            || self.fusion_side > 1024
-        {
+        if !non_negative(self.fusion_spacing) || !non_negative(self.fusion_radius) || self.fusion_side > 1024 {
             return Err(PvsError::BadConfig(
                 "fusion spacing and radius must be finite and not negative, and at most 1024 pixels a side",
             ));
@@ -532,6 +530,15 @@ pub fn fingerprint(scene: &Scene, moving: &[u32]) -> u64 {
         h.word((m >> 32) as u32);
     }
     h.0
+}
+
+/// xorshift64 in `[0, 1)`, for the PVS's unit tests.
+#[cfg(test)]
+pub(crate) fn test_rng(seed: &mut u64) -> f64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    (*seed >> 11) as f64 / (1u64 << 53) as f64
 }
 
 #[cfg(test)]

@@ -48,7 +48,7 @@ impl DPlane {
         let n = (b - a).cross(c - a);
         let len = n.length();
         let scale = (b - a).length().max((c - a).length()).max(1e-30);
-        if !(len > 1e-9 * scale * scale) {
+        if len.is_nan() || len <= 1e-9 * scale * scale {
             return None;
         }
         let normal = n / len;
@@ -256,12 +256,7 @@ pub(crate) fn box_distance(a: &Aabb, b: &Aabb) -> f32 {
 mod tests {
     use super::*;
 
-    fn rng(seed: &mut u64) -> f64 {
-        *seed ^= *seed << 13;
-        *seed ^= *seed >> 7;
-        *seed ^= *seed << 17;
-        (*seed >> 11) as f64 / (1u64 << 53) as f64
-    }
+    use crate::pvs::test_rng as rng;
 
     fn point_in(b: &Aabb, seed: &mut u64) -> DVec3 {
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
