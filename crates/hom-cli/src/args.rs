@@ -100,9 +100,9 @@ pub struct PvsBakeArgs {
     /// Bake only shard K of N (the blocks of cells split in N ranges), e.g. `--shard 0/4`; join with `hom pvs merge`.
     #[arg(long, value_parser = parse_shard)]
     pub shard: Option<hom::pvs::Shard>,
-    /// Triangles of occluder objects at least this large (m²) are planar occluders; `inf` for none.
+    /// Convex polygons of occluder objects (coplanar adjacent triangles joined) at least this large (m²) are planar occluders; `inf` for none.
     #[arg(long, default_value_t = 1.0)]
-    pub min_triangle_area: f32,
+    pub min_polygon_area: f32,
     /// How far around each eye of the path cells reach, metres.
     #[arg(long, default_value_t = 1.0)]
     pub pad: f32,

@@ -41,14 +41,14 @@ fn write(path: &Path, pvs: &Pvs) -> Result<()> {
 /// The settings a bake uses for a path: its near plane, and a clearance
 /// that covers its near rectangle at any aspect up to 2.4 (21:9), or a
 /// 90° square view (what `hom pvs check` renders).
-pub fn config_for(path: &CameraPath, cell_size: f32, min_triangle_area: f32, pad: f32) -> PvsConfig {
+pub fn config_for(path: &CameraPath, cell_size: f32, min_polygon_area: f32, pad: f32) -> PvsConfig {
     let t = (path.fov_y_deg.to_radians() * 0.5).tan();
     let aspect = (path.width as f32 / path.height as f32).max(2.4);
     let corner = (1.0 + t * t * (1.0 + aspect * aspect)).sqrt();
     PvsConfig {
         cell_size,
         pad,
-        min_triangle_area,
+        min_polygon_area,
         near: path.near,
         near_clearance: path.near * corner.max(1.8) * 1.01,
         ..PvsConfig::default()
@@ -66,7 +66,7 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
     let moving: Vec<u32> = animation.tracks().iter().map(|t| t.object).collect();
     let config = PvsConfig {
         fusion_spacing: a.fusion_spacing,
-        ..config_for(&path, a.cell_size, a.min_triangle_area, a.pad)
+        ..config_for(&path, a.cell_size, a.min_polygon_area, a.pad)
     };
     let shard = a.shard.unwrap_or(Shard::WHOLE);
     let bar = ProgressBar::new(0);
@@ -154,7 +154,7 @@ pub fn info(file: &Path, picture: Option<&Path>, scene: Option<&str>) -> Result<
     );
     println!(
         "settings: cell size {} m, {} quadtree levels, pad {} m, margin {} m, near {} m, near clearance {} m, planar occluders from {} m², solids {}",
-        c.cell_size, c.levels, c.pad, c.margin, c.near, c.near_clearance, c.min_triangle_area, c.solids
+        c.cell_size, c.levels, c.pad, c.margin, c.near, c.near_clearance, c.min_polygon_area, c.solids
     );
     println!(
         "{} cells, {} occluder objects, {} moving objects left out",

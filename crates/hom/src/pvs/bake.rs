@@ -4,8 +4,8 @@
 //! Occluders are the scene's static occluder objects as convex pieces: the
 //! inscribed solids of their virtual occluders (boxes and hulls, baked here
 //! with no triangle budget to speak of, since a stand-in's size costs the
-//! bake little and the run time nothing), and their large triangles as
-//! planar occluders. Occludees are the nodes of a BVH over the static
+//! bake little and the run time nothing), and their large convex polygons
+//! of coplanar adjacent triangles as planar occluders. Occludees are the nodes of a BVH over the static
 //! objects, so a node hidden whole is recorded for all its objects at once.
 //!
 //! Each block's quadtree is walked top-down, as the paper does: a node
@@ -66,7 +66,19 @@ pub(crate) fn convex_occluders(scene: &Scene, is_static: &[bool], config: &PvsCo
             }
         })
         .collect();
-    let min_area = config.min_triangle_area as f64;
+    let polygons: Vec<Vec<Vec<Vec3>>> = scene
+        .meshes()
+        .par_iter()
+        .zip(&used)
+        .map(|(m, &u)| {
+            if u && config.min_polygon_area.is_finite() {
+                super::polygons::convex_polygons(m)
+            } else {
+                Vec::new()
+            }
+        })
+        .collect();
+    let min_area = config.min_polygon_area as f64;
     objects
         .par_iter()
         .enumerate()
@@ -99,14 +111,14 @@ pub(crate) fn convex_occluders(scene: &Scene, is_static: &[bool], config: &PvsCo
                     out.extend(ConvexOccluder::solid(id as u32, &tris, above));
                 }
             }
-            if config.min_triangle_area.is_finite() {
-                let mesh = scene.mesh_of(o);
-                for tri in mesh.triangles() {
-                    let c = tri.map(|i| world(mesh.positions()[i as usize]));
-                    let [a, b, d] = c.map(|p| p.as_dvec3());
-                    if 0.5 * (b - a).cross(d - a).length() >= min_area {
-                        out.extend(ConvexOccluder::triangle(id as u32, c));
-                    }
+            for polygon in &polygons[o.mesh as usize] {
+                let c: Vec<Vec3> = polygon.iter().map(|&p| world(p)).collect();
+                let d: Vec<DVec3> = c.iter().map(|p| p.as_dvec3()).collect();
+                let area: f64 = (1..d.len() - 1)
+                    .map(|i| 0.5 * (d[i] - d[0]).cross(d[i + 1] - d[0]).length())
+                    .sum();
+                if area >= min_area {
+                    out.extend(ConvexOccluder::polygon(id as u32, &c));
                 }
             }
             out

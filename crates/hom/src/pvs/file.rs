@@ -9,7 +9,7 @@
 //! | version (1) | u32 |
 //! | scene fingerprint ([`super::fingerprint`]) | u64 |
 //! | object count | u32 |
-//! | settings: cell size, levels, pad, margin, near, near clearance, min triangle area, solids, fusion spacing, side, radius | 7 × 4 + 1 + 3 × 4 |
+//! | settings: cell size, levels, pad, margin, near, near clearance, min polygon area, solids, fusion spacing, side, radius | 7 × 4 + 1 + 3 × 4 |
 //! | grid: origin x, origin z, blocks x, blocks z | 16 |
 //! | shard index, shard count | 8 |
 //! | cells: one bit per leaf (x fastest), then two `f32` heights per set bit | |
@@ -74,7 +74,7 @@ impl Pvs {
         let c = &self.config;
         w.extend_from_slice(&c.cell_size.to_bits().to_le_bytes());
         w.extend_from_slice(&c.levels.to_le_bytes());
-        for v in [c.pad, c.margin, c.near, c.near_clearance, c.min_triangle_area] {
+        for v in [c.pad, c.margin, c.near, c.near_clearance, c.min_polygon_area] {
             w.extend_from_slice(&v.to_bits().to_le_bytes());
         }
         w.push(c.solids as u8);
@@ -141,7 +141,7 @@ impl Pvs {
         let cell_size = r.f32("the settings")?;
         let levels = r.u32("the settings")?;
         let mut f = || r.f32("the settings");
-        let (pad, margin, near, near_clearance, min_triangle_area) = (f()?, f()?, f()?, f()?, f()?);
+        let (pad, margin, near, near_clearance, min_polygon_area) = (f()?, f()?, f()?, f()?, f()?);
         let solids = match r.byte("the settings")? {
             0 => false,
             1 => true,
@@ -157,7 +157,7 @@ impl Pvs {
             margin,
             near,
             near_clearance,
-            min_triangle_area,
+            min_polygon_area,
             solids,
             fusion_spacing,
             fusion_side,

@@ -32,6 +32,7 @@ mod bake;
 mod cells;
 mod file;
 mod fusion;
+mod polygons;
 mod region;
 
 pub use cells::CellGrid;
@@ -63,9 +64,10 @@ pub struct PvsConfig {
     /// view whose near rectangle's farthest corner lies farther from the eye
     /// is not served (its near plane could clip an occluder).
     pub near_clearance: f32,
-    /// Triangles of occluder objects at least this large (m²) are planar
-    /// occluders; `f32::INFINITY` for none.
-    pub min_triangle_area: f32,
+    /// Convex polygons of occluder objects' coplanar adjacent triangles
+    /// (`polygons.rs`) at least this large (m²) are planar occluders;
+    /// `f32::INFINITY` for none.
+    pub min_polygon_area: f32,
     /// Use the inscribed solids of occluder objects (their virtual occluders).
     pub solids: bool,
     /// Occluder fusion at the cells (`fusion.rs`): sample points at most this
@@ -88,7 +90,7 @@ impl Default for PvsConfig {
             margin: 1e-3,
             near: 0.1,
             near_clearance: 0.4,
-            min_triangle_area: 1.0,
+            min_polygon_area: 1.0,
             solids: true,
             fusion_spacing: 0.0,
             fusion_side: 64,
@@ -123,9 +125,9 @@ impl PvsConfig {
         if self.fusion_spacing > 0.0 && self.fusion_side == 0 {
             return Err(PvsError::BadConfig("fusion needs at least one pixel a side"));
         }
-        if self.min_triangle_area.is_nan() || self.min_triangle_area < 0.0 {
+        if self.min_polygon_area.is_nan() || self.min_polygon_area < 0.0 {
             return Err(PvsError::BadConfig(
-                "min triangle area must be a non-negative number (or infinite)",
+                "min polygon area must be a non-negative number (or infinite)",
             ));
         }
         Ok(())

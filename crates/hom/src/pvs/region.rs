@@ -119,32 +119,63 @@ impl ConvexOccluder {
     }
 
     /// A triangle as a planar occluder (two-sided, as the renderer draws it).
+    #[cfg(test)]
     pub(crate) fn triangle(object: u32, t: [Vec3; 3]) -> Option<ConvexOccluder> {
-        let [a, b, c] = t.map(|p| p.as_dvec3());
-        let centroid = (a + b + c) / 3.0;
-        let plane = DPlane::through(a, b, c, centroid + (b - a).cross(c - a))?;
-        let edge = |p: DVec3, q: DVec3| {
-            let n = (q - p).cross(plane.normal).normalize();
+        Self::polygon(object, &t)
+    }
+
+    /// A planar convex polygon (its corners in order, either way round) as
+    /// an occluder; `None` when it is degenerate or not flat within 1e-6 of
+    /// its size (its triangles, drawn two-sided, are what a ray meets).
+    pub(crate) fn polygon(object: u32, corners: &[Vec3]) -> Option<ConvexOccluder> {
+        let p: Vec<DVec3> = corners.iter().map(|c| c.as_dvec3()).collect();
+        if p.len() < 3 {
+            return None;
+        }
+        let centroid = p.iter().sum::<DVec3>() / p.len() as f64;
+        // Newell's normal: robust for any simple polygon.
+        let newell: DVec3 = (0..p.len()).map(|i| p[i].cross(p[(i + 1) % p.len()])).sum();
+        let size = p.iter().map(|q| q.distance(centroid)).fold(0.0, f64::max);
+        if !(newell.length() > 1e-12 * size * size) {
+            return None;
+        }
+        let normal = newell.normalize();
+        let plane = DPlane {
+            normal,
+            d: -normal.dot(centroid),
+        };
+        if p.iter().any(|&q| plane.eval(q).abs() > 1e-6 * size) {
+            return None;
+        }
+        let mut edges = Vec::with_capacity(p.len());
+        for i in 0..p.len() {
+            let (a, b) = (p[i], p[(i + 1) % p.len()]);
+            let n = (b - a).cross(normal);
+            if n.length() <= 1e-12 * size {
+                continue;
+            }
+            let n = n.normalize();
             let e = DPlane {
                 normal: n,
-                d: -n.dot(p),
+                d: -n.dot(a),
             };
-            if e.eval(centroid) > 0.0 {
+            edges.push(if e.eval(centroid) > 0.0 {
                 DPlane {
                     normal: -n,
-                    d: n.dot(p),
+                    d: n.dot(a),
                 }
             } else {
                 e
-            }
-        };
+            });
+        }
+        // Convex: every corner on or inside every edge's plane.
+        if edges.len() < 3 || p.iter().any(|&q| edges.iter().any(|e| e.eval(q) > 1e-6 * size)) {
+            return None;
+        }
         Some(ConvexOccluder {
             object,
-            bounds: Aabb::from_points(t),
-            shape: Shape::Polygon {
-                plane,
-                edges: vec![edge(a, b), edge(b, c), edge(c, a)],
-            },
+            bounds: Aabb::from_points(corners.iter().copied()),
+            shape: Shape::Polygon { plane, edges },
             above: None,
         })
     }
@@ -313,7 +344,14 @@ mod tests {
                 unit_box_solid(b.min, b.max)
             } else {
                 let p = |s: &mut u64| ((DVec3::new(rng(s), rng(s), rng(s)) - 0.5) * 12.0).as_vec3();
-                match ConvexOccluder::triangle(0, [p(&mut seed), p(&mut seed), p(&mut seed)]) {
+                let t = [p(&mut seed), p(&mut seed), p(&mut seed)];
+                let made = if case % 4 == 1 {
+                    ConvexOccluder::triangle(0, t)
+                } else {
+                    // A parallelogram: a convex quad.
+                    ConvexOccluder::polygon(0, &[t[0], t[1], t[1] + t[2] - t[0], t[2]])
+                };
+                match made {
                     Some(o) => o,
                     None => continue,
                 }
@@ -353,6 +391,17 @@ mod tests {
             });
             assert_eq!(o.hides(&cell, &x, zero), !missing);
         }
+    }
+
+    #[test]
+    fn polygons_must_be_flat_and_convex() {
+        let sq = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        assert!(ConvexOccluder::polygon(0, &sq).is_some());
+        let dart = [Vec3::ZERO, Vec3::X, Vec3::new(0.3, 0.3, 0.0), Vec3::Y];
+        assert!(ConvexOccluder::polygon(0, &dart).is_none());
+        let bent = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.1), Vec3::Y];
+        assert!(ConvexOccluder::polygon(0, &bent).is_none());
+        assert!(ConvexOccluder::polygon(0, &[Vec3::ZERO, Vec3::X, Vec3::X * 2.0]).is_none());
     }
 
     #[test]
