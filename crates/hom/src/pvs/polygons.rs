@@ -39,7 +39,7 @@ pub(crate) fn convex_polygons(mesh: &Mesh) -> Vec<Vec<Vec3>> {
         }
         used[start] = true;
         let n = normal(&tris[start]);
-        if !(n.length() > 0.0) {
+        if n.length().is_nan() || n.length() <= 0.0 {
             continue;
         }
         let n = n.normalize();

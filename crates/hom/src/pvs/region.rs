@@ -136,7 +136,7 @@ impl ConvexOccluder {
         // Newell's normal: robust for any simple polygon.
         let newell: DVec3 = (0..p.len()).map(|i| p[i].cross(p[(i + 1) % p.len()])).sum();
         let size = p.iter().map(|q| q.distance(centroid)).fold(0.0, f64::max);
-        if !(newell.length() > 1e-12 * size * size) {
+        if newell.length().is_nan() || newell.length() <= 1e-12 * size * size {
             return None;
         }
         let normal = newell.normalize();
