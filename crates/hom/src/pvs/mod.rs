@@ -20,6 +20,35 @@
 //! one. Only static objects take part; objects listed as moving, and any
 //! object that has become dynamic or been removed, are never hidden by it.
 //!
+//! ```
+//! use hom::glam::{Mat4, Vec3};
+//! use hom::pvs::{Pvs, PvsConfig, Shard};
+//! use hom::scene::{Mesh, Scene};
+//!
+//! // A wall 20 m wide, 8 m high, 1 m thick (a closed box), and a crate behind it.
+//! let corners: Vec<Vec3> = (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5).collect();
+//! let faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+//! let tris = faces.iter().flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]]).collect();
+//! let mut scene = Scene::new("yard");
+//! let cube = scene.add_mesh(Mesh::new("cube", corners, tris)?);
+//! let wall = scene.add_object("wall", cube, Mat4::from_translation(Vec3::new(0.0, 4.0, 0.0)) * Mat4::from_scale(Vec3::new(20.0, 8.0, 1.0)))?;
+//! let crate_ = scene.add_object("crate", cube, Mat4::from_translation(Vec3::new(0.0, 0.5, -6.0)))?;
+//!
+//! // Bake for an eye walking in front of the wall (its camera path's eyes).
+//! let eyes: Vec<Vec3> = (0..5).map(|i| Vec3::new(i as f32 - 2.0, 1.7, 8.0)).collect();
+//! let pvs = Pvs::bake(&scene, &eyes, &[], &PvsConfig::default(), Shard::WHOLE, &|_, _| {})?;
+//!
+//! // Per frame: what the eye's cell hides (ascending ids; `Pvs::serves` checks a view first).
+//! let mut hidden = Vec::new();
+//! assert!(pvs.hidden_from(Vec3::new(0.0, 1.7, 8.0), &mut hidden).is_some());
+//! assert_eq!(hidden, [crate_]);
+//! assert!(!hidden.contains(&wall));
+//! // Off the baked region: no cell, nothing hidden (never a wrong answer).
+//! assert!(pvs.hidden_from(Vec3::new(0.0, 1.7, -20.0), &mut Vec::new()).is_none());
+//! // `Pvs::to_bytes` / `from_bytes` store it; `hom::cull::PvsCuller` puts it in front of a culler.
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! **Fusion** (many occluders hiding together) is `fusion.rs`'s point
 //! sampling of eroded solids (Wonka et al. 2000), sound and tested, but off
 //! by default: eroding each solid opens the seams between touching ones.
