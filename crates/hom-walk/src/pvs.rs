@@ -75,8 +75,7 @@ impl BakedPvsView {
     /// What `pvs` hides from `view` in `scene`.
     pub fn new(pvs: &hom::pvs::Pvs, scene: &Scene, view: &hom::geom::View) -> BakedPvsView {
         let mut hidden = Vec::new();
-        let cell = pvs.serves(view).and_then(|eye| pvs.hidden_from(eye, &mut hidden));
-        hidden.retain(|&id| scene.get(id).is_some_and(|o| !o.is_dynamic()));
+        let cell = pvs.hidden_in(scene, view, &mut hidden);
         BakedPvsView {
             cell: cell.map(|c| c as i32),
             hidden,

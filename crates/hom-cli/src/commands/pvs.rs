@@ -334,7 +334,7 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
         let mut seen = vec![false; n];
         for s in 0..a.cell_points {
             let (ix, iy, iz) = (s % k, (s / k) % k, s / (k * k) % k);
-            let jitter = Vec3::new(rng_f(&mut rng), rng_f(&mut rng), rng_f(&mut rng));
+            let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32());
             let t = (Vec3::new(ix as f32, iy as f32, iz as f32) + jitter) / k as f32;
             let eye = b.min + (b.max - b.min) * t;
             look(eye, &mut seen);
@@ -365,10 +365,6 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
         bail!("{violations} objects the PVS hides were seen");
     }
     Ok(())
-}
-
-fn rng_f(rng: &mut Rng) -> f32 {
-    rng.f32()
 }
 
 /// xorshift64: the viewpoints of a check, reproducible from its seed.

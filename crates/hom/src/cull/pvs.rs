@@ -88,9 +88,10 @@ impl Culler for PvsCuller {
                 .all(|&id| scene.get(id).is_some_and(|o| !o.is_dynamic() && !o.is_removed()));
         }
         self.hidden.clear();
-        let cell = match (self.occluders_in_place, self.pvs.serves(view)) {
-            (true, Some(eye)) => self.pvs.hidden_from(eye, &mut self.hidden),
-            _ => None,
+        let cell = if self.occluders_in_place {
+            self.pvs.hidden_in(scene, view, &mut self.hidden)
+        } else {
+            None
         };
         let lookup_ms = start.elapsed().as_secs_f64() * 1e3;
         // The inner culler may skip what the PVS hides (tests, occluders).
@@ -100,7 +101,6 @@ impl Culler for PvsCuller {
         let mut culled = 0u64;
         if !self.hidden.is_empty() {
             // Both lists ascending: one merge pass splits `visible`.
-            let objects = scene.objects();
             let (mut h, mut kept) = (0, 0);
             let mut moved = Vec::new();
             for i in 0..out.visible.len() {
@@ -108,7 +108,7 @@ impl Culler for PvsCuller {
                 while h < self.hidden.len() && self.hidden[h] < id {
                     h += 1;
                 }
-                let hide = h < self.hidden.len() && self.hidden[h] == id && !objects[id as usize].is_dynamic();
+                let hide = h < self.hidden.len() && self.hidden[h] == id;
                 if hide {
                     moved.push(id);
                 } else {

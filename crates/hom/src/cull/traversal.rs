@@ -519,7 +519,7 @@ impl Traversal<'_> {
         let o = self.scene.get(id)?;
         let vis = if !self.meets_frustum(o, inside) {
             Vis::Invisible
-        } else if self.known_hidden.get(id as usize).copied().unwrap_or(false) && !o.is_dynamic() {
+        } else if self.known_hidden.get(id as usize).copied().unwrap_or(false) {
             v.stats.skipped += 1;
             v.occluded.push(id);
             v.temporal.set_object(id, Vis::Invisible);

@@ -25,6 +25,7 @@ use crate::scene::Scene;
 use crate::spatial::{Bvh, BvhConfig};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Triangle budget of a mesh's inscribed solids for the bake (40 boxes).
 const SOLID_BUDGET: usize = 480;
@@ -135,8 +136,6 @@ pub(crate) struct BakeContext<'a> {
     /// Object boxes (empty for objects the bake does not use).
     pub(crate) boxes: Vec<Aabb>,
     pub(crate) object_bvh: Bvh,
-    /// Per object BVH node: its objects are `object_bvh.items()[range]`.
-    pub(crate) ranges: Vec<(u32, u32)>,
     /// Per object: its index in `object_bvh.items()`.
     pub(crate) item_pos: Vec<u32>,
 }
@@ -158,18 +157,6 @@ impl<'a> BakeContext<'a> {
             .map(|(o, &s)| if s { o.aabb } else { Aabb::EMPTY })
             .collect();
         let object_bvh = Bvh::build(&boxes, &BvhConfig::default());
-        let nodes = object_bvh.nodes();
-        let mut ranges = vec![(u32::MAX, 0u32); nodes.len()];
-        // Children follow their parent: a reverse sweep sees children first.
-        for i in (0..nodes.len()).rev() {
-            let n = &nodes[i];
-            ranges[i] = if n.is_leaf() {
-                (n.first, n.first + n.count)
-            } else {
-                let (a, b) = (ranges[n.first as usize], ranges[n.first as usize + 1]);
-                (a.0.min(b.0), a.1.max(b.1))
-            };
-        }
         let mut item_pos = vec![u32::MAX; boxes.len()];
         for (i, &item) in object_bvh.items().iter().enumerate() {
             item_pos[item as usize] = i as u32;
@@ -181,14 +168,13 @@ impl<'a> BakeContext<'a> {
             occluder_bvh,
             boxes,
             object_bvh,
-            ranges,
             item_pos,
         }
     }
 
     /// Does one occluder, not of the objects in `items` (a range of the
     /// object BVH's items), hide `x` from the whole `cell`?
-    fn hidden(&self, cell: &Aabb, x: &Aabb, items: (u32, u32), stack: &mut Vec<u32>) -> bool {
+    fn hidden(&self, cell: &Aabb, x: &Aabb, items: Range<usize>, stack: &mut Vec<u32>) -> bool {
         let margins = Margins::for_pair(cell, x, self.config.margin as f64, self.config.near as f64);
         let (a, b) = (cell.center().as_dvec3(), x.center().as_dvec3());
         let nodes = self.occluder_bvh.nodes();
@@ -209,8 +195,7 @@ impl<'a> BakeContext<'a> {
             }
             for &o in self.occluder_bvh.leaf_items(node) {
                 let occ = &self.occluders[o as usize];
-                let pos = self.item_pos[occ.object as usize];
-                let own = pos >= items.0 && pos < items.1;
+                let own = items.contains(&(self.item_pos[occ.object as usize] as usize));
                 if own
                     || box_distance(&occ.bounds, cell) < self.config.near_clearance
                     || !occ.crossed_by(a, b, margins.lateral)
@@ -270,12 +255,12 @@ impl<'a> BakeContext<'a> {
             while let Some(o) = work.pop() {
                 match o {
                     Occludee::Node(n) => {
-                        let range = self.ranges[n as usize];
-                        let members = &items[range.0 as usize..range.1 as usize];
+                        let node = self.object_bvh.nodes()[n as usize];
+                        let range = self.object_bvh.subtree_range(&node);
+                        let members = &items[range.clone()];
                         if members.iter().all(|&i| flagged[i as usize]) {
                             continue;
                         }
-                        let node = self.object_bvh.nodes()[n as usize];
                         if self.hidden(&cell, &node.bounds, range, stack) {
                             hidden.extend(members.iter().copied().filter(|&i| !flagged[i as usize]));
                         } else if node.is_leaf() {
@@ -295,8 +280,8 @@ impl<'a> BakeContext<'a> {
                         if flagged[i as usize] {
                             continue;
                         }
-                        let p = self.item_pos[i as usize];
-                        if self.hidden(&cell, &self.boxes[i as usize], (p, p + 1), stack) {
+                        let p = self.item_pos[i as usize] as usize;
+                        if self.hidden(&cell, &self.boxes[i as usize], p..p + 1, stack) {
                             hidden.push(i);
                         } else {
                             all_hidden = false;

@@ -400,6 +400,17 @@ impl Pvs {
             .then_some(eye)
     }
 
+    /// What this PVS hides from `view` in `scene` as it stands now, into
+    /// `out` (cleared, then sorted): nothing unless it [`Pvs::serves`] the
+    /// view, and only objects still static and present (the bake used no
+    /// other). Returns the eye's leaf cell, as [`Pvs::hidden_from`] does.
+    pub fn hidden_in(&self, scene: &Scene, view: &View, out: &mut Vec<u32>) -> Option<usize> {
+        out.clear();
+        let cell = self.hidden_from(self.serves(view)?, out);
+        out.retain(|&id| scene.get(id).is_some_and(|o| !o.is_dynamic()));
+        cell
+    }
+
     /// Appends to `out` (sorted) the objects hidden from `eye`, and returns
     /// the leaf cell's node id, or `None` (appending nothing) when `eye` lies
     /// in no cell or this is only a shard. Callers check [`Pvs::serves`] for

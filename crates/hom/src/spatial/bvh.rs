@@ -445,7 +445,8 @@ impl Bvh {
         &self.items[self.subtree_range(node)]
     }
 
-    fn subtree_range(&self, node: &BvhNode) -> Range<usize> {
+    /// Where [`Bvh::subtree_items`] lies in [`Bvh::items`].
+    pub(crate) fn subtree_range(&self, node: &BvhNode) -> Range<usize> {
         let mut lo = node;
         while !lo.is_leaf() {
             lo = &self.nodes[lo.first as usize];
