@@ -80,6 +80,8 @@ pub mod depth;
 #[forbid(unsafe_code)]
 pub mod geom;
 #[forbid(unsafe_code)]
+pub mod lod;
+#[forbid(unsafe_code)]
 pub mod map;
 #[forbid(unsafe_code)]
 pub mod occluders;
@@ -90,6 +92,8 @@ pub mod pvs;
 pub mod raster;
 #[forbid(unsafe_code)]
 pub mod scene;
+#[forbid(unsafe_code)]
+pub(crate) mod simplify;
 #[forbid(unsafe_code)]
 pub mod spatial;
 
