@@ -437,6 +437,40 @@ pub struct WalkArgs {
     /// `pvs_` fields as with --pvs.
     #[arg(long)]
     pub pvs_file: Option<PathBuf>,
+    /// Level of detail.
+    #[command(flatten)]
+    pub lod: LodArgs,
+}
+
+/// Level of detail guided by visibility (Law & Tan 1999, section 6).
+#[derive(Args, Clone, Debug)]
+pub struct LodArgs {
+    /// Draw each visible object's level-of-detail cut instead of its whole mesh: a
+    /// hierarchy of triangle clusters per mesh (built at start), refined where a node's
+    /// projected error exceeds --lod-error. Reports gain `lod_` fields.
+    #[arg(long)]
+    pub lod: bool,
+    /// --lod: refine while a node's projected error exceeds this many pixels.
+    #[arg(long, default_value_t = 1.0)]
+    pub lod_error: f32,
+    /// --lod: instead of the threshold, hold this many triangles a frame, refining the
+    /// worst projected errors first.
+    #[arg(long)]
+    pub lod_budget: Option<u64>,
+    /// --lod: `on` never refines a node the culler finds hidden (needs an occlusion
+    /// culler; with the oracle each frame is also drawn without guidance and the pixels
+    /// that differ are counted); `off` refines by the view alone.
+    #[arg(long, value_enum, default_value = "on")]
+    pub lod_guidance: OnOff,
+}
+
+/// A switch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
 }
 
 /// `hom render`.
@@ -458,6 +492,11 @@ pub struct RenderArgs {
     /// frame's cell hides is red too (the frustum culler then shows the PVS alone).
     #[arg(long)]
     pub pvs_file: Option<PathBuf>,
+    /// Level of detail: with --lod the frame is drawn coloured by how coarse each node is
+    /// (blue full resolution … red 16× coarser), and the same cut is drawn again from above
+    /// and behind the eye into OUT-above.png, where the nodes guidance kept coarse show.
+    #[command(flatten)]
+    pub lod: LodArgs,
 }
 
 /// What `hom bench` measures.

@@ -151,3 +151,42 @@ pub fn progress(len: usize, what: &str) -> ProgressBar {
     bar.set_prefix(what.to_string());
     bar
 }
+
+/// The walk's level of detail from `--lod` and its options: every mesh's
+/// hierarchy built (with a progress bar), or `None` without `--lod`.
+pub fn lod_for(args: &crate::args::LodArgs, scene: &Scene) -> Result<Option<hom_walk::lod::WalkLod>> {
+    use crate::args::OnOff;
+    use hom::lod::{LodConfig, LodOptions, SceneLod};
+    if !args.lod {
+        if args.lod_budget.is_some() {
+            bail!("--lod-budget needs --lod");
+        }
+        return Ok(None);
+    }
+    let options = LodOptions {
+        error_px: args.lod_error,
+        budget: args.lod_budget,
+        guidance: args.lod_guidance == OnOff::On,
+    };
+    options.validate()?;
+    let bar = ProgressBar::new(scene.meshes().len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} meshes, {eta} left")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix("lod");
+    let start = std::time::Instant::now();
+    let hierarchies = SceneLod::build(scene, &LodConfig::default(), &|_, _| bar.inc(1))?;
+    bar.finish_and_clear();
+    eprintln!(
+        "lod: {} meshes in {:.1} s, {:.1} MiB",
+        hierarchies.len(),
+        start.elapsed().as_secs_f64(),
+        hierarchies.heap_bytes() as f64 / (1u64 << 20) as f64
+    );
+    Ok(Some(hom_walk::lod::WalkLod {
+        hierarchies: std::sync::Arc::new(hierarchies),
+        options,
+    }))
+}

@@ -49,4 +49,41 @@ pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
         );
     }
     println!("(medians over frames; speedup = frustum-only frame time ÷ frame time; oracle× = the best any culler could reach)");
+    for (name, r) in rows {
+        let Some(l) = &r.summary.lod else { continue };
+        let fewer = |than: u64| 100.0 * (1.0 - l.lod_triangles as f64 / than.max(1) as f64);
+        let unguided = l
+            .lod_unguided_triangles
+            .map(|u| format!(", {:.1} % fewer than without guidance", fewer(u)))
+            .unwrap_or_default();
+        let oracle = l
+            .lod_oracle_triangles
+            .map(|o| {
+                let exact = 100.0 * (1.0 - o as f64 / l.lod_view_only_triangles.max(1) as f64);
+                format!(", exact object culling would give {exact:.1} % fewer")
+            })
+            .unwrap_or_default();
+        let pixels = l
+            .lod_guidance_pixels_changed
+            .map(|p| format!(", {p} pixels changed by guidance"))
+            .unwrap_or_default();
+        let budget = l
+            .lod_frames_within_budget
+            .zip(l.lod_frames_budget_binds)
+            .map(|(b, n)| {
+                format!(
+                    ", {:.1} % of the {n} frames where the budget binds within 5 % of it",
+                    b * 100.0
+                )
+            })
+            .unwrap_or_default();
+        println!(
+            "{name} lod: {:.0} triangles drawn (median), {:.1} % fewer than view-only level of detail of the frustum's objects, max error {:.2} px, {} nodes kept coarse as hidden, {:.3} ms selection (median){unguided}{oracle}{pixels}{budget}",
+            l.median_lod_triangles,
+            fewer(l.lod_view_only_triangles),
+            l.lod_max_error_px,
+            l.lod_nodes_occluded,
+            l.median_lod_ms
+        );
+    }
 }

@@ -401,3 +401,48 @@ fn pvs_bake_shards_merge_info_walk_and_refusals() {
     assert_clean_failure(&hom(&["pvs", "info", &junk]), "not a hom PVS file");
     assert_clean_failure(&hom(&["pvs", "merge", "--out", &merged, &s0]), "shard 1/2 is missing");
 }
+
+#[test]
+fn walk_lod_adds_lod_fields_render_lod_writes_two_pictures_and_bad_lod_flags_are_refused() {
+    let dir = std::env::temp_dir().join(format!("hom-cli-lod-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let report = dir.join("lod.jsonl");
+    let view = ["--scene", "spheres", "--width", "160", "--height", "120"];
+    let walk = |extra: &[&str]| {
+        let mut args = vec!["walk"];
+        args.extend_from_slice(&view);
+        args.extend_from_slice(&["--frames", "4", "--culler", "hom", "--lod"]);
+        args.extend_from_slice(extra);
+        hom(&args)
+    };
+    let o = walk(&["--oracle", "--report", report.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&report).unwrap();
+    let lines: Vec<serde_json::Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 6);
+    for f in &lines[1..5] {
+        assert!(f["lod_triangles"].as_u64().unwrap() > 0);
+        assert!(f["lod_max_error_px"].as_f64().unwrap() <= 1.0);
+        assert_eq!(f["lod_guidance_pixels_changed"], 0);
+        assert!(f["stages_ms"]["lod"].as_f64().is_some());
+    }
+    assert!(lines[5]["lod_triangles"].as_u64().unwrap() > 0);
+    assert!(lines[5]["lod_view_only_triangles"].as_u64().is_some());
+
+    let out = dir.join("frame.png");
+    let mut args = vec!["render"];
+    args.extend_from_slice(&view);
+    args.extend_from_slice(&["--frame", "2", "--lod", "--out", out.to_str().unwrap()]);
+    let o = hom(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.exists() && dir.join("frame-above.png").exists());
+
+    assert_clean_failure(&walk(&["--lod-error", "0"]), "error threshold");
+    assert_clean_failure(&walk(&["--lod-error", "NaN"]), "error threshold");
+    assert_clean_failure(&walk(&["--lod-budget", "0"]), "budget");
+    let mut args = vec!["walk"];
+    args.extend_from_slice(&view);
+    args.extend_from_slice(&["--lod-budget", "100"]);
+    assert_clean_failure(&hom(&args), "--lod-budget needs --lod");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -245,13 +245,19 @@ pub enum Colouring<'a> {
     /// One colour per object, indexed by object id; ids past the end of the
     /// slice fall back to [`id_colour`].
     PerObject(&'a [[u8; 3]]),
+    /// One colour per part of [`Renderer::render_parts`] (per id of
+    /// [`Renderer::render`]), by its position in the list; parts past the end
+    /// fall back to [`id_colour`] of their object.
+    PerPart(&'a [[u8; 3]]),
 }
 
 impl Colouring<'_> {
-    fn colour(&self, id: u32) -> [u8; 3] {
+    /// The colour of the `part`-th part drawn, of object `id`.
+    fn colour(&self, part: usize, id: u32) -> [u8; 3] {
         match self {
             Colouring::ById => id_colour(id),
             Colouring::PerObject(c) => c.get(id as usize).copied().unwrap_or_else(|| id_colour(id)),
+            Colouring::PerPart(c) => c.get(part).copied().unwrap_or_else(|| id_colour(id)),
         }
     }
 }
@@ -308,6 +314,10 @@ impl Default for RenderOptions<'_> {
     }
 }
 
+/// What [`Renderer::render_parts`] draws: an object id and triangles of its
+/// mesh (indices into its positions).
+pub type Part<'a> = (u32, &'a [[u32; 3]]);
+
 /// Counters of one [`Renderer::render`] call.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RenderStats {
@@ -358,7 +368,7 @@ impl std::fmt::Debug for Renderer {
 /// What every setup chunk needs to know about the frame.
 struct Frame<'a> {
     scene: &'a Scene,
-    ids: &'a [u32],
+    parts: &'a [Part<'a>],
     starts: &'a [u64],
     view_proj: glam::Mat4,
     eye: glam::Vec3,
@@ -411,13 +421,45 @@ impl Renderer {
         options: &RenderOptions,
         fb: &mut Framebuffer,
     ) -> RenderStats {
+        let parts: Vec<Part> = ids
+            .iter()
+            .map(|&id| {
+                let o = scene.get(id).unwrap_or_else(|| {
+                    panic!(
+                        "render: object id {id} is not in scene '{}' ({} objects)",
+                        scene.name(),
+                        scene.objects().len()
+                    )
+                });
+                (id, scene.mesh_of(o).triangles())
+            })
+            .collect();
+        self.render_parts(scene, &parts, camera, options, fb)
+    }
+
+    /// As [`Renderer::render`], drawing for each `(id, triangles)` of `parts`
+    /// those triangles (indices into object `id`'s mesh's positions, with its
+    /// transform) instead of the whole mesh: a level-of-detail cut. An
+    /// object may appear in several parts.
+    ///
+    /// # Panics
+    /// If an id is not an object of `scene`, or a triangle's index is not a
+    /// vertex of its mesh.
+    pub fn render_parts(
+        &self,
+        scene: &Scene,
+        parts: &[Part],
+        camera: &Camera,
+        options: &RenderOptions,
+        fb: &mut Framebuffer,
+    ) -> RenderStats {
         let (width, height) = (
             camera.width.min(MAX_VIEWPORT_SIDE),
             camera.height.min(MAX_VIEWPORT_SIDE),
         );
         fb.resize(width, height);
         let object_count = scene.objects().len();
-        if let Some(&bad) = ids.iter().find(|&&id| id as usize >= object_count) {
+        if let Some(&(bad, _)) = parts.iter().find(|p| p.0 as usize >= object_count) {
             panic!(
                 "render: object id {bad} is not in scene '{}' ({object_count} objects)",
                 scene.name()
@@ -433,13 +475,12 @@ impl Renderer {
         // Global triangle index of each object's first triangle in draw order.
         scratch.starts.clear();
         let mut total = 0u64;
-        for &id in ids {
+        for &(id, triangles) in parts {
             scratch.starts.push(total);
-            let o = scene.object(id);
-            total += if o.is_removed() {
+            total += if scene.object(id).is_removed() {
                 0
             } else {
-                scene.mesh_of(o).triangle_count() as u64
+                triangles.len() as u64
             };
         }
         scratch.starts.push(total);
@@ -450,7 +491,7 @@ impl Renderer {
         let bands = height.div_ceil(BAND_ROWS) as usize;
         let frame = Frame {
             scene,
-            ids,
+            parts,
             starts: &scratch.starts,
             view_proj: camera.view_proj(),
             eye: camera.eye,
@@ -513,19 +554,23 @@ impl Chunk {
         self.tris.clear();
         self.submitted = g1 - g0;
         let flat = f.options.shading == Shading::Flat;
-        // The draw-order position of the object holding triangle g0 (empty
-        // objects cannot occur: meshes have at least one triangle).
+        // The draw-order position of the part holding triangle g0 (the last
+        // of equal starts: empty parts hold nothing).
         let mut k = f.starts.partition_point(|&s| s <= g0) - 1;
         let mut g = g0;
         while g < g1 {
-            let id = f.ids[k];
+            let (id, part) = f.parts[k];
             let object = f.scene.object(id);
             let mesh = f.scene.mesh_of(object);
             let t0 = (g - f.starts[k]) as usize;
             let t1 = (g1.min(f.starts[k + 1]) - f.starts[k]) as usize;
             let positions = mesh.positions();
-            let triangles = &mesh.triangles()[t0..t1];
-            let base = if flat { f.options.colouring.colour(id) } else { [0; 3] };
+            let triangles = &part[t0..t1];
+            let base = if flat {
+                f.options.colouring.colour(k, id)
+            } else {
+                [0; 3]
+            };
             // Transform and classify every vertex once when this chunk uses a
             // good share of the mesh; otherwise per triangle. Both use the same
             // arithmetic, so a vertex is bit-identical either way.

@@ -21,6 +21,7 @@
 
 pub mod bench;
 pub mod cullers;
+pub mod lod;
 pub mod pictures;
 pub mod pvs;
 pub mod raster_bench;

@@ -120,6 +120,9 @@ pub struct FrameRecord {
     /// Present where the oracle ran.
     #[serde(flatten)]
     pub oracle: Option<OracleFrame>,
+    /// Present with level of detail (`lod_` fields).
+    #[serde(flatten)]
+    pub lod: Option<crate::lod::LodFrame>,
 }
 
 /// Last line: medians and ratios over the walk.
@@ -163,6 +166,9 @@ pub struct Summary {
     pub false_cull_pixels: Option<u64>,
     /// Summed occlusion-culled triangles ÷ summed in-frustum invisible triangles.
     pub efficiency: Option<f64>,
+    /// Present with level of detail (`lod_` fields).
+    #[serde(flatten)]
+    pub lod: Option<crate::lod::LodSummary>,
 }
 
 /// Median of a list (mean of the middle two for an even count); 0 for none.

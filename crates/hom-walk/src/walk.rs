@@ -1,5 +1,6 @@
 //! The walkthrough loop.
 
+use crate::lod::{summarize_lod, LodRun, WalkLod};
 use crate::report::{median, FrameRecord, Header, OracleFrame, Summary};
 use hom::cull::{CullError, CullOutput, Culler, FrustumCuller};
 use hom::geom::{Containment, Frustum};
@@ -24,6 +25,9 @@ pub enum WalkError {
     /// The path's frames do not make valid cameras.
     #[error(transparent)]
     Path(#[from] hom_scene::CameraPathError),
+    /// Level of detail refused the scene or its options.
+    #[error("level of detail")]
+    Lod(#[from] hom::lod::LodError),
 }
 
 /// How to walk.
@@ -37,6 +41,8 @@ pub struct WalkOptions {
     pub baseline: bool,
     /// Frames per second of scene time (moves dynamic objects).
     pub frame_rate: f32,
+    /// Draw each visible object's level-of-detail cut instead of its mesh.
+    pub lod: Option<WalkLod>,
 }
 
 impl Default for WalkOptions {
@@ -46,6 +52,7 @@ impl Default for WalkOptions {
             oracle: false,
             baseline: true,
             frame_rate: 30.0,
+            lod: None,
         }
     }
 }
@@ -94,6 +101,11 @@ pub fn walk(
     let mut out = CullOutput::default();
     let mut base_out = CullOutput::default();
     let draw = RenderOptions::default();
+    let mut lod = options
+        .lod
+        .as_ref()
+        .map(|l| LodRun::new(l, scene, options.oracle))
+        .transpose()?;
     let mut frames = Vec::with_capacity(frame_count);
     for i in 0..frame_count {
         let time_s = i as f32 / options.frame_rate;
@@ -105,10 +117,30 @@ pub fn walk(
             .install(|| culler.cull(scene, &view, &mut out))
             .map_err(|source| WalkError::Cull { frame: i, source })?;
         let cull_ms = out.total_ms();
-        let start = Instant::now();
-        renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
-        let render_ms = ms_since(start);
-        let frame_ms = cull_ms + render_ms;
+        let (render_ms, lod_frame) = match lod.as_mut() {
+            Some(run) => {
+                let (record, render_ms) = run.frame(
+                    scene,
+                    &view,
+                    &camera,
+                    culler,
+                    &out.visible,
+                    &out.occluded,
+                    renderer,
+                    &draw,
+                    &mut fb,
+                )?;
+                (render_ms, Some(record))
+            }
+            None => {
+                let start = Instant::now();
+                renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
+                (ms_since(start), None)
+            }
+        };
+        // Selecting the cut is part of the frame's cost.
+        let lod_ms = lod_frame.as_ref().map_or(0.0, |l| l.lod_ms);
+        let frame_ms = cull_ms + lod_ms + render_ms;
         culler.frame_done(Some(frame_ms));
 
         let baseline_frame_ms = match baseline.as_mut() {
@@ -166,11 +198,18 @@ pub fn walk(
             }
         });
 
+        let mut lod_frame = lod_frame;
+        if let (Some(run), Some(o), Some(l)) = (lod.as_mut(), &oracle, lod_frame.as_mut()) {
+            l.lod_oracle_triangles = Some(run.oracle_triangles(scene, &view, &o.oracle_visible)?);
+        }
         let mut stages_ms: BTreeMap<String, f64> = BTreeMap::new();
         for (name, ms) in &out.stages {
             *stages_ms.entry(name.to_string()).or_default() += ms;
         }
         stages_ms.insert("cull".into(), cull_ms);
+        if let Some(l) = &lod_frame {
+            stages_ms.insert("lod".into(), l.lod_ms);
+        }
         stages_ms.insert("render".into(), render_ms);
         let record = FrameRecord {
             kind: "frame",
@@ -191,11 +230,16 @@ pub fn walk(
             baseline_frame_ms,
             counters: out.counters.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
             oracle,
+            lod: lod_frame,
         };
         on_frame(&record);
         frames.push(record);
     }
-    let summary = summarize(&frames, scene.triangle_count());
+    let mut summary = summarize(&frames, scene.triangle_count());
+    if let Some(l) = &options.lod {
+        let records: Vec<_> = frames.iter().filter_map(|f| f.lod.as_ref()).collect();
+        summary.lod = Some(summarize_lod(&records, l.options.budget));
+    }
     Ok(WalkResult {
         header,
         frames,
@@ -276,6 +320,7 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
             let culled: u64 = frames.iter().map(|f| f.triangles_occlusion_culled).sum();
             (invisible > 0).then(|| culled as f64 / invisible as f64)
         }),
+        lod: None,
     }
 }
 
@@ -303,6 +348,7 @@ mod tests {
             baseline_frame_ms: None,
             counters: BTreeMap::new(),
             oracle: None,
+            lod: None,
         }
     }
 

@@ -2,10 +2,15 @@
 
 use crate::args::{HomArgs, RenderArgs};
 use crate::setup::{culler_settings, make_culler, open, Walkthrough};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use hom::cull::{CullOutput, Culler, HomCuller, PvsCuller};
+use hom::geom::Aabb;
+use hom::glam::Vec3;
+use hom::lod::{LodSelector, LodView};
 use hom::pvs::Pvs;
-use hom_render::{Framebuffer, RenderOptions, Renderer};
+use hom_render::stand_in::view_from;
+use hom_render::{Colouring, Framebuffer, RenderOptions, Renderer};
+use hom_walk::lod::{coarseness_colours, draw_parts};
 use hom_walk::{pictures, WalkOptions};
 use std::path::Path;
 use std::sync::Arc;
@@ -27,7 +32,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
         .as_deref()
         .map(|p| super::pvs::read_for(p, &w.scene))
         .transpose()?;
-    if a.false_colour {
+    if a.lod.lod {
+        if a.false_colour {
+            bail!("--lod colours by level of detail; --false-colour by fate: give one");
+        }
+        write_lod_pictures(&mut w, &a, &renderer, pvs.as_ref(), frame_rate)?;
+    } else if a.false_colour {
         write_false_colour(
             &mut w,
             &a.view.culler,
@@ -92,4 +102,70 @@ pub fn write_false_colour(
     let image = pictures::render_false_colour(renderer, scene, &camera, &cull, &mut fb);
     hom_render::write_png(out, camera.width, camera.height, &image)?;
     Ok(pyramid)
+}
+
+/// `hom render --lod`: the frame coloured by coarseness, and the same cut from
+/// above and behind the eye.
+fn write_lod_pictures(
+    w: &mut Walkthrough,
+    a: &RenderArgs,
+    renderer: &Renderer,
+    pvs: Option<&Arc<Pvs>>,
+    frame_rate: f32,
+) -> Result<()> {
+    let lod = crate::setup::lod_for(&a.lod, &w.scene)?.expect("--lod given");
+    w.go_to(a.frame, frame_rate);
+    let (scene, camera) = (&w.scene, w.path.camera(a.frame));
+    let view = camera.to_view();
+    let mut culler = make_culler(&a.view.culler, scene, &a.view.hom)?;
+    if let Some(p) = pvs {
+        culler = Box::new(PvsCuller::new(scene, p.clone(), culler)?);
+    }
+    let mut cull = CullOutput::default();
+    renderer.install(|| culler.cull(scene, &view, &mut cull))?;
+    let lod_view = LodView::new(&view).context("the frame's view has no frustum")?;
+    let mut parts = Vec::new();
+    let stats = LodSelector::default().select(
+        scene,
+        &lod.hierarchies,
+        &cull.visible,
+        &lod_view,
+        &lod.options,
+        &mut |corners| culler.box_hidden(corners),
+        &mut parts,
+    )?;
+    let colours = coarseness_colours(scene, &lod.hierarchies, &parts);
+    let draw = RenderOptions {
+        colouring: Colouring::PerPart(&colours),
+        ..RenderOptions::default()
+    };
+    let drawn = draw_parts(scene, &lod.hierarchies, &parts);
+    let mut fb = Framebuffer::new(camera.width, camera.height);
+    renderer.render_parts(scene, &drawn, &camera, &draw, &mut fb);
+    fb.save_png(&a.out)?;
+    // From above and behind: the eye's surroundings out to the drawn objects' reach.
+    let reach = cull
+        .visible
+        .iter()
+        .map(|&id| scene.object(id).aabb.distance_squared(camera.eye).sqrt())
+        .fold(0.0f32, f32::max)
+        .clamp(20.0, 400.0);
+    let forward = (camera.target - camera.eye).normalize_or(Vec3::Z);
+    let centre = camera.eye + forward * reach * 0.5;
+    let around = Aabb::new(centre - Vec3::splat(reach * 0.5), centre + Vec3::splat(reach * 0.5));
+    let mut above = view_from(&around, Vec3::Y * 2.0 - forward, camera.width.max(camera.height));
+    above.far = above.far.max(4.0 * reach);
+    renderer.render_parts(scene, &drawn, &above, &draw, &mut fb);
+    let stem = a.out.with_extension("");
+    let above_path = Path::new(&format!("{}-above.png", stem.display())).to_path_buf();
+    fb.save_png(&above_path)?;
+    println!(
+        "lod: {} triangles in {} nodes ({} kept coarse as hidden), max error {:.2} px; wrote {}",
+        stats.triangles,
+        stats.nodes_drawn,
+        stats.nodes_occluded,
+        stats.max_error_px,
+        above_path.display()
+    );
+    Ok(())
 }

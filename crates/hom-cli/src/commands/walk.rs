@@ -4,7 +4,7 @@
 use super::render::write_false_colour;
 use super::{busiest_frame, write_stage_chart};
 use crate::args::{HomArgs, WalkArgs};
-use crate::setup::{culler_settings, make_culler, open, open_map_view, progress, Walkthrough};
+use crate::setup::{culler_settings, lod_for, make_culler, open, open_map_view, progress, Walkthrough};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
 use hom::cull::PvsCuller;
@@ -52,6 +52,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
     let options = WalkOptions {
         frames: a.frames,
         oracle: a.oracle || a.pvs,
+        lod: lod_for(&a.lod, &w.scene)?,
         ..WalkOptions::default()
     };
     let mut file = match &a.report {

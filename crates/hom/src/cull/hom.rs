@@ -168,6 +168,13 @@ impl Culler for HomCuller {
         self.common.set_known_hidden(scene, hidden);
     }
 
+    fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
+        match (self.common.last_rect(corners), self.buffer.as_mut()) {
+            (Some(r), Some(buffer)) => buffer.rect_is_occluded(&r),
+            _ => false,
+        }
+    }
+
     fn frame_done(&mut self, frame_ms: Option<f64>) {
         self.common.feedback(frame_ms);
     }

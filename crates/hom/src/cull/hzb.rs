@@ -222,6 +222,17 @@ impl Culler for HzbCuller {
         self.common.set_known_hidden(scene, hidden);
     }
 
+    fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
+        let Some(r) = self.common.last_rect(corners) else {
+            return false;
+        };
+        match &mut self.buffer {
+            Buffer::PerSample(Some(b)) => b.rect_is_occluded(&r),
+            Buffer::Masked(Some(b)) => b.rect_is_occluded(&r),
+            _ => false,
+        }
+    }
+
     fn frame_done(&mut self, frame_ms: Option<f64>) {
         self.common.feedback(frame_ms);
     }

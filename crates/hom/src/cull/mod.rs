@@ -123,4 +123,14 @@ pub trait Culler: Send {
     /// that move are not hidden by it. The default ignores the hint; a
     /// caller must still not draw them (as [`PvsCuller`] does).
     fn set_known_hidden(&mut self, _scene: &Scene, _hidden: &[u32]) {}
+
+    /// After [`Culler::cull`]: whether the world-space box with these
+    /// `corners` (a part of a visible object, such as a level-of-detail node)
+    /// is hidden from that frame's view by what the culler drew, by the same
+    /// test its objects got. `false` when the culler keeps no such answer:
+    /// frustum culling, a frame the cost model rested, a box crossing the
+    /// near plane.
+    fn box_hidden(&mut self, _corners: &[glam::Vec3; 8]) -> bool {
+        false
+    }
 }

@@ -134,4 +134,8 @@ impl Culler for PvsCuller {
     fn frame_done(&mut self, frame_ms: Option<f64>) {
         self.inner.frame_done(frame_ms);
     }
+
+    fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
+        self.inner.box_hidden(corners)
+    }
 }

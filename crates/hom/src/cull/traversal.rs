@@ -76,6 +76,9 @@ pub(crate) struct OccluderCulling {
     known_hidden: Vec<bool>,
     /// The ids set in `known_hidden`, to clear them.
     known_hidden_ids: Vec<u32>,
+    /// The last frame's world to clip and viewport, while its buffer holds
+    /// that frame's occluders (`None` after a resting frame).
+    last_frame: Option<(Mat4, u32, u32)>,
 }
 
 /// One frame after occluder selection.
@@ -124,6 +127,7 @@ impl OccluderCulling {
             kd,
             known_hidden: Vec::new(),
             known_hidden_ids: Vec::new(),
+            last_frame: None,
         }
     }
 
@@ -155,6 +159,7 @@ impl OccluderCulling {
             return Ok(false);
         }
         self.culled_last = false;
+        self.last_frame = None;
         self.start(scene, view, out)?;
         let frustum = view.frustum().expect("a validated view has a frustum");
         let mut visible = std::mem::take(&mut out.visible);
@@ -318,6 +323,7 @@ impl OccluderCulling {
         });
         out.visible = visible;
         out.occluded = occluded;
+        self.last_frame = Some((frame.world_to_clip, frame.width, frame.height));
         out.occluders = frame.occluders;
         out.count("box_tests", stats.node_tests + stats.object_tests);
         out.count("node_tests", stats.node_tests);
@@ -330,6 +336,17 @@ impl OccluderCulling {
         count_occluders(out, &frame.stats, occluder_triangles);
         out.count("temporal_bytes", self.temporal.heap_bytes() as u64);
         out.count("state_bytes", self.state_bytes() as u64);
+    }
+
+    /// The screen rectangle of a world-space box's corners in the last frame
+    /// that ran the occlusion work, for [`super::Culler::box_hidden`]:
+    /// `None` after a resting frame or for a box crossing the near plane.
+    pub fn last_rect(&self, corners: &[Vec3; 8]) -> Option<ScreenRect> {
+        let (world_to_clip, width, height) = self.last_frame?;
+        match project_points(corners, &world_to_clip, width, height) {
+            Footprint::Rect(r) => Some(r),
+            _ => None,
+        }
     }
 
     /// Bytes of the culler's own state, the occlusion buffer excluded: the
