@@ -558,6 +558,8 @@ impl Chunk {
         // of equal starts: empty parts hold nothing).
         let mut k = f.starts.partition_point(|&s| s <= g0) - 1;
         let mut g = g0;
+        // The object whose vertices `vertices` and `world` hold.
+        let mut cached_object = None;
         while g < g1 {
             let (id, part) = f.parts[k];
             let object = f.scene.object(id);
@@ -572,19 +574,31 @@ impl Chunk {
                 [0; 3]
             };
             // Transform and classify every vertex once when this chunk uses a
-            // good share of the mesh; otherwise per triangle. Both use the same
-            // arithmetic, so a vertex is bit-identical either way.
+            // good share of the mesh (in this part and the object's parts that
+            // follow, as a level-of-detail cut draws them); otherwise per
+            // triangle. Both use the same arithmetic, so a vertex is
+            // bit-identical either way.
             let vertex = |p: glam::Vec3| Vertex::new(object_to_clip(&f.view_proj, &object.transform, p), &f.viewport);
-            let cached = triangles.len() * 3 >= positions.len();
-            if cached {
-                self.vertices.clear();
-                self.vertices.extend(positions.iter().map(|&p| vertex(p)));
-                self.world.clear();
-                if flat {
-                    self.world
-                        .extend(positions.iter().map(|&p| object.transform.transform_point3(p)));
+            if cached_object != Some(id) {
+                let mut used = (t1 - t0) as u64;
+                let mut j = k + 1;
+                while j < f.parts.len() && f.parts[j].0 == id && f.starts[j] < g1 {
+                    used += g1.min(f.starts[j + 1]) - f.starts[j];
+                    j += 1;
+                }
+                cached_object = None;
+                if used * 3 >= positions.len() as u64 {
+                    self.vertices.clear();
+                    self.vertices.extend(positions.iter().map(|&p| vertex(p)));
+                    self.world.clear();
+                    if flat {
+                        self.world
+                            .extend(positions.iter().map(|&p| object.transform.transform_point3(p)));
+                    }
+                    cached_object = Some(id);
                 }
             }
+            let cached = cached_object == Some(id);
             for tri in triangles {
                 let n = if cached {
                     let v = &self.vertices;

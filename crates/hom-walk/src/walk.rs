@@ -95,8 +95,9 @@ pub fn walk(
     path.validate(scene.name())?;
     let frame_count = options.frame_count(path);
     let header = Header::new(scene, path, culler, renderer.threads(), frame_count, options.oracle);
-    // The frustum culler is its own baseline: time it once.
-    let mut baseline = (options.baseline && culler.name() != "frustum").then(|| FrustumCuller::new(scene));
+    // The frustum culler drawing whole meshes is its own baseline: time it once.
+    let own_baseline = culler.name() == "frustum" && options.lod.is_none();
+    let mut baseline = (options.baseline && !own_baseline).then(|| FrustumCuller::new(scene));
     let mut fb = Framebuffer::new(path.width, path.height);
     let mut out = CullOutput::default();
     let mut base_out = CullOutput::default();
