@@ -67,6 +67,13 @@ pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
             .lod_guidance_pixels_changed
             .map(|p| format!(", {p} pixels changed by guidance"))
             .unwrap_or_default();
+        let full = l
+            .lod_pixels_differ_from_full
+            .map(|p| {
+                let per_frame = p as f64 / r.summary.frames.max(1) as f64;
+                format!(", {per_frame:.0} pixels a frame owned by another object than at full resolution")
+            })
+            .unwrap_or_default();
         let budget = l
             .lod_frames_within_budget
             .zip(l.lod_frames_budget_binds)
@@ -78,7 +85,7 @@ pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
             })
             .unwrap_or_default();
         println!(
-            "{name} lod: {:.0} triangles drawn (median), {:.1} % fewer than view-only level of detail of the frustum's objects, max error {:.2} px, {} nodes kept coarse as hidden, {:.3} ms selection (median){unguided}{oracle}{pixels}{budget}",
+            "{name} lod: {:.0} triangles drawn (median), {:.1} % fewer than view-only level of detail of the frustum's objects, max error {:.2} px, {} nodes kept coarse as hidden, {:.3} ms selection (median){unguided}{oracle}{pixels}{full}{budget}",
             l.median_lod_triangles,
             fewer(l.lod_view_only_triangles),
             l.lod_max_error_px,

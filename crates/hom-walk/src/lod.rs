@@ -65,6 +65,11 @@ pub struct LodFrame {
     /// oracle's visible objects — what exact object culling would leave.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lod_oracle_triangles: Option<u64>,
+    /// With the oracle: pixels whose owning object differs from the
+    /// full-resolution image's (the level of detail's own change, along
+    /// silhouettes, within the error threshold).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod_pixels_differ_from_full: Option<u64>,
 }
 
 impl LodFrame {
@@ -82,6 +87,7 @@ impl LodFrame {
             lod_unguided_triangles: None,
             lod_view_only_triangles: 0,
             lod_oracle_triangles: None,
+            lod_pixels_differ_from_full: None,
         }
     }
 }
@@ -249,6 +255,9 @@ pub struct LodSummary {
     pub lod_nodes_occluded: u64,
     /// Median selection milliseconds.
     pub median_lod_ms: f64,
+    /// Summed pixels whose owner differs from the full-resolution image, where the oracle ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod_pixels_differ_from_full: Option<u64>,
     /// Summed pixels that guidance changed (0 expected), where compared.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lod_guidance_pixels_changed: Option<u64>,
@@ -274,6 +283,7 @@ pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>) -> LodSummary {
         lod_unguided_triangles: sum_opt(|f| f.lod_unguided_triangles),
         lod_view_only_triangles: frames.iter().map(|f| f.lod_view_only_triangles).sum(),
         lod_oracle_triangles: sum_opt(|f| f.lod_oracle_triangles),
+        lod_pixels_differ_from_full: sum_opt(|f| f.lod_pixels_differ_from_full),
         lod_max_error_px: frames.iter().map(|f| f.lod_max_error_px).fold(0.0, f32::max),
         lod_nodes_occluded: frames.iter().map(|f| f.lod_nodes_occluded).sum(),
         median_lod_ms: crate::report::median(frames.iter().map(|f| f.lod_ms)),

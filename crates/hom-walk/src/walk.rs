@@ -139,6 +139,8 @@ pub fn walk(
                 (ms_since(start), None)
             }
         };
+        // The level-of-detail frame's owners, to compare with the full meshes' below.
+        let lod_items = (options.oracle && lod.is_some()).then(|| fb.items().to_vec());
         // Selecting the cut is part of the frame's cost.
         let lod_ms = lod_frame.as_ref().map_or(0.0, |l| l.lod_ms);
         let frame_ms = cull_ms + lod_ms + render_ms;
@@ -202,6 +204,12 @@ pub fn walk(
         let mut lod_frame = lod_frame;
         if let (Some(run), Some(o), Some(l)) = (lod.as_mut(), &oracle, lod_frame.as_mut()) {
             l.lod_oracle_triangles = Some(run.oracle_triangles(scene, &view, &o.oracle_visible)?);
+        }
+        if let (Some(items), Some(l)) = (&lod_items, lod_frame.as_mut()) {
+            // `fb` now holds the oracle's visible objects drawn whole: the owners
+            // of the full-resolution image.
+            let differ = items.iter().zip(fb.items()).filter(|(a, b)| a != b).count();
+            l.lod_pixels_differ_from_full = Some(differ as u64);
         }
         let mut stages_ms: BTreeMap<String, f64> = BTreeMap::new();
         for (name, ms) in &out.stages {

@@ -57,6 +57,13 @@ fn guidance_changes_no_pixel_and_every_node_is_within_the_threshold() {
                 f.frame,
                 lod.lod_max_error_px
             );
+            // Within a pixel of the full meshes: only silhouette pixels may change owner.
+            let differ = lod.lod_pixels_differ_from_full.unwrap();
+            assert!(
+                differ * 100 < u64::from(f.width * f.height),
+                "{scene} frame {}: {differ} pixels",
+                f.frame
+            );
             let unguided = lod.lod_unguided_triangles.unwrap();
             assert!(
                 lod.lod_triangles <= unguided,
