@@ -12,7 +12,27 @@ mod table;
 use args::{Cli, Command, OccludersCommand, PvsCommand, SceneCommand};
 use clap::Parser;
 
+/// Output cut short by its reader (`hom scenes | head -1`) is not an error:
+/// `println!` panics when the pipe is closed, so that one panic ends the
+/// process quietly and successfully, as other command-line tools do.
+fn quiet_when_the_reader_leaves() {
+    let report = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let payload = info.payload();
+        let message = payload
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| payload.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.contains("failed printing to stdout") && message.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        report(info);
+    }));
+}
+
 fn main() {
+    quiet_when_the_reader_leaves();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => commands::demo::run(a),

@@ -446,3 +446,21 @@ fn walk_lod_adds_lod_fields_render_lod_writes_two_pictures_and_bad_lod_flags_are
     assert_clean_failure(&hom(&args), "--lod-budget needs --lod");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A reader that leaves early (`hom scenes | head -1`) ends hom quietly, not with a panic.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hom"))
+        .arg("scenes")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the hom binary runs");
+    // Close the read end before hom has built the scenes it lists.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("hom ends");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(out.status.success(), "{:?}: {err}", out.status);
+}
