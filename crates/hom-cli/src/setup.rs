@@ -139,14 +139,35 @@ pub fn make_culler(name: &str, scene: &Scene, args: &HomArgs) -> Result<Box<dyn 
     Ok(cullers::make(name, scene, &culler_settings(args, scene)?)?)
 }
 
+/// The culler `name`, behind the baked PVS `pvs` where given (PVS then the culler).
+pub fn make_culler_after_pvs(
+    name: &str,
+    scene: &Scene,
+    args: &HomArgs,
+    pvs: Option<&std::sync::Arc<hom::pvs::Pvs>>,
+) -> Result<Box<dyn Culler>> {
+    let culler = make_culler(name, scene, args)?;
+    Ok(match pvs {
+        Some(p) => Box::new(hom::cull::PvsCuller::new(scene, p.clone(), culler)?),
+        None => culler,
+    })
+}
+
 /// A progress bar over `len` frames, labelled `what`.
 pub fn progress(len: usize, what: &str) -> ProgressBar {
+    progress_of(len, what, "frames")
+}
+
+/// A progress bar over `len` `units` (frames, meshes, blocks), labelled `what`.
+pub fn progress_of(len: usize, what: &str, units: &str) -> ProgressBar {
     // Draws only on a terminal; quiet when piped.
     let bar = ProgressBar::new(len as u64);
     bar.set_style(
-        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} frames, {eta} left")
-            .expect("valid template")
-            .progress_chars("=> "),
+        ProgressStyle::with_template(&format!(
+            "{{prefix:>12}} [{{bar:40}}] {{pos}}/{{len}} {units}, {{eta}} left"
+        ))
+        .expect("valid template")
+        .progress_chars("=> "),
     );
     bar.set_prefix(what.to_string());
     bar
@@ -169,13 +190,7 @@ pub fn lod_for(args: &crate::args::LodArgs, scene: &Scene) -> Result<Option<hom_
         guidance: args.lod_guidance == OnOff::On,
     };
     options.validate()?;
-    let bar = ProgressBar::new(scene.meshes().len() as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} meshes, {eta} left")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("lod");
+    let bar = progress_of(scene.meshes().len(), "lod", "meshes");
     let start = std::time::Instant::now();
     let hierarchies = SceneLod::build(scene, &LodConfig::default(), &|_, _| bar.inc(1))?;
     bar.finish_and_clear();

@@ -104,6 +104,8 @@ pub(crate) struct LodRun {
     oracle: LodSelector,
     parts: Vec<LodPart>,
     in_frustum: Vec<u32>,
+    /// This frame's refinement view (`None` before a frame, or for a view without a frustum).
+    view: Option<LodView>,
 }
 
 impl LodRun {
@@ -118,6 +120,7 @@ impl LodRun {
             oracle: LodSelector::default(),
             parts: Vec::new(),
             in_frustum: Vec::new(),
+            view: None,
         })
     }
 
@@ -139,7 +142,8 @@ impl LodRun {
     ) -> Result<(LodFrame, f64), LodError> {
         let lod = &*self.setup.hierarchies;
         let start = Instant::now();
-        let Some(lod_view) = LodView::new(view) else {
+        self.view = LodView::new(view);
+        let Some(lod_view) = &self.view else {
             // A view without a frustum draws nothing (the culler refused it first).
             return Ok((LodFrame::default(), 0.0));
         };
@@ -147,7 +151,7 @@ impl LodRun {
             scene,
             lod,
             visible,
-            &lod_view,
+            lod_view,
             &self.setup.options,
             &mut |corners| culler.box_hidden(corners),
             &mut self.parts,
@@ -156,29 +160,21 @@ impl LodRun {
         let start = Instant::now();
         renderer.render_parts(scene, &draw_parts(scene, lod, &self.parts), camera, draw, fb);
         let render_ms = ms_since(start);
-        let view_only = LodOptions {
-            guidance: false,
-            ..self.setup.options
-        };
         self.in_frustum.clear();
         self.in_frustum.extend_from_slice(visible);
         self.in_frustum.extend_from_slice(occluded);
-        self.in_frustum.sort_unstable();
         let mut parts = Vec::new();
-        record.lod_view_only_triangles = self
-            .view_only
-            .select(
-                scene,
-                lod,
-                &self.in_frustum,
-                &lod_view,
-                &view_only,
-                &mut |_| false,
-                &mut parts,
-            )?
-            .triangles;
+        record.lod_view_only_triangles = by_view_alone(
+            &mut self.view_only,
+            &self.setup,
+            scene,
+            &self.in_frustum,
+            lod_view,
+            &mut parts,
+        )?
+        .triangles;
         if let Some((selector, unguided_fb)) = self.unguided.as_mut() {
-            let unguided = selector.select(scene, lod, visible, &lod_view, &view_only, &mut |_| false, &mut parts)?;
+            let unguided = by_view_alone(selector, &self.setup, scene, visible, lod_view, &mut parts)?;
             renderer.render_parts(scene, &draw_parts(scene, lod, &parts), camera, draw, unguided_fb);
             let changed = fb
                 .color()
@@ -192,31 +188,41 @@ impl LodRun {
         }
         Ok((record, render_ms))
     }
-}
 
-impl LodRun {
-    /// Triangles of view-only level of detail over the objects `oracle_visible`.
-    pub fn oracle_triangles(&mut self, scene: &Scene, view: &View, oracle_visible: &[u32]) -> Result<u64, LodError> {
-        let Some(lod_view) = LodView::new(view) else {
+    /// Triangles of view-only level of detail over the objects
+    /// `oracle_visible`, from the last [`LodRun::frame`]'s view.
+    pub fn oracle_triangles(&mut self, scene: &Scene, oracle_visible: &[u32]) -> Result<u64, LodError> {
+        let Some(lod_view) = &self.view else {
             return Ok(0);
         };
-        let options = LodOptions {
-            guidance: false,
-            ..self.setup.options
-        };
         let mut parts = Vec::new();
-        let lod = &*self.setup.hierarchies;
-        let stats = self.oracle.select(
+        Ok(by_view_alone(
+            &mut self.oracle,
+            &self.setup,
             scene,
-            lod,
             oracle_visible,
-            &lod_view,
-            &options,
-            &mut |_| false,
+            lod_view,
             &mut parts,
-        )?;
-        Ok(stats.triangles)
+        )?
+        .triangles)
     }
+}
+
+/// `selector`'s selection of `ids` with `setup`'s threshold or budget and
+/// guidance off: refinement by the view alone.
+fn by_view_alone(
+    selector: &mut LodSelector,
+    setup: &WalkLod,
+    scene: &Scene,
+    ids: &[u32],
+    view: &LodView,
+    parts: &mut Vec<LodPart>,
+) -> Result<LodStats, LodError> {
+    let options = LodOptions {
+        guidance: false,
+        ..setup.options
+    };
+    selector.select(scene, &setup.hierarchies, ids, view, &options, &mut |_| false, parts)
 }
 
 /// The renderer's parts for selected nodes.

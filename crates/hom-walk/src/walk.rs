@@ -203,7 +203,7 @@ pub fn walk(
 
         let mut lod_frame = lod_frame;
         if let (Some(run), Some(o), Some(l)) = (lod.as_mut(), &oracle, lod_frame.as_mut()) {
-            l.lod_oracle_triangles = Some(run.oracle_triangles(scene, &view, &o.oracle_visible)?);
+            l.lod_oracle_triangles = Some(run.oracle_triangles(scene, &o.oracle_visible)?);
         }
         if let (Some(items), Some(l)) = (&lod_items, lod_frame.as_mut()) {
             // `fb` now holds the oracle's visible objects drawn whole: the owners

@@ -2,13 +2,13 @@
 //! 1999, section 5).
 
 use crate::args::{PvsBakeArgs, PvsCheckArgs};
+use crate::setup::progress_of;
 use anyhow::{bail, Context, Result};
 use hom::geom::{Aabb, Camera};
 use hom::glam::Vec3;
 use hom::pvs::{Pvs, PvsConfig, Shard};
 use hom_render::{Framebuffer, Renderer};
 use hom_scene::CameraPath;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -69,13 +69,7 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         ..config_for(&path, a.cell_size, a.min_polygon_area, a.pad)
     };
     let shard = a.shard.unwrap_or(Shard::WHOLE);
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix:>12} [{bar:40}] {pos}/{len} blocks, {eta} left")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    bar.set_prefix("pvs bake");
+    let bar = progress_of(0, "pvs bake", "blocks");
     let start = Instant::now();
     let pvs = Pvs::bake(&scene, &eyes, &moving, &config, shard, &|done, total| {
         bar.set_length(total as u64);

@@ -1,7 +1,7 @@
 //! `hom render`: one frame of a scene's path to a PNG, plain or in false colour.
 
 use crate::args::{HomArgs, RenderArgs};
-use crate::setup::{culler_settings, make_culler, open, Walkthrough};
+use crate::setup::{culler_settings, make_culler, make_culler_after_pvs, open, Walkthrough};
 use anyhow::{bail, Context, Result};
 use hom::cull::{CullOutput, Culler, HomCuller, PvsCuller};
 use hom::geom::Aabb;
@@ -51,10 +51,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     } else {
         w.go_to(a.frame, frame_rate);
         let camera = w.path.camera(a.frame);
-        let mut culler = make_culler(&a.view.culler, &w.scene, &a.view.hom)?;
-        if let Some(p) = &pvs {
-            culler = Box::new(PvsCuller::new(&w.scene, p.clone(), culler)?);
-        }
+        let mut culler = make_culler_after_pvs(&a.view.culler, &w.scene, &a.view.hom, pvs.as_ref())?;
         let mut cull = CullOutput::default();
         culler.cull(&w.scene, &camera.to_view(), &mut cull)?;
         let mut fb = Framebuffer::new(camera.width, camera.height);
@@ -117,10 +114,7 @@ fn write_lod_pictures(
     w.go_to(a.frame, frame_rate);
     let (scene, camera) = (&w.scene, w.path.camera(a.frame));
     let view = camera.to_view();
-    let mut culler = make_culler(&a.view.culler, scene, &a.view.hom)?;
-    if let Some(p) = pvs {
-        culler = Box::new(PvsCuller::new(scene, p.clone(), culler)?);
-    }
+    let mut culler = make_culler_after_pvs(&a.view.culler, scene, &a.view.hom, pvs)?;
     let mut cull = CullOutput::default();
     renderer.install(|| culler.cull(scene, &view, &mut cull))?;
     let lod_view = LodView::new(&view).context("the frame's view has no frustum")?;

@@ -4,10 +4,9 @@
 use super::render::write_false_colour;
 use super::{busiest_frame, write_stage_chart};
 use crate::args::{HomArgs, WalkArgs};
-use crate::setup::{culler_settings, lod_for, make_culler, open, open_map_view, progress, Walkthrough};
+use crate::setup::{culler_settings, lod_for, make_culler_after_pvs, open, open_map_view, progress, Walkthrough};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
-use hom::cull::PvsCuller;
 use hom::pvs::Pvs;
 use hom_render::Renderer;
 use hom_scene::bsp::BspMap;
@@ -155,10 +154,7 @@ fn run_walk_pvs(
 ) -> Result<(WalkResult, Option<PvsSummary>)> {
     let Walkthrough { scene, path, animation } = w;
     let (scene, path, animation) = (scene, &*path, &*animation);
-    let mut culler = make_culler(culler_name, scene, hom)?;
-    if let Some(p) = &baked {
-        culler = Box::new(PvsCuller::new(scene, p.clone(), culler)?);
-    }
+    let mut culler = make_culler_after_pvs(culler_name, scene, hom, baked.as_ref())?;
     let measure_baked = baked.as_ref().filter(|_| options.oracle);
     // The yardstick reads the scene while the walk moves it: a copy as it
     // starts (the bake left moving objects out, so their motion changes nothing).

@@ -21,7 +21,7 @@
 
 use super::{LodError, LodHierarchy, SceneLod};
 use crate::geom::{Aabb, Containment, Frustum, View};
-use crate::scene::Scene;
+use crate::scene::{Object, Scene};
 use glam::{Mat4, Vec3};
 use std::collections::BinaryHeap;
 
@@ -165,20 +165,40 @@ pub struct LodSelector {
     memo: Vec<Class>,
     touched: Vec<u32>,
     scratch: Vec<u32>,
+    stack: Vec<u32>,
 }
 
 /// The world data of one object during a selection.
 struct Eval<'a> {
     h: &'a LodHierarchy,
     transform: Mat4,
-    /// The transform's largest scale factor: mesh error to world error.
+    /// The transform's largest axis scale: mesh error to world error
+    /// (rotations and axis scales; a shear would need its largest singular value).
     scale: f32,
     view: &'a LodView,
     error_px: f32,
     guided: bool,
 }
 
-impl Eval<'_> {
+impl<'a> Eval<'a> {
+    /// Object `object`'s hierarchy seen from `view`; `error_px` is the threshold.
+    fn of(lod: &'a SceneLod, object: &Object, view: &'a LodView, error_px: f32, guided: bool) -> Eval<'a> {
+        let m = &object.transform;
+        Eval {
+            h: lod.hierarchy(object.mesh),
+            transform: *m,
+            scale: m
+                .x_axis
+                .truncate()
+                .length()
+                .max(m.y_axis.truncate().length())
+                .max(m.z_axis.truncate().length()),
+            view,
+            error_px,
+            guided,
+        }
+    }
+
     fn world_box(&self, node: u32) -> Aabb {
         self.h.nodes()[node as usize].bounds.transformed(&self.transform)
     }
@@ -200,24 +220,22 @@ impl Eval<'_> {
         if self.view.error_px(n.error * self.scale, &world) <= self.error_px {
             return Class::Fine;
         }
-        if self.guided {
-            stats.hidden_tests += 1;
-            let corners = n.bounds.corners().map(|p| self.transform.transform_point3(p));
-            if hidden(&corners) {
-                return Class::Hidden;
-            }
+        if self.guided && self.is_hidden(node, hidden, stats) {
+            return Class::Hidden;
         }
         Class::Refine
     }
-}
 
-/// The largest factor by which `m` stretches a length.
-fn max_scale(m: &Mat4) -> f32 {
-    m.x_axis
-        .truncate()
-        .length()
-        .max(m.y_axis.truncate().length())
-        .max(m.z_axis.truncate().length())
+    /// Asks `hidden` about the node's box in the world (its eight corners
+    /// transformed: tighter than the world box of a rotated object).
+    fn is_hidden(&self, node: u32, hidden: &mut dyn FnMut(&[Vec3; 8]) -> bool, stats: &mut LodStats) -> bool {
+        stats.hidden_tests += 1;
+        let corners = self.h.nodes()[node as usize]
+            .bounds
+            .corners()
+            .map(|p| self.transform.transform_point3(p));
+        hidden(&corners)
+    }
 }
 
 impl LodSelector {
@@ -260,15 +278,8 @@ impl LodSelector {
                     if object.is_removed() {
                         continue;
                     }
-                    stats.coarsest_triangles += u64::from(lod.hierarchy(object.mesh).nodes()[0].triangle_count());
-                    let eval = Eval {
-                        h: lod.hierarchy(object.mesh),
-                        transform: object.transform,
-                        scale: max_scale(&object.transform),
-                        view,
-                        error_px: options.error_px,
-                        guided: options.guidance,
-                    };
+                    let eval = Eval::of(lod, object, view, options.error_px, options.guidance);
+                    stats.coarsest_triangles += u64::from(eval.h.nodes()[0].triangle_count());
                     self.move_front(id, &eval, hidden, &mut stats);
                     self.draw_front(id, &eval, parts, &mut stats);
                 }
@@ -300,6 +311,7 @@ impl LodSelector {
         };
         let next = &mut self.scratch;
         next.clear();
+        let stack = &mut self.stack;
         let mut i = 0;
         while i < front.len() {
             let a = front[i];
@@ -326,7 +338,8 @@ impl LodSelector {
                 continue;
             }
             // Refine `a` as far as needed (depth first keeps pre-order).
-            let mut stack = vec![a];
+            stack.clear();
+            stack.push(a);
             while let Some(n) = stack.pop() {
                 if class(n, &mut self.memo, &mut self.touched) == Class::Refine {
                     let at = stack.len();
@@ -402,20 +415,7 @@ impl LodSelector {
         let evals: Vec<(u32, Eval)> = visible
             .iter()
             .filter(|&&id| !scene.object(id).is_removed())
-            .map(|&id| {
-                let o = scene.object(id);
-                (
-                    id,
-                    Eval {
-                        h: lod.hierarchy(o.mesh),
-                        transform: o.transform,
-                        scale: max_scale(&o.transform),
-                        view,
-                        error_px: 0.0,
-                        guided: options.guidance,
-                    },
-                )
-            })
+            .map(|&id| (id, Eval::of(lod, scene.object(id), view, 0.0, options.guidance)))
             .collect();
         let mut heap = BinaryHeap::new();
         let mut total = 0u64;
@@ -446,16 +446,9 @@ impl LodSelector {
                 drawn.push(leave(Class::Fine));
                 continue;
             }
-            if e.guided {
-                stats.hidden_tests += 1;
-                let corners = e.h.nodes()[n as usize]
-                    .bounds
-                    .corners()
-                    .map(|p| e.transform.transform_point3(p));
-                if hidden(&corners) {
-                    drawn.push(leave(Class::Hidden));
-                    continue;
-                }
+            if e.guided && e.is_hidden(n, hidden, stats) {
+                drawn.push(leave(Class::Hidden));
+                continue;
             }
             let count = |n: u32| u64::from(e.h.nodes()[n as usize].triangle_count());
             let grown = total - count(n) + e.h.children(n).map(count).sum::<u64>();
@@ -551,15 +544,7 @@ mod tests {
                 continue; // the budget's cut is not a threshold cut; the next frame moves from it
             }
             for &id in &ids {
-                let o = scene.object(id);
-                let eval = Eval {
-                    h: lod.hierarchy(o.mesh),
-                    transform: o.transform,
-                    scale: max_scale(&o.transform),
-                    view: &view,
-                    error_px: options.error_px,
-                    guided: options.guidance,
-                };
+                let eval = Eval::of(&lod, scene.object(id), &view, options.error_px, options.guidance);
                 let mut stats = LodStats::default();
                 let want = top_down_cut(eval.h, |n| eval.classify(n, &mut hidden, &mut stats) == Class::Refine);
                 assert_eq!(selector.front(id), want.as_slice(), "frame {frame}, object {id}");
