@@ -1,13 +1,15 @@
 //! The cost of one culler alone, without rendering: the built-in scene's walk
 //! (its first 100 frames) culled three times over on two threads, the first
 //! pass a warm-up; prints the mean cull time per frame and the mean of each
-//! stage. For A/B measurements on a noisy machine, build two binaries and
-//! run them alternately.
+//! stage, then the mean of each counter in brackets (occluder triangles,
+//! setup and raster microseconds, …). For A/B measurements on a noisy
+//! machine, build two binaries and run them alternately.
 //!
 //! `cargo run --release -p hom-walk --example cull_time -- masked city [PASSES]`
 //! (PASSES, default 3, counts the warm-up; more passes give a profiler more
 //! cull time to sample beside the occluder bake). `CULL_THREADS=N` sets the
-//! pool's thread count (default 2), `CULL_BUDGET=L` the occluder budget.
+//! pool's thread count (default 2), `CULL_BUDGET=L` the occluder budget;
+//! `CULL_NO_COST_MODEL=1` keeps HOM and HZB from resting.
 
 use hom::cull::CullOutput;
 use hom_walk::cullers::{make, CullerSettings};
@@ -40,6 +42,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(b) = std::env::var("CULL_BUDGET").ok().and_then(|b| b.parse().ok()) {
         settings.hom.occluders.selection.budget = b;
     }
+    if std::env::var("CULL_NO_COST_MODEL").is_ok() {
+        settings.hom.cost_model = false;
+    }
     let mut c = make(culler, &scene, &settings)?;
     let threads = std::env::var("CULL_THREADS")
         .ok()
@@ -52,6 +57,7 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut out = CullOutput::default();
     let mut stages: BTreeMap<&'static str, f64> = BTreeMap::new();
+    let mut counters: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut timed = 0.0;
     for pass in 0..passes {
         let start = Instant::now();
@@ -61,6 +67,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             if pass > 0 {
                 for (k, v) in &out.stages {
                     *stages.entry(*k).or_insert(0.0) += v;
+                }
+                for (k, v) in &out.counters {
+                    *counters.entry(*k).or_insert(0.0) += *v as f64;
                 }
             }
         }
@@ -72,6 +81,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     println!("{culler} {scene_name}: {:.3} ms per frame", timed / n);
     for (k, v) in stages {
         println!("  {k}: {:.3} ms", v / n);
+    }
+    for (k, v) in counters {
+        println!("  [{k}] {:.1}", v / n);
     }
     Ok(())
 }

@@ -259,7 +259,9 @@ impl OccluderCulling {
 
     /// The timed stage `raster`: clears `buffer`, queues this frame's
     /// occluders nearest first and draws them. Returns the occluder
-    /// triangles submitted.
+    /// triangles submitted; the buffer's own account of the work goes to
+    /// the counters (`occluder_triangles_drawn` after clipping and culling,
+    /// `occluder_setup_us` and `occluder_raster_us`, the tiles drawn and rejected).
     pub fn draw(
         &self,
         scene: &Scene,
@@ -267,7 +269,7 @@ impl OccluderCulling {
         buffer: &mut impl OcclusionBuffer,
         out: &mut CullOutput,
     ) -> u64 {
-        out.time("raster", || {
+        let drawn = out.time("raster", || {
             buffer.clear();
             let n = draw_occluders(
                 buffer,
@@ -281,7 +283,14 @@ impl OccluderCulling {
             );
             buffer.flush();
             n
-        })
+        });
+        let stats = buffer.stats();
+        out.count("occluder_triangles_drawn", stats.triangles_drawn);
+        out.count("occluder_setup_us", (stats.setup_ms * 1e3) as u64);
+        out.count("occluder_raster_us", (stats.raster_ms * 1e3) as u64);
+        out.count("occluder_tiles_drawn", stats.tiles_drawn);
+        out.count("occluder_tiles_rejected", stats.tiles_rejected);
+        drawn
     }
 
     /// Ends a frame: the timed traversal with `is_occluded` deciding each
