@@ -398,10 +398,18 @@ impl<'a> Band<'a> {
             // inside take the fast path (no masks to build).
             let (full_lo, full_hi) = (x0 as i32 + cover.all.0, x0 as i32 + cover.all.1);
             let rb = rb - 1;
+            // Never farther than any subtile's far depth below (`far_depth_grid`
+            // over parts of these rows and columns): a tile whose every reference
+            // depth is nearer than it learns nothing, as `nearer` would find.
+            let nearest = t.depth_bounds(lo, hi - 1, ra, rb).0;
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
                 let x_tile0 = tx * MASK_TILE_W;
                 let k_tile = (ty * tiles_x + tx) as usize;
                 stats.tiles_drawn += 1;
+                if nearest >= self.tiles[k_tile].far() {
+                    stats.tiles_rejected += 1;
+                    continue;
+                }
                 // The covered part of this tile lies in these columns and rows.
                 let (ca, cb) = (lo.max(x_tile0), hi.min(x_tile0 + MASK_TILE_W) - 1);
                 // Per subtile, its part of that (an empty part: any cell, unused).
