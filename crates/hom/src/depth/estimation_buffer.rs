@@ -12,10 +12,11 @@
 //!   holds at least the box's farthest depth, which bounds the occluder's depth
 //!   at the sample.
 //! - [`DepthEstimationBuffer::cells_mut`] with [`crate::raster::OccluderRasterizer`]:
-//!   while rasterizing coverage, each cell keeps the farthest depth the
-//!   renderer's own depth formula gives at any covered sample in it. Exact per
-//!   sample, so far tighter where occluder boxes are long in depth (a street
-//!   facade), at no extra pass.
+//!   while rasterizing coverage, each cell keeps at least the farthest depth
+//!   the renderer's own depth formula gives at any sample first covered in
+//!   it (a bound made once per run of rows from the samples themselves), so
+//!   far tighter where occluder boxes are long in depth (a street facade),
+//!   at no extra pass.
 
 use crate::geom::ScreenRect;
 

@@ -34,9 +34,11 @@ pub enum Opacity {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthMode {
     /// A depth estimation buffer of this many cells (columns, rows), each
-    /// holding the farthest depth of the occluders' *rasterized samples* in it,
-    /// gathered during the coverage raster (the default: exact per sample, so
-    /// long occluders such as street facades do not push depth far away).
+    /// holding a bound of the farthest depth of the occluders' *rasterized
+    /// samples* in it (those each occluder covered first), gathered during
+    /// the coverage raster (the default: from the samples themselves, so
+    /// long occluders such as street facades do not push depth far away;
+    /// `raster/coverage.rs` states the bound).
     Rasterized(u32, u32),
     /// The paper's depth estimation buffer (section 5.2.2): each occluder's
     /// (each `render_*` call's) screen rectangle written with its farthest depth.

@@ -86,23 +86,28 @@ pub(crate) fn set_span(row: &mut [u64], lo: u32, hi: u32) {
     }
 }
 
-/// Sets bits `lo..hi` of a row and calls `fresh(base, bits)` for each word
-/// where some were not set before (`bits` bit `i` is sample `base + i`).
+/// Sets bits `lo..hi` of row `py` and ORs the ones not set before into
+/// `fresh` (a row's worth of words), widening `rows[w]` (first and last
+/// row) to `py` for each word `w` that took any; whether there were any.
 #[inline]
-fn set_span_reporting(row: &mut [u64], lo: u32, hi: u32, mut fresh: impl FnMut(u32, u64)) {
+fn set_span_fresh(row: &mut [u64], fresh: &mut [u64], rows: &mut [(u32, u32)], py: u32, lo: u32, hi: u32) -> bool {
+    let mut any = 0;
     let mut x = lo;
     while x < hi {
         let bit = x % 64;
         let n = (64 - bit).min(hi - x);
         let mask = if n == 64 { u64::MAX } else { ((1u64 << n) - 1) << bit };
-        let word = &mut row[(x / 64) as usize];
-        let new = mask & !*word;
-        *word |= mask;
+        let w = (x / 64) as usize;
+        let new = mask & !row[w];
+        row[w] |= mask;
         if new != 0 {
-            fresh(x - bit, new);
+            fresh[w] |= new;
+            rows[w] = (rows[w].0.min(py), py);
         }
+        any |= new;
         x += n;
     }
+    any != 0
 }
 
 /// ORs `mask` (bit `k` is sample `x + k`) into a row.
@@ -118,25 +123,31 @@ fn or_mask(row: &mut [u64], x: u32, mask: u64) {
     }
 }
 
-/// [`or_mask`], calling `fresh(base, bits)` for each word where some bits were
-/// not set before, exactly as [`set_span_reporting`] does for the same samples.
+/// [`or_mask`] into row `py`, keeping `fresh` and `rows` as
+/// [`set_span_fresh`] does; whether any bit was not set before.
 #[inline]
-fn or_mask_reporting(row: &mut [u64], x: u32, mask: u64, mut fresh: impl FnMut(u32, u64)) {
+fn or_mask_fresh(row: &mut [u64], fresh: &mut [u64], rows: &mut [(u32, u32)], py: u32, x: u32, mask: u64) -> bool {
     let (w, bit) = ((x / 64) as usize, x % 64);
-    let mut put = |w: usize, bits: u64| {
-        let new = bits & !row[w];
-        row[w] |= bits;
-        if new != 0 {
-            fresh(w as u32 * 64, new);
-        }
-    };
-    put(w, mask << bit);
+    let low = mask << bit;
+    let mut new = low & !row[w];
+    row[w] |= low;
+    if new != 0 {
+        fresh[w] |= new;
+        rows[w] = (rows[w].0.min(py), py);
+    }
     if bit != 0 {
         let high = mask >> (64 - bit);
         if high != 0 {
-            put(w + 1, high);
+            let n = high & !row[w + 1];
+            row[w + 1] |= high;
+            if n != 0 {
+                fresh[w + 1] |= n;
+                rows[w + 1] = (rows[w + 1].0.min(py), py);
+            }
+            new |= n;
         }
     }
+    new != 0
 }
 
 /// A column's depth cell without a division: `x / w` as a multiply and a
@@ -165,65 +176,69 @@ impl CellOf {
     }
 }
 
-/// Raises each depth cell over the newly covered samples `fresh` (bit `i` is
-/// sample `base + i`) to the farthest depth `z` at them. `z` is monotone along
-/// the row (its roundings are), rising when `rising`, so the farthest of a
-/// cell's new samples is its last one then, its first one otherwise.
+/// Raises the depth cells over a triangle's first-covered samples in one
+/// run of rows, and empties the run's scratch: `fresh` holds the samples
+/// (bit `i` of word `k` is sample `base + 64k + i`, OR-ed over the rows) and
+/// `rows[k]` the first and last rows where word `k` took any. Each cell's
+/// part of a word rises to the depth at its farthest such column — its last
+/// when the depth rises along rows (`rising`), its first otherwise — in the
+/// farther of those two rows: the depth formula is monotone in the column
+/// and in the row (its roundings are), so that is at least the depth at
+/// every sample concerned. `row_depth` and `depth_in_row` are
+/// [`Tri::depth_row`] and [`Tri::depth_in_row`] (by column).
 #[inline]
-fn raise_cells(cells: &mut [f32], cell_of: CellOf, base: u32, fresh: u64, rising: bool, z: impl Fn(u32) -> f32) {
-    let mut m = fresh;
-    while m != 0 {
-        let first = base + m.trailing_zeros();
-        let cell = cell_of.of(first);
-        let upto = ((cell + 1) * cell_of.w).min(base + 64) - base;
-        let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
-        let far = if rising {
-            base + 63 - in_cell.leading_zeros()
-        } else {
-            first
-        };
-        let c = &mut cells[cell as usize];
-        *c = c.max(z(far));
-        m &= !in_cell;
+fn raise_fresh_cells(
+    cells: &mut [f32],
+    cell_of: CellOf,
+    fresh: &mut [u64],
+    rows: &mut [(u32, u32)],
+    base: u32,
+    rising: bool,
+    row_depth: impl Fn(u32) -> f32,
+    depth_in_row: impl Fn(f32, u32) -> f32,
+) {
+    for (k, (word, r)) in fresh.iter_mut().zip(rows.iter_mut()).enumerate() {
+        let mut m = std::mem::take(word);
+        let (ra, rb) = std::mem::replace(r, (u32::MAX, 0));
+        if m == 0 {
+            continue;
+        }
+        let (za, zb) = (row_depth(ra), row_depth(rb));
+        let base = base + 64 * k as u32;
+        while m != 0 {
+            let first = base + m.trailing_zeros();
+            let cell = cell_of.of(first);
+            let upto = ((cell + 1) * cell_of.w).min(base + 64) - base;
+            let in_cell = if upto == 64 { m } else { m & ((1u64 << upto) - 1) };
+            let far = if rising {
+                base + 63 - in_cell.leading_zeros()
+            } else {
+                first
+            };
+            let c = &mut cells[cell as usize];
+            *c = c.max(depth_in_row(za, far).max(depth_in_row(zb, far)));
+            m &= !in_cell;
+        }
     }
 }
 
-/// Whether none of bits `lo..hi` of a row is set.
-#[inline]
-fn span_is_empty(row: &[u64], lo: u32, hi: u32) -> bool {
-    let (wa, wb) = ((lo / 64) as usize, ((hi - 1) / 64) as usize);
-    let head = u64::MAX << (lo % 64);
-    let tail = u64::MAX >> (63 - (hi - 1) % 64);
-    if wa == wb {
-        return row[wa] & head & tail == 0;
-    }
-    row[wa] & head == 0 && row[wb] & tail == 0 && row[wa + 1..wb].iter().all(|&w| w == 0)
+/// Where a triangle's rows come from: exact spans, or a vector kernel's masks.
+enum Rows {
+    Spans(Stepper, [(u32, u32); MASK_ROWS]),
+    Masks([u64; MASK_ROWS]),
 }
 
-/// [`raise_cells`] for a whole span `lo..hi` of newly covered samples (none
-/// was covered before): each cell's farthest new sample is where the span
-/// enters or leaves it, so no bits are scanned.
-#[inline]
-fn raise_cells_of_span(cells: &mut [f32], cell_of: CellOf, lo: u32, hi: u32, rising: bool, z: impl Fn(u32) -> f32) {
-    let (ca, cb) = (cell_of.of(lo), cell_of.of(hi - 1));
-    for cell in ca..=cb {
-        let start = cell * cell_of.w;
-        let far = if rising {
-            (start + cell_of.w).min(hi) - 1
-        } else {
-            start.max(lo)
-        };
-        let c = &mut cells[cell as usize];
-        *c = c.max(z(far));
-    }
-}
-
-/// Rows per parallel band (whole rows of depth cells when gathering depth,
-/// at least this many). Each band tests every triangle reaching it, so
-/// taller bands test fewer: 32 against 16 cut the coverage raster by 3–11 %
-/// on city, office and sculpture-park (one and two threads, 7 alternating
-/// runs of `cull_time`, 2026-12-04); 64 was no better than 32.
+/// Rows per parallel band when no depth is gathered.
 const BAND_ROWS: u32 = 32;
+
+/// Rows whose first covers share one depth evaluation per cell and word
+/// (runs start at multiples of it, within a row of depth cells). Raising
+/// cells once per run of a whole row of 16-row cells instead of once per row
+/// cost HOM's coverage raster 7–13 % less at two threads on city, office and
+/// sculpture-park, and changed no scene's efficiency (each word's own first
+/// and last rows keep the bound tight; the run's would lose 2.5 points on
+/// sculpture-park).
+const RUN_ROWS: u32 = 16;
 
 /// Rows whose masks a vector kernel computes per call.
 const MASK_ROWS: usize = 32;
@@ -264,8 +279,11 @@ impl CoverageRasterizer {
     /// drawn in order.
     ///
     /// With `depth` (laid over the same viewport), also raises each cell to
-    /// the farthest depth the renderer computes at any sample *first* covered
-    /// in it by these triangles; a cell where nothing is covered holds
+    /// at least the depth the renderer computes at every sample *first*
+    /// covered in it by these triangles: per triangle, run of rows
+    /// ([`RUN_ROWS`]) and 64-sample word, the depth at the cell's farthest
+    /// first-covered column there, in the farther of the word's first and
+    /// last rows with a first cover. A cell where nothing is covered holds
     /// `f32::INFINITY`. Submitting occluders nearest first makes that mostly
     /// the nearest occluder's depth; in any order it bounds it from above.
     pub fn rasterize(
@@ -276,7 +294,8 @@ impl CoverageRasterizer {
     ) {
         let height = coverage.height;
         // Bands of rows: whole rows of depth cells when gathering depth, so
-        // every band writes only its own cells; at least `BAND_ROWS` rows.
+        // every band writes only its own cells; at least `BAND_ROWS` rows
+        // (small cells: a band of 4 rows cost more per triangle than it drew).
         let (cols, cell_w, cell_h) = match depth.as_deref() {
             Some(d) => (d.size().0 as usize, d.cell_size().0, d.cell_size().1),
             None => (0, 1, BAND_ROWS),
@@ -326,7 +345,14 @@ impl CoverageRasterizer {
                         *c = f32::NEG_INFINITY;
                     }
                 }
-                let mut masks = [0u64; MASK_ROWS];
+                // This triangle's first-covered samples in the current row of cells, OR-ed over its rows.
+                let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
+                // Per word, the first and last rows of the run where it took new samples.
+                let mut fresh_rows = if gather {
+                    vec![(u32::MAX, 0u32); wpr]
+                } else {
+                    Vec::new()
+                };
                 // Per word column (64 samples): whether every row of the band covers
                 // it wholly, and (made when asked, after the column was drawn in)
                 // the samples every row covers. A triangle whose box lies in full
@@ -366,69 +392,75 @@ impl CoverageRasterizer {
                         continue;
                     }
                     let x0 = u32::from(t.x0);
-                    // Depth at sample x of row py. Only samples this triangle covers first
-                    // set depth: occluders come nearest first, so that is mostly the
-                    // visible occluder, and in any order the first cover's depth bounds
-                    // the nearest from above.
-                    let z = |zr: f32, x: u32| t.depth_in_row(zr, (x - x0) as i32);
-                    let rising = t.dzdx >= 0.0;
-                    if backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX {
-                        // Exact spans stepped row to row (`Tri::row_span`'s, without its divisions).
+                    let wide = backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX;
+                    // Rows come from exact spans stepped row to row (`Tri::row_span`'s,
+                    // without its divisions) or from a vector kernel's bit masks.
+                    let (ta, tb, mut rows) = if wide {
                         let edges = ScanEdges::new(t);
                         let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
                         if ta >= tb {
                             continue; // no covered row in this band: nothing to set up or mark full
                         }
-                        let mut stepper = Stepper::new(t, &edges, ta);
-                        let mut spans = [(0u32, 0u32); MASK_ROWS];
-                        let mut py0 = ta;
-                        while py0 < tb {
-                            let spans = &mut spans[..((tb - py0) as usize).min(MASK_ROWS)];
-                            stepper.rows(spans);
-                            for (py, &(lo, hi)) in (py0..).zip(spans.iter()) {
-                                if lo >= hi {
-                                    continue;
-                                }
-                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                if gather {
-                                    let zr = t.depth_row(py);
-                                    let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
-                                    if span_is_empty(row, lo, hi) {
-                                        // First cover of the whole span (the common case, nearest first).
-                                        set_span(row, lo, hi);
-                                        raise_cells_of_span(cells, cell_of, lo, hi, rising, |x| z(zr, x));
-                                    } else {
-                                        set_span_reporting(row, lo, hi, |base, fresh| {
-                                            raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
-                                        });
-                                    }
-                                } else {
-                                    set_span(row, lo, hi);
-                                }
-                            }
-                            py0 += spans.len() as u32;
-                        }
+                        (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta), [(0, 0); MASK_ROWS]))
                     } else {
-                        let mut py0 = ta;
-                        while py0 < tb {
-                            let rows = &mut masks[..((tb - py0) as usize).min(MASK_ROWS)];
-                            row_masks(backend, t, py0, rows);
-                            for (py, &m) in (py0..).zip(rows.iter()) {
-                                if m == 0 {
-                                    continue;
+                        (ta, tb, Rows::Masks([0; MASK_ROWS]))
+                    };
+                    let mut py0 = ta;
+                    while py0 < tb {
+                        // One row of depth cells at a time (the whole band when not gathering).
+                        let run_end = if gather {
+                            tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
+                                .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
+                        } else {
+                            tb
+                        };
+                        // Some row of the run covered a sample first (then its first row).
+                        let mut fa = u32::MAX;
+                        while py0 < run_end {
+                            let n = ((run_end - py0) as usize).min(MASK_ROWS);
+                            match &mut rows {
+                                Rows::Spans(stepper, spans) => {
+                                    stepper.rows(&mut spans[..n]);
+                                    for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
+                                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                        if lo >= hi {
+                                            continue;
+                                        } else if !gather {
+                                            set_span(row, lo, hi);
+                                        } else if set_span_fresh(row, &mut fresh, &mut fresh_rows, py, lo, hi) {
+                                            fa = fa.min(py);
+                                        }
+                                    }
                                 }
-                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                if gather {
-                                    let zr = t.depth_row(py);
-                                    let cells = &mut cells[((py - y0) / cell_h) as usize * cols..][..cols];
-                                    or_mask_reporting(row, x0, m, |base, fresh| {
-                                        raise_cells(cells, cell_of, base, fresh, rising, |x| z(zr, x))
-                                    });
-                                } else {
-                                    or_mask(row, x0, m);
+                                Rows::Masks(masks) => {
+                                    row_masks(backend, t, py0, &mut masks[..n]);
+                                    for (py, &m) in (py0..).zip(&masks[..n]) {
+                                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                        if m == 0 {
+                                            continue;
+                                        } else if !gather {
+                                            or_mask(row, x0, m);
+                                        } else if or_mask_fresh(row, &mut fresh, &mut fresh_rows, py, x0, m) {
+                                            fa = fa.min(py);
+                                        }
+                                    }
                                 }
                             }
-                            py0 += rows.len() as u32;
+                            py0 += n as u32;
+                        }
+                        if fa != u32::MAX {
+                            let cells = &mut cells[((fa - y0) / cell_h) as usize * cols..][..cols];
+                            let words_of_tri = usize::from(t.x0) / 64..=(usize::from(t.x1) - 1) / 64;
+                            raise_fresh_cells(
+                                cells,
+                                cell_of,
+                                &mut fresh[words_of_tri.clone()],
+                                &mut fresh_rows[words_of_tri],
+                                x0 - x0 % 64,
+                                t.dzdx >= 0.0,
+                                |py| t.depth_row(py),
+                                |zr, x| t.depth_in_row(zr, (x - x0) as i32),
+                            );
                         }
                     }
                     for c in wa..=wb {
@@ -455,6 +487,7 @@ mod tests {
     use glam::{Mat4, Quat, Vec3};
     use hom_testkit::Rng;
     use proptest::prelude::*;
+    use std::collections::BTreeMap;
 
     /// `hom_testkit::cube()`'s twin: the kit's is a `Mesh` of the non-test
     /// compilation of this crate, a different type here.
@@ -577,8 +610,10 @@ mod tests {
     /// Layered screen-sized quads and small triangles, in random order, so
     /// that word columns fill up and later triangles are skipped: coverage
     /// is the union of the renderer's coverage, and each depth cell the
-    /// farthest depth at any sample of it where a triangle covered it first
-    /// (brute force, sample by sample, in submission order).
+    /// farthest, over the triangles, runs of rows and 64-sample words, of
+    /// the depth at the cell's farthest column covered first there, in the
+    /// word's first and last rows with a first cover (brute force, sample
+    /// by sample, in submission order).
     #[test]
     fn skipping_full_columns_changes_nothing() {
         use glam::Vec4;
@@ -596,10 +631,10 @@ mod tests {
                 } else {
                     let (x0, y0) = (rng.range(-1.3, 0.2), rng.range(-1.3, 0.2));
                     let (x1, y1) = (rng.range(0.5, 1.3), rng.range(0.5, 1.3));
-                    let tilt = rng.range(-0.3, 0.3);
+                    let (tilt_x, tilt_y) = (rng.range(-0.3, 0.3), rng.range(-0.3, 0.3));
                     v.extend(
                         [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
-                            .map(|(x, y)| Vec4::new(x, y, (z + tilt * x).clamp(0.0, 1.0), 1.0)),
+                            .map(|(x, y)| Vec4::new(x, y, (z + tilt_x * x + tilt_y * y).clamp(0.0, 1.0), 1.0)),
                     );
                     idx.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
                 }
@@ -615,10 +650,11 @@ mod tests {
                 let mut deb = DepthEstimationBuffer::new(w, h, cols, rows);
                 CoverageRasterizer::with_backend(backend).rasterize(&mut cov, &tris, Some(&mut deb));
                 let (cw, ch) = deb.cell_size();
-                let mut want = vec![f32::NEG_INFINITY; deb.cells().len()];
+                // Each sample's first cover, grouped by triangle and row of cells.
+                let mut firsts: BTreeMap<(usize, u32, u32), Vec<(u32, u32)>> = BTreeMap::new();
                 for y in 0..h {
                     for x in 0..w {
-                        let first = tris.iter().find(|t| {
+                        let first = tris.iter().position(|t| {
                             (u32::from(t.x0)..u32::from(t.x1)).contains(&x)
                                 && (u32::from(t.y0)..u32::from(t.y1)).contains(&y)
                                 && t.covers(x, y)
@@ -628,9 +664,30 @@ mod tests {
                             first.is_some(),
                             "case {case} {backend:?}: sample {x},{y}"
                         );
-                        if let Some(t) = first {
-                            let c = &mut want[((y / ch) * deb.size().0 + x / cw) as usize];
-                            *c = c.max(t.depth_at(x, y));
+                        if let Some(i) = first {
+                            firsts.entry((i, y / ch, y / RUN_ROWS)).or_default().push((x, y));
+                        }
+                    }
+                }
+                // Per triangle, run of rows and word: the word's first and last rows
+                // with a first cover; each cell's part of the word rises to the depth at
+                // its farthest first-covered column there, in the farther of the two.
+                let mut want = vec![f32::NEG_INFINITY; deb.cells().len()];
+                for ((i, cell_row, _), samples) in &firsts {
+                    let t = &tris[*i];
+                    for word in 0..w.div_ceil(64) {
+                        let in_word = || samples.iter().filter(move |s| s.0 / 64 == word);
+                        let Some(fa) = in_word().map(|s| s.1).min() else {
+                            continue;
+                        };
+                        let fb = in_word().map(|s| s.1).max().unwrap();
+                        for cell in 0..deb.size().0 {
+                            let xs = in_word().map(|s| s.0).filter(|x| x / cw == cell);
+                            let far = if t.dzdx >= 0.0 { xs.max() } else { xs.min() };
+                            if let Some(x) = far {
+                                let c = &mut want[(cell_row * deb.size().0 + cell) as usize];
+                                *c = c.max(t.depth_at(x, fa)).max(t.depth_at(x, fb));
+                            }
                         }
                     }
                 }
@@ -641,23 +698,6 @@ mod tests {
                 }
                 assert_eq!(deb.cells(), &want[..], "case {case} {backend:?}: depth cells");
             }
-        }
-    }
-
-    /// `span_is_empty` against a bit-by-bit scan, on sparse random rows.
-    #[test]
-    fn span_is_empty_matches_a_bit_scan() {
-        let mut rng = Rng::new(5);
-        for _ in 0..20_000 {
-            let words = 1 + rng.below(5) as usize;
-            let row: Vec<u64> = (0..words)
-                .map(|_| if rng.below(3) == 0 { 1u64 << rng.below(64) } else { 0 })
-                .collect();
-            let n = words as u32 * 64;
-            let lo = rng.below(u64::from(n)) as u32;
-            let hi = lo + 1 + rng.below(u64::from(n - lo)) as u32;
-            let scan = (lo..hi).all(|x| row[(x / 64) as usize] >> (x % 64) & 1 == 0);
-            assert_eq!(span_is_empty(&row, lo, hi), scan, "{row:x?} {lo}..{hi}");
         }
     }
 
@@ -708,35 +748,31 @@ mod tests {
         }
     }
 
+    /// `or_mask_fresh` sets what `or_mask` sets, and `set_span_fresh` what
+    /// `set_span` sets; both report exactly the bits that were clear before,
+    /// and widen the rows of exactly the words that took some.
     #[test]
-    fn or_mask_matches_set_span() {
+    fn fresh_bits_are_the_newly_set_ones() {
+        let before = [0x0f0f_0000_0000_f0f0u64; 3];
+        let rows0 = [(5, 6), (u32::MAX, 0), (9, 9)];
         for x in 0..130u32 {
             for n in 1..=64u32.min(192 - x) {
                 for mask in [u64::MAX >> (64 - n), 1 | 1 << (n - 1), 0b1011 & (u64::MAX >> (64 - n))] {
-                    let mut a = [0x0f0f_0000_0000_f0f0u64; 3];
-                    let mut b = a;
-                    let mut got = Vec::new();
-                    let mut want = Vec::new();
-                    or_mask_reporting(&mut a, x, mask, |base, f| got.push((base, f)));
-                    let mut c = [0x0f0f_0000_0000_f0f0u64; 3];
+                    let (mut a, mut fa, mut ra) = (before, [0u64; 3], rows0);
+                    let any = or_mask_fresh(&mut a, &mut fa, &mut ra, 7, x, mask);
+                    let mut c = before;
                     or_mask(&mut c, x, mask);
-                    for k in 0..n {
-                        if mask >> k & 1 == 1 {
-                            set_span_reporting(&mut b, x + k, x + k + 1, |base, f| want.push((base, f)));
-                        }
+                    let (mut b, mut fb, mut rb) = (before, [0u64; 3], rows0);
+                    for k in (0..n).filter(|k| mask >> k & 1 == 1) {
+                        set_span_fresh(&mut b, &mut fb, &mut rb, 7, x + k, x + k + 1);
                     }
-                    assert_eq!(a, b, "x {x} n {n} mask {mask:x}");
-                    assert_eq!(c, b, "x {x} n {n} mask {mask:x}");
-                    // Per word, the reported fresh bits are the same.
-                    let merge = |v: Vec<(u32, u64)>| {
-                        let mut m = std::collections::BTreeMap::new();
-                        for (base, f) in v {
-                            *m.entry(base).or_insert(0u64) |= f;
-                        }
-                        m
-                    };
-                    assert_eq!(got.len(), merge(got.clone()).len(), "one report per word");
-                    assert_eq!(merge(got), merge(want));
+                    let new: [u64; 3] = std::array::from_fn(|w| c[w] & !before[w]);
+                    let rows: [(u32, u32); 3] =
+                        std::array::from_fn(|w| if new[w] != 0 { (rows0[w].0.min(7), 7) } else { rows0[w] });
+                    assert_eq!((a, b), (c, c), "x {x} n {n} mask {mask:x}");
+                    assert_eq!((fa, fb), (new, new), "x {x} n {n} mask {mask:x}");
+                    assert_eq!((ra, rb), (rows, rows), "x {x} n {n} mask {mask:x}");
+                    assert_eq!(any, new != [0; 3]);
                 }
             }
         }
