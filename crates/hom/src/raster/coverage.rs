@@ -180,12 +180,11 @@ impl CellOf {
 /// run of rows, and empties the run's scratch: `fresh` holds the samples
 /// (bit `i` of word `k` is sample `base + 64k + i`, OR-ed over the rows) and
 /// `rows[k]` the first and last rows where word `k` took any. Each cell's
-/// part of a word rises to the depth at its farthest such column — its last
-/// when the depth rises along rows (`rising`), its first otherwise — in the
-/// farther of those two rows: the depth formula is monotone in the column
-/// and in the row (its roundings are), so that is at least the depth at
-/// every sample concerned. `row_depth` and `depth_in_row` are
-/// [`Tri::depth_row`] and [`Tri::depth_in_row`] (by column).
+/// part of a word rises to triangle `t`'s depth at its farthest such
+/// column — its last when the depth rises along rows, its first otherwise —
+/// in the farther of those two rows: the depth formula is monotone in the
+/// column and in the row (its roundings are), so that is at least the depth
+/// at every sample concerned.
 #[inline]
 fn raise_fresh_cells(
     cells: &mut [f32],
@@ -193,17 +192,17 @@ fn raise_fresh_cells(
     fresh: &mut [u64],
     rows: &mut [(u32, u32)],
     base: u32,
-    rising: bool,
-    row_depth: impl Fn(u32) -> f32,
-    depth_in_row: impl Fn(f32, u32) -> f32,
+    t: &Tri,
 ) {
+    let (x0, rising) = (u32::from(t.x0), t.dzdx >= 0.0);
+    let depth_in_row = |zr: f32, x: u32| t.depth_in_row(zr, (x - x0) as i32);
     for (k, (word, r)) in fresh.iter_mut().zip(rows.iter_mut()).enumerate() {
         let mut m = std::mem::take(word);
         let (ra, rb) = std::mem::replace(r, (u32::MAX, 0));
         if m == 0 {
             continue;
         }
-        let (za, zb) = (row_depth(ra), row_depth(rb));
+        let (za, zb) = (t.depth_row(ra), t.depth_row(rb));
         let base = base + 64 * k as u32;
         while m != 0 {
             let first = base + m.trailing_zeros();
@@ -457,9 +456,7 @@ impl CoverageRasterizer {
                                 &mut fresh[words_of_tri.clone()],
                                 &mut fresh_rows[words_of_tri],
                                 x0 - x0 % 64,
-                                t.dzdx >= 0.0,
-                                |py| t.depth_row(py),
-                                |zr, x| t.depth_in_row(zr, (x - x0) as i32),
+                                t,
                             );
                         }
                     }
