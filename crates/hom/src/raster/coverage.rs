@@ -227,16 +227,20 @@ enum Rows {
     Masks([u64; MASK_ROWS]),
 }
 
-/// Rows per parallel band when no depth is gathered.
+/// Rows per parallel band (whole rows of depth cells when gathering depth,
+/// at least this many). Each band tests every triangle reaching it, so
+/// taller bands test fewer: 32 against 16 cut the coverage raster by 3–11 %
+/// on city, office and sculpture-park (one and two threads, 7 alternating
+/// runs of `cull_time`, 2026-12-04); 64 was no better than 32.
 const BAND_ROWS: u32 = 32;
 
 /// Rows whose first covers share one depth evaluation per cell and word
 /// (runs start at multiples of it, within a row of depth cells). Raising
 /// cells once per run of a whole row of 16-row cells instead of once per row
-/// cost HOM's coverage raster 7–13 % less at two threads on city, office and
-/// sculpture-park, and changed no scene's efficiency (each word's own first
-/// and last rows keep the bound tight; the run's would lose 2.5 points on
-/// sculpture-park).
+/// took 3–24 % off HOM's cull on city, office and sculpture-park (one and two
+/// threads, 7 alternating runs of `cull_time`) and changed no scene's
+/// efficiency (each word's own first and last rows keep the bound tight;
+/// the run's would lose 2.5 points on sculpture-park).
 const RUN_ROWS: u32 = 16;
 
 /// Rows whose masks a vector kernel computes per call.
@@ -293,8 +297,7 @@ impl CoverageRasterizer {
     ) {
         let height = coverage.height;
         // Bands of rows: whole rows of depth cells when gathering depth, so
-        // every band writes only its own cells; at least `BAND_ROWS` rows
-        // (small cells: a band of 4 rows cost more per triangle than it drew).
+        // every band writes only its own cells; at least `BAND_ROWS` rows.
         let (cols, cell_w, cell_h) = match depth.as_deref() {
             Some(d) => (d.size().0 as usize, d.cell_size().0, d.cell_size().1),
             None => (0, 1, BAND_ROWS),
@@ -344,7 +347,7 @@ impl CoverageRasterizer {
                         *c = f32::NEG_INFINITY;
                     }
                 }
-                // This triangle's first-covered samples in the current row of cells, OR-ed over its rows.
+                // This triangle's first-covered samples in the current run, OR-ed over its rows.
                 let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
                 // Per word, the first and last rows of the run where it took new samples.
                 let mut fresh_rows = if gather {
@@ -406,7 +409,8 @@ impl CoverageRasterizer {
                     };
                     let mut py0 = ta;
                     while py0 < tb {
-                        // One row of depth cells at a time (the whole band when not gathering).
+                        // A run: up to `RUN_ROWS` rows within one row of depth cells (the
+                        // whole band when not gathering).
                         let run_end = if gather {
                             tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
                                 .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
@@ -647,7 +651,7 @@ mod tests {
                 let mut deb = DepthEstimationBuffer::new(w, h, cols, rows);
                 CoverageRasterizer::with_backend(backend).rasterize(&mut cov, &tris, Some(&mut deb));
                 let (cw, ch) = deb.cell_size();
-                // Each sample's first cover, grouped by triangle and row of cells.
+                // Each sample's first cover, grouped by triangle, row of cells and run.
                 let mut firsts: BTreeMap<(usize, u32, u32), Vec<(u32, u32)>> = BTreeMap::new();
                 for y in 0..h {
                     for x in 0..w {
