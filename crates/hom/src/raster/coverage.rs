@@ -15,7 +15,7 @@
 
 use super::scanline::{ScanEdges, Stepper};
 use super::setup::Tri;
-use super::simd::{row_masks, RasterBackend, MASK_MAX};
+use super::simd::{prefetch, row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
 use rayon::prelude::*;
 
@@ -243,6 +243,9 @@ const BAND_ROWS: u32 = 32;
 /// the run's would lose 2.5 points on sculpture-park).
 const RUN_ROWS: u32 = 16;
 
+/// How many binned triangles ahead the band loop prefetches.
+const PREFETCH_AHEAD: usize = 8;
+
 /// Rows whose masks a vector kernel computes per call.
 const MASK_ROWS: usize = 32;
 
@@ -372,7 +375,11 @@ impl CoverageRasterizer {
                 };
                 let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
                 let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
-                for &i in bin {
+                for (k, &i) in bin.iter().enumerate() {
+                    // Bins skip through the triangles: fetch a few ahead.
+                    if let Some(&next) = bin.get(k + PREFETCH_AHEAD) {
+                        prefetch(&tris[next as usize]);
+                    }
                     let t = &tris[i as usize];
                     let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
                     if full[wa..=wb].iter().all(|&f| f) {

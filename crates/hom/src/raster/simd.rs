@@ -196,6 +196,21 @@ fn choose(
     (detected, Some(warning))
 }
 
+/// Asks the CPU to bring `item` into cache ahead of its use (a hint: no
+/// effect on results). For loops that read set-up triangles by index.
+#[inline(always)]
+pub(crate) fn prefetch<T>(item: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: SSE is part of the x86-64 baseline, and a prefetch reads no
+    // memory the program can observe (any address is allowed; this one is valid).
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((item as *const T).cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = item;
+}
+
 /// Row masks of `t` for rows `py0..py0 + out.len()` (all within `t.y0..t.y1`):
 /// bit `k` of `out[r]` is set iff the sample at column `t.x0 + k` of row
 /// `py0 + r` is covered. Needs `t.x1 - t.x0 <= MASK_MAX`. An unsupported
