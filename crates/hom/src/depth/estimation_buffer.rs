@@ -14,9 +14,10 @@
 //! - [`DepthEstimationBuffer::cells_mut`] with [`crate::raster::OccluderRasterizer`]:
 //!   while rasterizing coverage, each cell keeps at least the farthest depth
 //!   the renderer's own depth formula gives at any sample first covered in
-//!   it (a bound made once per run of rows from the samples themselves), so
-//!   far tighter where occluder boxes are long in depth (a street facade),
-//!   at no extra pass.
+//!   it (a bound made once per run of rows from the samples themselves), and
+//!   falls to the farthest depth of any occluder that covers the whole cell
+//!   (every sample then lies at or before it); far tighter where occluder
+//!   boxes are long in depth (a street facade), at no extra pass.
 
 use crate::geom::ScreenRect;
 
@@ -121,8 +122,8 @@ impl DepthEstimationBuffer {
     }
 
     /// The cells, row-major, for filling from a rasterizer: each must end up
-    /// `f32::INFINITY` (no occluder) or at least the farthest occluder depth at
-    /// any covered sample inside it.
+    /// `f32::INFINITY` (no occluder) or, at every covered sample inside it,
+    /// at least the depth of some occluder covering that sample.
     pub fn cells_mut(&mut self) -> &mut [f32] {
         &mut self.cells
     }

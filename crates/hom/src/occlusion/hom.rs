@@ -35,10 +35,11 @@ pub enum Opacity {
 pub enum DepthMode {
     /// A depth estimation buffer of this many cells (columns, rows), each
     /// holding a bound of the farthest depth of the occluders' *rasterized
-    /// samples* in it (those each occluder covered first), gathered during
-    /// the coverage raster (the default: from the samples themselves, so
-    /// long occluders such as street facades do not push depth far away;
-    /// `raster/coverage.rs` states the bound).
+    /// samples* in it (those each occluder covered first), lowered to an
+    /// occluder's farthest depth over the cell where it covers the whole
+    /// cell, gathered during the coverage raster (the default: from the
+    /// samples themselves, so long occluders such as street facades do not
+    /// push depth far away; `raster/coverage.rs` states the bound).
     Rasterized(u32, u32),
     /// The paper's depth estimation buffer (section 5.2.2): each occluder's
     /// (each `render_*` call's) screen rectangle written with its farthest depth.

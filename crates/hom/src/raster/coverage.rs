@@ -18,6 +18,7 @@ use super::setup::Tri;
 use super::simd::{prefetch, row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// One bit per output sample: bit `x % 64` of word `y * words_per_row + x / 64`.
 #[derive(Clone, Debug, Default)]
@@ -176,6 +177,76 @@ impl CellOf {
     }
 }
 
+/// The depth cells' grid, for finding the cells a triangle covers whole: a
+/// triangle that covers every sample of a cell bounds the nearest depth of
+/// each, so the cell can fall to the triangle's farthest depth over it.
+#[derive(Clone, Copy, Debug)]
+struct CellGrid {
+    /// The column of cells of a column.
+    col_of: CellOf,
+    /// The row of cells of a row (counted from a band's first).
+    row_of: CellOf,
+    /// The viewport's width (the last column of cells may be cut by it).
+    width: u32,
+    /// Cells across.
+    cols: u32,
+}
+
+impl CellGrid {
+    /// The cells whose samples all lie in columns `xa..xb`.
+    #[inline]
+    fn cols_within(self, xa: u32, xb: u32) -> Range<u32> {
+        let first = self.col_of.of(xa + self.col_of.w - 1);
+        let end = if xb >= self.width {
+            self.cols
+        } else {
+            self.col_of.of(xb)
+        };
+        first..end.max(first)
+    }
+
+    /// Lowers each cell of a band (rows `band.0..band.1`, cells `cells`) that
+    /// `t` covers whole, within its rows `rows` there, to `t`'s farthest depth
+    /// over it, if nearer.
+    #[inline]
+    fn lower_whole(self, cells: &mut [f32], t: &Tri, band: (u32, u32), rows: (u32, u32)) {
+        let (h, cols) = (self.row_of.w, self.cols as usize);
+        let first = self.row_of.of(rows.0 - band.0 + h - 1);
+        let end = if rows.1 >= band.1 {
+            self.row_of.of(band.1 - band.0 + h - 1)
+        } else {
+            self.row_of.of(rows.1 - band.0)
+        };
+        let across = self.cols_within(t.x0.into(), t.x1.into());
+        if first >= end || across.is_empty() {
+            return;
+        }
+        // Most triangles lie behind every cell they could cover whole.
+        let near = t.depth_bounds(t.x0.into(), u32::from(t.x1) - 1, rows.0, rows.1 - 1).0;
+        let (ca, cb) = (across.start as usize, across.end as usize);
+        if !(first..end).any(|r| cells[r as usize * cols..][ca..cb].iter().any(|&c| c > near)) {
+            return;
+        }
+        for r in first..end {
+            // The last row of cells may be cut by the viewport (the band's end).
+            let (ya, yb) = (band.0 + r * h, (band.0 + (r + 1) * h).min(band.1));
+            let Some((xa, xb)) = t.columns_in_every_row(ya, yb) else {
+                continue;
+            };
+            let row = &mut cells[r as usize * cols..][..cols];
+            for c in self.cols_within(xa, xb) {
+                if row[c as usize] <= near {
+                    continue;
+                }
+                let (xa, xb) = (c * self.col_of.w, ((c + 1) * self.col_of.w).min(self.width));
+                let far = t.depth_bounds(xa, xb - 1, ya, yb - 1).1;
+                let cell = &mut row[c as usize];
+                *cell = cell.min(far);
+            }
+        }
+    }
+}
+
 /// Raises the depth cells over a triangle's first-covered samples in one
 /// run of rows, and empties the run's scratch: `fresh` holds the samples
 /// (bit `i` of word `k` is sample `base + 64k + i`, OR-ed over the rows) and
@@ -289,9 +360,15 @@ impl CoverageRasterizer {
     /// covered in it by these triangles: per triangle, run of rows
     /// ([`RUN_ROWS`]) and 64-sample word, the depth at the cell's farthest
     /// first-covered column there, in the farther of the word's first and
-    /// last rows with a first cover. A cell where nothing is covered holds
-    /// `f32::INFINITY`. Submitting occluders nearest first makes that mostly
-    /// the nearest occluder's depth; in any order it bounds it from above.
+    /// last rows with a first cover. Then each cell a triangle covers whole
+    /// (every sample of it inside the viewport) falls to that triangle's
+    /// farthest depth over it ([`Tri::depth_bounds`]) where that is nearer:
+    /// a far occluder drawn first (the ground beyond a wall) no longer holds
+    /// the cells a nearer one covers. A cell where nothing is covered holds
+    /// `f32::INFINITY`. At every covered sample a cell is at least the depth
+    /// of some occluder covering it, in any order of the triangles; no raise
+    /// follows a whole cover (no sample is left to cover first), so the
+    /// result is that of raising all, then lowering all.
     pub fn rasterize(
         &mut self,
         coverage: &mut CoverageBuffer,
@@ -306,6 +383,12 @@ impl CoverageRasterizer {
             None => (0, 1, BAND_ROWS),
         };
         let cell_of = CellOf::new(cell_w);
+        let grid = CellGrid {
+            col_of: cell_of,
+            row_of: CellOf::new(cell_h),
+            width: coverage.width,
+            cols: cols as u32,
+        };
         let cell_rows_per_band = (BAND_ROWS / cell_h).max(1);
         let band_rows = cell_h * cell_rows_per_band;
         let bands = height.div_ceil(band_rows) as usize;
@@ -381,11 +464,14 @@ impl CoverageRasterizer {
                         prefetch(&tris[next as usize]);
                     }
                     let t = &tris[i as usize];
+                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
                     let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
                     if full[wa..=wb].iter().all(|&f| f) {
+                        if gather {
+                            grid.lower_whole(cells, t, (y0, y1), (ta, tb));
+                        }
                         continue;
                     }
-                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
                     let (xa, xb) = t.columns_in_rows(ta, tb);
                     if xa >= xb {
                         continue;
@@ -398,6 +484,9 @@ impl CoverageRasterizer {
                         *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
                     });
                     if covered {
+                        if gather {
+                            grid.lower_whole(cells, t, (y0, y1), (ta, tb));
+                        }
                         continue;
                     }
                     let x0 = u32::from(t.x0);
@@ -470,6 +559,9 @@ impl CoverageRasterizer {
                                 t,
                             );
                         }
+                    }
+                    if gather {
+                        grid.lower_whole(cells, t, (y0, y1), (ta, tb));
                     }
                     for c in wa..=wb {
                         full[c] = full[c] || column_full(words, c);
@@ -677,25 +769,27 @@ mod tests {
                         }
                     }
                 }
-                // Per triangle, run of rows and word: the word's first and last rows
-                // with a first cover; each cell's part of the word rises to the depth at
-                // its farthest first-covered column there, in the farther of the two.
+                // Per triangle in order: its first covers raise the cells (per row of
+                // cells and run, `raise_twin`); then each cell the triangle covers whole (every sample of it
+                // inside the viewport) falls to the triangle's farthest depth over it.
                 let mut want = vec![f32::NEG_INFINITY; deb.cells().len()];
-                for ((i, cell_row, _), samples) in &firsts {
-                    let t = &tris[*i];
-                    for word in 0..w.div_ceil(64) {
-                        let in_word = || samples.iter().filter(move |s| s.0 / 64 == word);
-                        let Some(fa) = in_word().map(|s| s.1).min() else {
-                            continue;
-                        };
-                        let fb = in_word().map(|s| s.1).max().unwrap();
-                        for cell in 0..deb.size().0 {
-                            let xs = in_word().map(|s| s.0).filter(|x| x / cw == cell);
-                            let far = if t.dzdx >= 0.0 { xs.max() } else { xs.min() };
-                            if let Some(x) = far {
-                                let c = &mut want[(cell_row * deb.size().0 + cell) as usize];
-                                *c = c.max(t.depth_at(x, fa)).max(t.depth_at(x, fb));
-                            }
+                for (i, t) in tris.iter().enumerate() {
+                    for ((_, cell_row, _), samples) in firsts.range((i, 0, 0)..(i + 1, 0, 0)) {
+                        raise_twin(t, (w, deb.size().0, cw), *cell_row, samples, &mut want);
+                    }
+                    for (cy, cx) in (0..deb.size().1).flat_map(|cy| (0..deb.size().0).map(move |cx| (cy, cx))) {
+                        let (xs, ys) = (cx * cw..((cx + 1) * cw).min(w), cy * ch..((cy + 1) * ch).min(h));
+                        let whole = ys.clone().all(|y| {
+                            xs.clone().all(|x| {
+                                (u32::from(t.x0)..u32::from(t.x1)).contains(&x)
+                                    && (u32::from(t.y0)..u32::from(t.y1)).contains(&y)
+                                    && t.covers(x, y)
+                            })
+                        });
+                        if whole {
+                            let far = t.depth_bounds(xs.start, xs.end - 1, ys.start, ys.end - 1).1;
+                            let c = &mut want[(cy * deb.size().0 + cx) as usize];
+                            *c = c.min(far);
                         }
                     }
                 }
@@ -705,6 +799,30 @@ mod tests {
                     }
                 }
                 assert_eq!(deb.cells(), &want[..], "case {case} {backend:?}: depth cells");
+            }
+        }
+    }
+
+    /// The twin's raise: triangle `t`'s first covers `samples` in one row of
+    /// cells and run, into `want`.
+    fn raise_twin(t: &Tri, grid: (u32, u32, u32), cell_row: u32, samples: &[(u32, u32)], want: &mut [f32]) {
+        // Per word: its first and last rows with a first cover; each cell's part
+        // of the word rises to the depth at its farthest first-covered column
+        // there, in the farther of the two rows.
+        let (w, cols, cw) = grid;
+        for word in 0..w.div_ceil(64) {
+            let in_word = || samples.iter().filter(move |s| s.0 / 64 == word);
+            let Some(fa) = in_word().map(|s| s.1).min() else {
+                continue;
+            };
+            let fb = in_word().map(|s| s.1).max().unwrap();
+            for cell in 0..cols {
+                let xs = in_word().map(|s| s.0).filter(|x| x / cw == cell);
+                let far = if t.dzdx >= 0.0 { xs.max() } else { xs.min() };
+                if let Some(x) = far {
+                    let c = &mut want[(cell_row * cols + cell) as usize];
+                    *c = c.max(t.depth_at(x, fa)).max(t.depth_at(x, fb));
+                }
             }
         }
     }

@@ -102,6 +102,19 @@ impl Tri {
         ((x0 + lo.max(0)) as u32, (x0 + hi.max(lo.max(0))) as u32)
     }
 
+    /// The columns `lo..hi` covered in every row of `ya..yb` (within the
+    /// box, `ya < yb`), exactly; `None` when no column is. Each edge function
+    /// is linear in the row, so over a run of rows it is smallest at one end:
+    /// a column is inside an edge in every row iff it is with that edge's
+    /// smaller value of the two end rows. One division per edge.
+    pub fn columns_in_every_row(&self, ya: u32, yb: u32) -> Option<(u32, u32)> {
+        let (ea, eb) = (self.edges_at_row(ya), self.edges_at_row(yb - 1));
+        let e = [0, 1, 2].map(|i| ea[i].min(eb[i]));
+        let step = [0, 1, 2].map(|i| self.a[i] * ONE);
+        let x0 = u32::from(self.x0);
+        divide_span(e, step, u32::from(self.x1 - self.x0)).map(|(lo, hi)| (x0 + lo, x0 + hi))
+    }
+
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
     pub fn covers(&self, px: u32, py: u32) -> bool {
         let sx = i64::from(px) * ONE + HALF;
@@ -710,6 +723,39 @@ mod tests {
             }
         }
         assert!(nonempty > 1500, "only {nonempty} non-empty row ranges");
+    }
+
+    /// `columns_in_every_row` is the intersection of the rows' exact spans,
+    /// on triangles from slivers to far beyond the screen.
+    #[test]
+    fn columns_in_every_row_are_the_rows_common_span() {
+        let mut rng = Rng::new(777);
+        let (w, h) = (300, 200);
+        let (mut nonempty, mut empty) = (0, 0);
+        for _ in 0..5000 {
+            let scale = [3.0, 30.0, 300.0, 3.0e5][rng.below(4) as usize];
+            let (cx, cy) = (rng.range(-50.0, 350.0), rng.range(-50.0, 250.0));
+            let v = [0; 3].map(|_| {
+                let (dx, dy) = (rng.range(-0.5, 0.5) * scale, rng.range(-0.5, 0.5) * scale);
+                at(cx + dx, cy + dy, rng.unit(), w, h)
+            });
+            for t in setup(v, w, h) {
+                let (y0, y1) = (u32::from(t.y0), u32::from(t.y1));
+                let ya = y0 + rng.below(u64::from(y1 - y0)) as u32;
+                let yb = ya + 1 + rng.below(u64::from(y1 - ya).min(40)) as u32;
+                let common = (ya..yb).try_fold((0, u32::MAX), |(p, q), y| {
+                    t.row_span(y).map(|(a, b)| (p.max(a), q.min(b)))
+                });
+                let want = common.filter(|(a, b)| a < b);
+                assert_eq!(t.columns_in_every_row(ya, yb), want, "rows {ya}..{yb} of {t:?}");
+                if want.is_some() {
+                    nonempty += 1;
+                } else {
+                    empty += 1;
+                }
+            }
+        }
+        assert!(nonempty > 1000 && empty > 1000, "{nonempty} non-empty, {empty} empty");
     }
 
     #[test]
