@@ -203,7 +203,13 @@ fn count_blocks_swar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, hei
                 }
             }
             let n = per_word.min(bw.saturating_sub(first));
-            out[first..first + n].copy_from_slice(&counts[..n]);
+            // Whole words copy a fixed length: a length known only at run
+            // time became a `memcpy` call per word (1.8 % of HOM's cull on city).
+            match n {
+                16 => out[first..first + 16].copy_from_slice(&counts),
+                8 => out[first..first + 8].copy_from_slice(&counts[..8]),
+                _ => out[first..first + n].copy_from_slice(&counts[..n]),
+            }
         }
     }
 }
