@@ -769,9 +769,10 @@ mod tests {
                         }
                     }
                 }
-                // Per triangle in order: its first covers raise the cells (per row of
-                // cells and run, `raise_twin`); then each cell the triangle covers whole (every sample of it
-                // inside the viewport) falls to the triangle's farthest depth over it.
+                // Per triangle in order: its first covers raise the cells (per row
+                // of cells and run, `raise_twin`); then each cell the triangle
+                // covers whole (every sample of it inside the viewport) falls to
+                // the triangle's farthest depth over it.
                 let mut want = vec![f32::NEG_INFINITY; deb.cells().len()];
                 for (i, t) in tris.iter().enumerate() {
                     for ((_, cell_row, _), samples) in firsts.range((i, 0, 0)..(i + 1, 0, 0)) {

@@ -67,8 +67,14 @@ impl Tri {
     /// The half-open range of columns `lo..hi` covered in row `py`
     /// (`py` within `y0..y1`); `None` when the row is empty.
     pub fn row_span(&self, py: u32) -> Option<(u32, u32)> {
+        self.span_of(self.edges_at_row(py))
+    }
+
+    /// The columns `lo..hi` of the box whose samples are inside every edge,
+    /// given the edge values `e` at its first column.
+    #[inline]
+    fn span_of(&self, e: [i64; 3]) -> Option<(u32, u32)> {
         let n = u32::from(self.x1 - self.x0);
-        let e = self.edges_at_row(py);
         let step = [0, 1, 2].map(|i| self.a[i] * ONE);
         let span = if n <= SCAN_MAX {
             scan_span(e, step, n)
@@ -106,13 +112,10 @@ impl Tri {
     /// box, `ya < yb`), exactly; `None` when no column is. Each edge function
     /// is linear in the row, so over a run of rows it is smallest at one end:
     /// a column is inside an edge in every row iff it is with that edge's
-    /// smaller value of the two end rows. One division per edge.
+    /// smaller value of the two end rows: one row's span, at those values.
     pub fn columns_in_every_row(&self, ya: u32, yb: u32) -> Option<(u32, u32)> {
         let (ea, eb) = (self.edges_at_row(ya), self.edges_at_row(yb - 1));
-        let e = [0, 1, 2].map(|i| ea[i].min(eb[i]));
-        let step = [0, 1, 2].map(|i| self.a[i] * ONE);
-        let x0 = u32::from(self.x0);
-        divide_span(e, step, u32::from(self.x1 - self.x0)).map(|(lo, hi)| (x0 + lo, x0 + hi))
+        self.span_of([0, 1, 2].map(|i| ea[i].min(eb[i])))
     }
 
     /// Whether the sample at the centre of pixel `(px, py)` is covered (slow; tests).
@@ -602,6 +605,18 @@ mod tests {
         Vec4::new(sx / w as f32 * 2.0 - 1.0, 1.0 - sy / h as f32 * 2.0, z, 1.0)
     }
 
+    /// One random triangle set up for a `w` × `h` viewport (none, one, or a
+    /// clipped fan), from slivers to far beyond the screen.
+    fn random_triangle(rng: &mut Rng, w: u32, h: u32) -> Vec<Tri> {
+        let scale = [3.0, 30.0, 300.0, 3.0e5][rng.below(4) as usize];
+        let (cx, cy) = (rng.range(-50.0, 350.0), rng.range(-50.0, 250.0));
+        let v = [0; 3].map(|_| {
+            let (dx, dy) = (rng.range(-0.5, 0.5) * scale, rng.range(-0.5, 0.5) * scale);
+            at(cx + dx, cy + dy, rng.unit(), w, h)
+        });
+        setup(v, w, h)
+    }
+
     #[test]
     fn nan_and_infinite_vertices_are_skipped() {
         let ok = Vec4::new(0.0, 0.0, 0.5, 1.0);
@@ -687,13 +702,7 @@ mod tests {
         let (w, h) = (300, 200);
         let mut nonempty = 0;
         for _ in 0..5000 {
-            let scale = [3.0, 30.0, 300.0, 3.0e5][rng.below(4) as usize];
-            let (cx, cy) = (rng.range(-50.0, 350.0), rng.range(-50.0, 250.0));
-            let v = [0; 3].map(|_| {
-                let (dx, dy) = (rng.range(-0.5, 0.5) * scale, rng.range(-0.5, 0.5) * scale);
-                at(cx + dx, cy + dy, rng.unit(), w, h)
-            });
-            for t in setup(v, w, h) {
+            for t in random_triangle(&mut rng, w, h) {
                 let (y0, y1) = (u32::from(t.y0), u32::from(t.y1));
                 let ya = y0 + rng.below(u64::from(y1 - y0)) as u32;
                 let one_row = rng.below(2) == 0;
@@ -733,13 +742,7 @@ mod tests {
         let (w, h) = (300, 200);
         let (mut nonempty, mut empty) = (0, 0);
         for _ in 0..5000 {
-            let scale = [3.0, 30.0, 300.0, 3.0e5][rng.below(4) as usize];
-            let (cx, cy) = (rng.range(-50.0, 350.0), rng.range(-50.0, 250.0));
-            let v = [0; 3].map(|_| {
-                let (dx, dy) = (rng.range(-0.5, 0.5) * scale, rng.range(-0.5, 0.5) * scale);
-                at(cx + dx, cy + dy, rng.unit(), w, h)
-            });
-            for t in setup(v, w, h) {
+            for t in random_triangle(&mut rng, w, h) {
                 let (y0, y1) = (u32::from(t.y0), u32::from(t.y1));
                 let ya = y0 + rng.below(u64::from(y1 - y0)) as u32;
                 let yb = ya + 1 + rng.below(u64::from(y1 - ya).min(40)) as u32;
