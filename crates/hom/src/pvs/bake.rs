@@ -17,7 +17,9 @@
 //! between the cell's and the occludee's centres crosses (every segment must
 //! cross the one that hides), found in a BVH over the occluders.
 
-use super::region::{box_distance, ConvexOccluder, DPlane, Margins};
+use super::region::{box_distance, ConvexOccluder, DPlane, Margins, Shape};
+use super::solid::{Eroded, SolidSpace, MAX_VOXELS};
+use super::PvsError;
 use super::{CellGrid, PvsConfig};
 use crate::geom::Aabb;
 use crate::occluders::{VirtualConfig, VirtualOccluder};
@@ -127,6 +129,47 @@ pub(crate) fn convex_occluders(scene: &Scene, is_static: &[bool], config: &PvsCo
         .collect()
 }
 
+/// The solid space fusion erodes: `given` (a scene's own) or an empty grid
+/// over `reach`, with the inscribed solids among `occluders` added, each
+/// voxel wholly inside one of them (a floor cap, open in the original, is
+/// declared an opening). Voxels are 0.1 m, or as large as `reach` needs to
+/// stay within half of [`MAX_VOXELS`].
+pub(crate) fn fusion_space(
+    given: Option<&SolidSpace>,
+    occluders: &[ConvexOccluder],
+    reach: &Aabb,
+) -> Result<SolidSpace, PvsError> {
+    let mut space = match given {
+        Some(s) => s.clone(),
+        None => {
+            let volume = reach.extent().as_dvec3().to_array().iter().product::<f64>();
+            let voxel = (volume / (MAX_VOXELS / 2) as f64).cbrt().max(0.1) as f32;
+            SolidSpace::new(reach, voxel)?
+        }
+    };
+    for o in occluders {
+        let Shape::Solid(planes) = &o.shape else { continue };
+        space.add_convex(planes, &o.bounds);
+        if let Some(above) = &o.above {
+            // The floor cap is not drawn: an opening, a thin box on a level
+            // floor (a segment from a cell above it never crosses it), or
+            // the solid's whole box on a tilted one.
+            let up = -above.normal;
+            let cap = if up.y.abs() > 0.999 {
+                let y = (above.d / up.y) as f32;
+                Aabb::new(
+                    Vec3::new(o.bounds.min.x, y - 1e-3, o.bounds.min.z),
+                    Vec3::new(o.bounds.max.x, y + 1e-3, o.bounds.max.z),
+                )
+            } else {
+                o.bounds
+            };
+            space.add_opening(cap);
+        }
+    }
+    Ok(space)
+}
+
 /// What every block's bake shares.
 pub(crate) struct BakeContext<'a> {
     pub(crate) grid: &'a CellGrid,
@@ -136,6 +179,8 @@ pub(crate) struct BakeContext<'a> {
     /// Object boxes (empty for objects the bake does not use).
     pub(crate) boxes: Vec<Aabb>,
     pub(crate) object_bvh: Bvh,
+    /// The solid space eroded for fusion (`fusion.rs`), when fusion is on.
+    pub(crate) fused: Option<Eroded>,
     /// Per object: its index in `object_bvh.items()`.
     pub(crate) item_pos: Vec<u32>,
 }
@@ -147,6 +192,7 @@ impl<'a> BakeContext<'a> {
         occluders: &'a [ConvexOccluder],
         scene: &Scene,
         is_static: &[bool],
+        fused: Option<Eroded>,
     ) -> BakeContext<'a> {
         let occluder_boxes: Vec<Aabb> = occluders.iter().map(|o| o.bounds).collect();
         let occluder_bvh = Bvh::build(&occluder_boxes, &BvhConfig::default());
@@ -169,6 +215,7 @@ impl<'a> BakeContext<'a> {
             boxes,
             object_bvh,
             item_pos,
+            fused,
         }
     }
 
@@ -296,21 +343,14 @@ impl<'a> BakeContext<'a> {
         hidden.retain(|&i| !self.boxes[i as usize].is_empty());
         hidden.sort_unstable();
         hidden.dedup();
-        if level == self.grid.levels && self.config.fusion_spacing > 0.0 {
-            // What no single occluder hides from the whole cell, the solids
-            // may hide together.
+        if let Some(space) = self.fused.as_ref().filter(|_| level == self.grid.levels) {
+            // What no single occluder hides from the whole cell, the solid
+            // space may hide as one.
             let candidates: Vec<u32> = (0..self.boxes.len() as u32)
                 .filter(|&i| !flagged[i as usize] && !self.boxes[i as usize].is_empty())
                 .filter(|i| hidden.binary_search(i).is_err())
                 .collect();
-            let fused = super::fusion::fused_hidden(
-                self.occluders,
-                &self.occluder_bvh,
-                &self.boxes,
-                &cell,
-                &candidates,
-                self.config,
-            );
+            let fused = super::fusion::fused_hidden(space, &self.boxes, &cell, &candidates, self.config);
             hidden.extend(fused);
             hidden.sort_unstable();
         }

@@ -182,6 +182,11 @@ impl CellGrid {
         })
     }
 
+    /// The box around every cell.
+    pub fn bounds(&self) -> Aabb {
+        self.cells().fold(Aabb::EMPTY, |a, (_, b)| a.union(b))
+    }
+
     /// Leaf edge in metres.
     pub fn cell_size(&self) -> f32 {
         self.cell_size

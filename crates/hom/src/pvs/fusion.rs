@@ -2,72 +2,59 @@
 //! "Visibility preprocessing with occluder fusion for urban walkthroughs"),
 //! for what no single occluder hides from a whole cell.
 //!
-//! **Shrink, then sample.** Erode every solid occluder by `ε`. If every ray
-//! from a point `p` to every point of an occludee `X` meets the union of the
-//! eroded solids, then from any viewpoint `v` within `ε` of `p` every ray to
-//! `X` meets the union of the originals: the ray `p → x` meets an eroded
-//! solid at `q`, and `v → x` passes within `(1 − s)·|v − p| ≤ ε` of `q` at
-//! the same fraction `s` of its length, inside the solid `q` is `ε` deep in.
-//! So sample points `ε`-dense in a cell, each hiding `X`, hide it from the
-//! cell — and at each point all the solids work together (fusion).
+//! **Shrink, then sample.** Erode the solid space (`solid.rs`: the union of
+//! the solids, eroded as one) by `ε`. If every ray from a point `p` to every
+//! point of an occludee `X` meets the eroded space, then from any viewpoint
+//! `v` within `ε` of `p` every ray to `X` meets the original: the ray
+//! `p → x` meets the eroded space at `q`, and `v → x` passes within
+//! `(1 − s)·|v − p| ≤ ε` of `q` at the same fraction `s` of its length,
+//! inside the solid `q` is `ε` deep in. So sample points `ε`-dense in a
+//! cell, each hiding `X`, hide it from the cell, and at each point all the
+//! solids work together (fusion). A segment into the solid space crosses a
+//! drawn triangle first (its contract) when the viewpoint lies outside it,
+//! by at least the near clearance so no near plane clips that triangle:
+//! fusion's answers hold for such viewpoints.
 //!
 //! **Conservative sampling.** From each point the directions are six cube
-//! faces of `side²` square pixels. The directions that meet a convex solid
-//! from outside it form a convex cone, so a pixel lies wholly in it iff its
-//! four corner rays meet the solid; and the entry distance over such a pixel
-//! is largest at a corner (a convex body bulges towards an outside viewer,
-//! so its front has no interior maximum). A pixel is covered when one
-//! eroded solid covers it wholly, at that solid's largest corner entry
-//! distance (the nearest such solid). `X` is hidden from `p` when every
-//! pixel its box touches is covered nearer than `X` by twice its depth gap.
-//! Nothing is assumed between pixel centres: no gap, however thin, is missed.
+//! faces of `side²` square pixels. A pixel counts as covered up to the
+//! distance `t` at which its centre ray meets the space eroded by `ε + δ`
+//! ([`PIXEL_SLACK`]) when `t·θ ≤ δ`, `θ` the widest angle between the
+//! centre ray and the pixel's (at a corner: the directions within an angle
+//! of the centre form a convex cone); every ray of the pixel then meets the
+//! space eroded by `ε` by `t`. A pixel whose centre ray meets it farther is
+//! split in four, up to [`MAX_SPLITS`] times. `X` is hidden from `p` when
+//! every pixel its box touches is covered nearer than `X` by twice its
+//! depth gap. Nothing is assumed between sampled rays: no gap, however
+//! thin, is missed.
 //!
-//! Only solids (inscribed boxes and hulls) fuse; planar occluders still hide
-//! one at a time (`region.rs`). Erosion pays `ε` on every side, so thin
-//! solids vanish, and two solids that touch open a slot `2ε` wide where
-//! they met: through it a sample point sees what the pair hides. On the
-//! built-in scenes that leaves fusion nothing to add (0 objects over the
-//! city's and the sculpture park's cells at 1 m spacing), so it is off by
-//! default; it needs the union eroded, not each solid (ARCHITECTURE.md).
+//! Erosion pays `ε + δ` on every side, so walls thinner than twice that
+//! vanish: fusion needs thick solid space (city blocks, the rock between a
+//! game level's rooms), not thin walls.
 
-use super::region::{box_distance, ConvexOccluder, DPlane, Margins, Shape};
+use super::region::{box_distance, Margins};
+use super::solid::{CellOpenings, Eroded};
 use super::PvsConfig;
 use crate::geom::Aabb;
-use crate::spatial::Bvh;
 use glam::DVec3;
 
-/// A solid occluder eroded for one cell.
-struct Eroded {
-    planes: Vec<DPlane>,
-    bounds: Aabb,
-}
+/// How much more than `ε` the space is eroded for the pixels' sake (metres):
+/// a ray within angle `θ` of a pixel's centre ray stays within `t·θ ≤ δ` of
+/// it up to `t = δ / θ`, so a centre ray that meets the space eroded by
+/// `ε + δ` that near shows every ray of the pixel meeting the space eroded
+/// by `ε`.
+pub(crate) const PIXEL_SLACK: f64 = 0.1;
 
-impl Eroded {
-    /// The distance along the unit direction `dir` from `p` (outside) at
-    /// which the ray enters the solid, or `None` when it misses.
-    fn entry(&self, p: DVec3, dir: DVec3) -> Option<f64> {
-        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-        for pl in &self.planes {
-            let f = pl.eval(p);
-            let g = pl.normal.dot(dir);
-            if g.abs() < 1e-300 {
-                if f > 0.0 {
-                    return None;
-                }
-                continue;
-            }
-            let t = -f / g;
-            if g < 0.0 {
-                t0 = t0.max(t);
-            } else {
-                t1 = t1.min(t);
-            }
-            if t0 > t1 {
-                return None;
-            }
-        }
-        (t1 > 0.0 && t0 <= t1).then_some(t0)
-    }
+/// Pixels are split in four up to this many times when their centre ray
+/// meets the space too far away for the slack to cover the whole pixel.
+const MAX_SPLITS: u32 = 3;
+
+/// How far the space is eroded for fusion with `config`: `ε` (half the
+/// diagonal of the sample grid's box), the pixel slack, the absolute margin
+/// and the snap at the farthest distance fusion looks.
+pub(crate) fn erosion(config: &PvsConfig) -> f64 {
+    let eps = 0.5 * 3f64.sqrt() * config.fusion_spacing as f64;
+    let far = config.fusion_radius as f64 + 2.0 * config.cell_size as f64;
+    eps + PIXEL_SLACK + config.margin as f64 + 1e-4 * far
 }
 
 /// The cube face `k`: axis `k / 2`, looking along `+` for even `k`.
@@ -82,48 +69,128 @@ fn face_axes(k: usize) -> (usize, f64, usize, usize) {
 }
 
 /// The range of pixels (inclusive, x then y) of face `k` that the box `b`
-/// seen from `p` may touch, or `None` when it lies wholly behind the face.
+/// seen from `p` may touch, or `None` when it touches none. A direction
+/// `d` lies in the face when `s·d[a] ≥ |d[u]|, |d[v]|`, so only the box's
+/// points at depth `s·(x − p)[a]` at least their Chebyshev distance `m`
+/// from the axis matter: the box is clipped to depths from `m` before its
+/// corners are projected (`u / z` is monotone in `u` and in `z`).
 fn face_rect(p: DVec3, b: &Aabb, k: usize, side: usize) -> Option<[usize; 4]> {
     let (a, s, u, v) = face_axes(k);
-    let corners = b.corners().map(|c| c.as_dvec3() - p);
-    if corners.iter().all(|c| s * c[a] <= 0.0) {
+    let (lo, hi) = (b.min.as_dvec3() - p, b.max.as_dvec3() - p);
+    let (z0, z1) = if s > 0.0 { (lo[a], hi[a]) } else { (-hi[a], -lo[a]) };
+    let off = |w: usize| (lo[w].max(0.0) + (-hi[w]).max(0.0)).max(0.0);
+    let m = off(u).max(off(v));
+    if z1 <= 0.0 || z1 < m {
         return None;
     }
     let last = side - 1;
-    if corners.iter().any(|c| s * c[a] <= 1e-9) {
+    let z_lo = z0.max(m);
+    if z_lo <= 1e-9 {
         return Some([0, last, 0, last]);
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for c in &corners {
-        let z = s * c[a];
-        for (i, w) in [c[u] / z, c[v] / z].into_iter().enumerate() {
-            lo[i] = lo[i].min(w);
-            hi[i] = hi[i].max(w);
-        }
-    }
-    if lo[0] > 1.0 || lo[1] > 1.0 || hi[0] < -1.0 || hi[1] < -1.0 {
+    let range = |w: usize| {
+        let q = [lo[w] / z_lo, lo[w] / z1, hi[w] / z_lo, hi[w] / z1];
+        (
+            q.iter().copied().fold(f64::INFINITY, f64::min),
+            q.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
+    };
+    let (ul, uh) = range(u);
+    let (vl, vh) = range(v);
+    if ul > 1.0 || vl > 1.0 || uh < -1.0 || vh < -1.0 {
         return None;
     }
     let px = |w: f64| (((w + 1.0) * 0.5 * side as f64).floor().max(0.0) as usize).min(last);
-    Some([px(lo[0]), px(hi[0]), px(lo[1]), px(hi[1])])
+    Some([px(ul), px(uh), px(vl), px(vh)])
 }
 
-/// The unit direction through corner `(i, j)` of face `k`'s pixel grid.
-fn corner_dir(k: usize, i: usize, j: usize, side: usize) -> DVec3 {
+/// The unit direction through the point `(x, y)` of face `k` (face
+/// coordinates in `[-1, 1]`).
+fn face_dir(k: usize, x: f64, y: f64) -> DVec3 {
     let (a, s, u, v) = face_axes(k);
     let mut d = DVec3::ZERO;
     d[a] = s;
-    d[u] = -1.0 + 2.0 * i as f64 / side as f64;
-    d[v] = -1.0 + 2.0 * j as f64 / side as f64;
+    d[u] = x;
+    d[v] = y;
     d.normalize()
 }
 
-/// The objects of `candidates` (ids into `boxes`) that the solids of
-/// `occluders` within `config.fusion_radius` of `cell` hide together from
-/// every point of `cell` (see the module docs).
+/// From one sample point: how near every ray of a pixel is sure to have
+/// met the eroded-by-`ε` space, pixel by pixel, computed on demand.
+struct PointView<'a> {
+    space: &'a Eroded,
+    openings: CellOpenings,
+    p: DVec3,
+    side: usize,
+    /// Per pixel of the six faces: (distance, the limit it was computed for).
+    cache: Vec<(f64, f64)>,
+}
+
+impl PointView<'_> {
+    /// A distance within which every ray of pixel `(i, j)` of face `k` meets
+    /// the space, if one below `limit` was found; else infinity.
+    fn pixel(&mut self, k: usize, i: usize, j: usize, limit: f64) -> f64 {
+        let slot = (k * self.side + j) * self.side + i;
+        let (got, for_limit) = self.cache[slot];
+        if got < f64::INFINITY || for_limit >= limit {
+            return got;
+        }
+        let w = 2.0 / self.side as f64;
+        let (x0, y0) = (-1.0 + i as f64 * w, -1.0 + j as f64 * w);
+        let d = self.cone(k, [x0, x0 + w, y0, y0 + w], 0, limit);
+        self.cache[slot] = (d, limit);
+        d
+    }
+
+    /// The same for the cone of face `k` over `[x0, x1] × [y0, y1]`.
+    fn cone(&self, k: usize, r: [f64; 4], splits: u32, limit: f64) -> f64 {
+        let (xm, ym) = (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]));
+        let centre = face_dir(k, xm, ym);
+        // The widest angle to the centre is at a corner (module docs).
+        let cos = [(r[0], r[2]), (r[1], r[2]), (r[0], r[3]), (r[1], r[3])]
+            .iter()
+            .map(|&(x, y)| face_dir(k, x, y).dot(centre))
+            .fold(1.0f64, f64::min);
+        let theta = cos.clamp(-1.0, 1.0).acos().max(1e-12);
+        // Rounding in the ray's points is far below this shave.
+        let reach = (PIXEL_SLACK - 1e-6) / theta;
+        let Some(t) = self.space.first_hit(self.p, centre, limit, &self.openings) else {
+            return f64::INFINITY;
+        };
+        if t <= reach {
+            return t;
+        }
+        if splits == MAX_SPLITS {
+            return f64::INFINITY;
+        }
+        let mut worst = 0.0f64;
+        for (x0, x1) in [(r[0], xm), (xm, r[1])] {
+            for (y0, y1) in [(r[2], ym), (ym, r[3])] {
+                worst = worst.max(self.cone(k, [x0, x1, y0, y1], splits + 1, limit));
+                if worst == f64::INFINITY {
+                    return worst;
+                }
+            }
+        }
+        worst
+    }
+
+    /// Does every ray from the point to `b` meet the space nearer than
+    /// `limit` (a lower bound of the distance to `b` along any ray)?
+    fn hides(&mut self, b: &Aabb, limit: f64) -> bool {
+        (0..6).all(|k| match face_rect(self.p, b, k, self.side) {
+            None => true,
+            Some([x0, x1, y0, y1]) => (y0..=y1).all(|j| (x0..=x1).all(|i| self.pixel(k, i, j, limit) < limit)),
+        })
+    }
+}
+
+/// The objects of `candidates` (ids into `boxes`) that the solid space,
+/// eroded by [`erosion`] (`space`), hides from every point of `cell` (see
+/// the module docs), for viewpoints outside the solid space by at least
+/// the near clearance.
 pub(crate) fn fused_hidden(
-    occluders: &[ConvexOccluder],
-    occluder_bvh: &Bvh,
+    space: &Eroded,
     boxes: &[Aabb],
     cell: &Aabb,
     candidates: &[u32],
@@ -141,48 +208,12 @@ pub(crate) fn fused_hidden(
         extent.y / (counts[1] - 1) as f64,
         extent.z / (counts[2] - 1) as f64,
     );
-    // Every point of the cell lies within half a grid box's diagonal of a sample.
+    // Every point of the cell lies within half a grid box's diagonal of a
+    // sample, at most `erosion`'s ε.
     let eps = 0.5 * step.length();
+    let near_plane = config.near as f64;
     let r = config.fusion_radius;
     let reach = Aabb::new(cell.min - r, cell.max + r);
-    let mut near = Vec::new();
-    occluder_bvh.overlapping(&reach, &mut near);
-    let corners = cell.corners();
-    let solids: Vec<Eroded> = near
-        .iter()
-        .filter_map(|&o| {
-            let occ = &occluders[o as usize];
-            let Shape::Solid(planes) = &occ.shape else { return None };
-            if box_distance(&occ.bounds, cell) < config.near_clearance {
-                return None;
-            }
-            if let Some(above) = &occ.above {
-                if corners.iter().any(|c| above.eval(c.as_dvec3()) >= 0.0) {
-                    return None;
-                }
-            }
-            // Snapping is paid at the occluder's distance, as in `region.rs`.
-            let far = cell.union(occ.bounds).extent().as_dvec3().length();
-            let erode = eps + config.margin as f64 + 1e-4 * far;
-            let planes: Vec<DPlane> = planes
-                .iter()
-                .map(|p| DPlane {
-                    normal: p.normal,
-                    d: p.d + erode,
-                })
-                .collect();
-            // Keep it only when it is not eroded away (its box centre inside).
-            let c = occ.bounds.center().as_dvec3();
-            planes.iter().all(|p| p.eval(c) < 0.0).then_some(Eroded {
-                planes,
-                bounds: occ.bounds,
-            })
-        })
-        .collect();
-    if solids.is_empty() {
-        return Vec::new();
-    }
-    let near_plane = config.near as f64;
     // (id, box grown by its depth gap, the gap)
     let mut alive: Vec<(u32, Aabb, f64)> = candidates
         .iter()
@@ -192,63 +223,24 @@ pub(crate) fn fused_hidden(
             let g = gap as f32;
             (id, Aabb::new(b.min - g, b.max + g), gap)
         })
-        .filter(|(_, b, _)| box_distance(b, cell) as f64 > 2.0 * eps)
+        .filter(|(_, b, _)| box_distance(b, cell) as f64 > 2.0 * eps && b.intersects(&reach))
         .collect();
-    let n = side * side;
-    let mut depth = vec![f64::INFINITY; 6 * n];
-    let mut corner_entry = Vec::new();
-    let points = sample_points(cell, counts, step);
-    for p in points {
+    let mut view = PointView {
+        space,
+        openings: space.cell_openings(cell),
+        p: DVec3::ZERO,
+        side,
+        cache: vec![(f64::INFINITY, f64::NEG_INFINITY); 6 * side * side],
+    };
+    for p in sample_points(cell, counts, step) {
         if alive.is_empty() {
             break;
         }
-        depth.fill(f64::INFINITY);
-        for s in &solids {
-            for k in 0..6 {
-                let Some([x0, x1, y0, y1]) = face_rect(p, &s.bounds, k, side) else {
-                    continue;
-                };
-                let w = x1 - x0 + 2;
-                corner_entry.clear();
-                for j in y0..=y1 + 1 {
-                    for i in x0..=x1 + 1 {
-                        corner_entry.push(s.entry(p, corner_dir(k, i, j, side)));
-                    }
-                }
-                let face = &mut depth[k * n..(k + 1) * n];
-                for j in 0..=y1 - y0 {
-                    for i in 0..=x1 - x0 {
-                        let c = [
-                            corner_entry[j * w + i],
-                            corner_entry[j * w + i + 1],
-                            corner_entry[(j + 1) * w + i],
-                            corner_entry[(j + 1) * w + i + 1],
-                        ];
-                        if let [Some(a), Some(b), Some(c), Some(d)] = c {
-                            let far = a.max(b).max(c).max(d);
-                            let px = &mut face[(y0 + j) * side + x0 + i];
-                            *px = px.min(far);
-                        }
-                    }
-                }
-            }
-        }
+        view.p = p;
+        view.cache.fill((f64::INFINITY, f64::NEG_INFINITY));
         alive.retain(|(_, b, gap)| {
             let dist = (b.distance_squared(p.as_vec3()) as f64).sqrt();
-            if dist <= 2.0 * eps {
-                return false;
-            }
-            (0..6).all(|k| match face_rect(p, b, k, side) {
-                None => true,
-                Some([x0, x1, y0, y1]) => {
-                    let face = &depth[k * n..(k + 1) * n];
-                    (y0..=y1).all(|y| {
-                        face[y * side + x0..=y * side + x1]
-                            .iter()
-                            .all(|&d| d + 2.0 * gap < dist)
-                    })
-                }
-            })
+            dist > 2.0 * eps && view.hides(b, dist - 2.0 * gap)
         });
     }
     let mut hidden: Vec<u32> = alive.into_iter().map(|a| a.0).collect();
@@ -286,70 +278,114 @@ fn sample_points(cell: &Aabb, counts: [usize; 3], step: DVec3) -> Vec<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spatial::BvhConfig;
+    use crate::pvs::solid::SolidSpace;
     use glam::Vec3;
-
-    fn solid_box(object: u32, lo: Vec3, hi: Vec3) -> ConvexOccluder {
-        let (mut p, mut t) = (Vec::new(), Vec::new());
-        crate::occluders::push_box(&mut p, &mut t, lo, hi);
-        let tris: Vec<[Vec3; 3]> = t.iter().map(|t| t.map(|i| p[i as usize])).collect();
-        ConvexOccluder::solid(object, &tris, None).unwrap()
-    }
 
     fn config() -> PvsConfig {
         PvsConfig {
             fusion_spacing: 0.5,
-            fusion_side: 48,
+            fusion_side: 32,
             fusion_radius: 100.0,
             ..PvsConfig::default()
         }
     }
 
-    /// Two deep walls side by side: a box behind their seam is hidden by the
-    /// two together when they touch, not when a slot between them lets a
-    /// ray from the cell through.
+    /// Solid space of 0.2 m voxels over `bounds` holding the boxes `solids`
+    /// (all on the 0.2 m lattice, compared in lattice steps so rounding in
+    /// the voxels' corners opens no seam).
+    fn space_of(bounds: Aabb, solids: &[Aabb]) -> SolidSpace {
+        let q = |v: Vec3| (v * 5.0).round();
+        SolidSpace::from_fn(&bounds, 0.2, |v| {
+            solids
+                .iter()
+                .any(|s| q(s.min).cmple(q(v.min)).all() && q(v.max).cmple(q(s.max)).all())
+        })
+        .unwrap()
+    }
+
+    /// Two deep walls side by side on solid ground: a box behind their seam
+    /// is hidden by the two together when they touch (the union is eroded,
+    /// not each wall), not when a slot between them lets a ray from the cell
+    /// through.
     #[test]
     fn two_walls_hide_what_neither_hides_alone_but_not_through_a_gap() {
         let cell = Aabb::new(Vec3::new(-1.0, 1.0, 8.0), Vec3::new(1.0, 2.0, 10.0));
         let behind = Aabb::new(Vec3::new(-0.5, 1.0, -6.0), Vec3::new(0.5, 2.0, -5.0));
-        let boxes = vec![Aabb::EMPTY, Aabb::EMPTY, behind];
-        for (gap, deep, hidden) in [(0.0, 4.0, false), (0.3, 4.0, false), (0.05, 12.0, false)] {
+        let boxes = vec![behind];
+        let bounds = Aabb::new(Vec3::new(-22.0, -1.0, -14.0), Vec3::new(22.0, 12.0, 12.0));
+        for (gap, hidden) in [(0.0, true), (0.2, false), (0.6, false)] {
             let h = gap * 0.5;
-            let walls = vec![
-                solid_box(0, Vec3::new(-20.0, 0.0, -deep), Vec3::new(-h, 10.0, 0.0)),
-                solid_box(1, Vec3::new(h, 0.0, -deep), Vec3::new(20.0, 10.0, 0.0)),
+            let walls = [
+                Aabb::new(Vec3::new(-20.0, -1.0, -4.0), Vec3::new(-h, 10.0, 0.0)),
+                Aabb::new(Vec3::new(h, -1.0, -4.0), Vec3::new(20.0, 10.0, 0.0)),
+                Aabb::new(Vec3::new(-22.0, -1.0, -14.0), Vec3::new(22.0, 0.0, 12.0)),
             ];
-            let bvh = Bvh::build(
-                &walls.iter().map(|w| w.bounds).collect::<Vec<_>>(),
-                &BvhConfig::default(),
-            );
-            let zero = Margins { lateral: 0.0, gap: 0.0 };
-            // Neither wall alone hides it from the whole cell.
-            assert!(walls.iter().all(|w| !w.hides(&cell, &behind, zero)));
-            let got = fused_hidden(&walls, &bvh, &boxes, &cell, &[2], &config());
-            assert_eq!(got == [2], hidden, "slot {gap} m, walls {deep} m deep");
+            let space = space_of(bounds, &walls).eroded(erosion(&config()));
+            let got = fused_hidden(&space, &boxes, &cell, &[0], &config());
+            assert_eq!(got == [0], hidden, "slot {gap} m");
         }
     }
 
+    /// A wall that hides a box behind it hides nothing through an opening
+    /// declared in it (a face the renderer does not draw), while the rest of
+    /// the wall still hides what no segment through the opening reaches.
+    #[test]
+    fn an_opening_lets_segments_through() {
+        let cell = Aabb::new(Vec3::new(-1.0, 1.0, 8.0), Vec3::new(1.0, 2.0, 10.0));
+        let behind = Aabb::new(Vec3::new(-0.5, 1.0, -6.0), Vec3::new(0.5, 2.0, -5.0));
+        let aside = Aabb::new(Vec3::new(-14.5, 1.0, -6.0), Vec3::new(-13.5, 2.0, -5.0));
+        let bounds = Aabb::new(Vec3::new(-22.0, -1.0, -14.0), Vec3::new(22.0, 12.0, 12.0));
+        let wall = [
+            Aabb::new(Vec3::new(-20.0, -1.0, -4.0), Vec3::new(20.0, 10.0, 0.0)),
+            Aabb::new(Vec3::new(-22.0, -1.0, -14.0), Vec3::new(22.0, 0.0, 12.0)),
+        ];
+        let mut space = space_of(bounds, &wall);
+        let e = space.eroded(erosion(&config()));
+        assert_eq!(fused_hidden(&e, &[behind, aside], &cell, &[0, 1], &config()), [0, 1]);
+        // An undrawn patch of the wall's front, straight ahead of the cell.
+        space.add_opening(Aabb::new(Vec3::new(-1.0, 1.0, 0.0), Vec3::new(1.0, 2.0, 0.0)));
+        let e = space.eroded(erosion(&config()));
+        assert_eq!(fused_hidden(&e, &[behind, aside], &cell, &[0, 1], &config()), [1]);
+    }
+
+    /// Does the segment `a`–`b` meet the box?
+    fn meets(a: DVec3, b: DVec3, x: &Aabb) -> bool {
+        let (lo, hi, d) = (x.min.as_dvec3(), x.max.as_dvec3(), b - a);
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for k in 0..3 {
+            if d[k].abs() < 1e-300 {
+                if a[k] < lo[k] || a[k] > hi[k] {
+                    return false;
+                }
+                continue;
+            }
+            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+            t0 = t0.max(u.min(v));
+            t1 = t1.min(u.max(v));
+        }
+        t0 <= t1
+    }
+
     /// Against brute force: whenever fusion hides a box, no sampled segment
-    /// from the cell to it misses every original solid.
+    /// from a viewpoint of the cell outside the solids to the box misses
+    /// every solid.
     #[test]
     fn fused_means_every_sampled_segment_meets_a_solid() {
         let mut seed = 0x2545_F491_4F6C_DD1Du64;
         let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
         let mut found = 0;
-        for case in 0..40 {
-            let walls: Vec<ConvexOccluder> = (0..6)
-                .map(|i| {
+        let bounds = Aabb::new(Vec3::new(-16.0, -4.0, -16.0), Vec3::new(16.0, 10.0, 16.0));
+        // Solids snapped to the voxels, so the voxels are exactly the solids.
+        let snap = |v: Vec3| (v * 5.0).round() / 5.0;
+        for case in 0..12 {
+            let walls: Vec<Aabb> = (0..6)
+                .map(|_| {
                     let c = Vec3::new(rnd() * 16.0 - 8.0, rnd() * 4.0, rnd() * 4.0 - 2.0);
                     let h = Vec3::new(rnd() * 3.0 + 0.8, rnd() * 3.0 + 1.0, rnd() * 2.0 + 0.8);
-                    solid_box(i, c - h, c + h)
+                    Aabb::new(snap(c - h), snap(c + h))
                 })
                 .collect();
-            let bvh = Bvh::build(
-                &walls.iter().map(|w| w.bounds).collect::<Vec<_>>(),
-                &BvhConfig::default(),
-            );
+            let space = space_of(bounds, &walls).eroded(erosion(&config()));
             let cell = Aabb::new(Vec3::new(-1.0, 1.0, 9.0), Vec3::new(1.0, 2.0, 11.0));
             let boxes: Vec<Aabb> = (0..30)
                 .map(|_| {
@@ -358,15 +394,21 @@ mod tests {
                 })
                 .collect();
             let ids: Vec<u32> = (0..30).collect();
-            let got = fused_hidden(&walls, &bvh, &boxes, &cell, &ids, &config());
+            let got = fused_hidden(&space, &boxes, &cell, &ids, &config());
             for &id in &got {
                 found += 1;
                 let x = boxes[id as usize];
-                for _ in 0..3000 {
+                let mut tried = 0;
+                while tried < 3000 {
                     let a = (cell.min + (cell.max - cell.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
+                    let clear = config().near_clearance;
+                    if walls.iter().any(|w| w.distance_squared(a.as_vec3()) < clear * clear) {
+                        continue;
+                    }
+                    tried += 1;
                     let b = (x.min + (x.max - x.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
                     assert!(
-                        walls.iter().any(|w| w.crossed_by(a, b, 0.0)),
+                        walls.iter().any(|w| meets(a, b, w)),
                         "case {case}: object {id} seen between the walls"
                     );
                 }

@@ -50,12 +50,15 @@
 //! ```
 //!
 //! **Fusion** (many occluders hiding together) is `fusion.rs`'s point
-//! sampling of eroded solids (Wonka et al. 2000), sound and tested, but off
-//! by default: eroding each solid opens the seams between touching ones.
+//! sampling of the scene's solid space eroded as one (Wonka et al. 2000;
+//! [`SolidSpace`]), sound and tested, but off by default: it finds nothing
+//! more on the built-in scenes, whose solids are thinner than the erosion
+//! or tile a building in convex pieces whose seams the voxels open.
 //!
-//! **Not yet:** fusion that erodes the union, planar occluders joined as
-//! Law & Tan join adjacent ones (section 5.2), non-convex occluders (section
-//! 5.3's AND/OR expression), octree cells for multi-storey maps.
+//! **Not yet:** a solid space whose voxels cover the union of convex pieces
+//! (not one piece each), planar occluders joined as Law & Tan join adjacent
+//! ones (section 5.2), non-convex occluders (section 5.3's AND/OR
+//! expression), octree cells for multi-storey maps.
 
 mod bake;
 mod cells;
@@ -63,9 +66,11 @@ mod file;
 mod fusion;
 mod polygons;
 mod region;
+mod solid;
 
 pub use cells::CellGrid;
 pub use file::PvsFileError;
+pub use solid::{SolidSpace, MAX_VOXELS};
 
 use crate::geom::{Aabb, View};
 use crate::scene::Scene;
@@ -100,9 +105,9 @@ pub struct PvsConfig {
     /// Use the inscribed solids of occluder objects (their virtual occluders).
     pub solids: bool,
     /// Occluder fusion at the cells (`fusion.rs`): sample points at most this
-    /// far apart (metres) over each cell, the solids eroded by half a grid
-    /// box's diagonal; 0 (the default) for none: it found nothing more on
-    /// the built-in scenes.
+    /// far apart (metres) over each cell, the solid space eroded by half a
+    /// grid box's diagonal and a pixel slack; 0 (the default) for none: it
+    /// found nothing more on the built-in scenes.
     pub fusion_spacing: f32,
     /// Fusion: pixels along a side of each of the six cube faces seen from a sample point.
     pub fusion_side: u32,
@@ -261,6 +266,26 @@ impl Pvs {
         shard: Shard,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Pvs, PvsError> {
+        Pvs::bake_with_solids(scene, eyes, moving, config, None, shard, progress)
+    }
+
+    /// [`Pvs::bake`], with the scene's own solid space for fusion (when
+    /// [`PvsConfig::fusion_spacing`] is on): space that every segment from
+    /// outside enters across an opaque triangle of the scene or through one
+    /// of its declared openings (see [`SolidSpace`]), such as the volume a
+    /// level editor knows its walls enclose. The inscribed solids of the
+    /// scene's closed meshes are added to it. What fusion hides holds for
+    /// viewpoints outside the solid space by at least
+    /// [`PvsConfig::near_clearance`] (a camera inside a wall sees through it).
+    pub fn bake_with_solids(
+        scene: &Scene,
+        eyes: &[Vec3],
+        moving: &[u32],
+        config: &PvsConfig,
+        solids: Option<&SolidSpace>,
+        shard: Shard,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Pvs, PvsError> {
         config.validate()?;
         if shard.count == 0 || shard.index >= shard.count {
             return Err(PvsError::BadShard {
@@ -288,7 +313,27 @@ impl Pvs {
         let occluders = bake::convex_occluders(scene, &is_static, config);
         let mut occluder_objects: Vec<u32> = occluders.iter().map(|o| o.object).collect();
         occluder_objects.dedup();
-        let ctx = bake::BakeContext::new(&grid, config, &occluders, scene, &is_static);
+        let fused = if config.fusion_spacing > 0.0 {
+            let r = config.fusion_radius;
+            let cells = grid.bounds();
+            let reach = Aabb::new(cells.min - r, cells.max + r);
+            let reach = match solids {
+                Some(_) => reach,
+                None => {
+                    let b = scene.bounds();
+                    Aabb::new(reach.min.max(b.min), reach.max.min(b.max))
+                }
+            };
+            let space = if reach.is_empty() && solids.is_none() {
+                None
+            } else {
+                Some(bake::fusion_space(solids, &occluders, &reach)?)
+            };
+            space.map(|s| s.eroded(fusion::erosion(config)))
+        } else {
+            None
+        };
+        let ctx = bake::BakeContext::new(&grid, config, &occluders, scene, &is_static, fused);
         let blocks = shard.blocks(grid.block_count());
         let total = blocks.len();
         let done = std::sync::atomic::AtomicUsize::new(0);
@@ -586,6 +631,72 @@ pub(crate) fn test_rng(seed: &mut u64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Mesh;
+    use glam::Mat4;
+
+    /// Two walls (closed boxes, separate objects) meeting edge to edge, a
+    /// crate behind their seam: no single wall hides it from a cell in front,
+    /// the solid space the two fill hides it, given to the bake as the
+    /// scene's own.
+    #[test]
+    fn a_given_solid_space_fuses_walls_that_meet() {
+        let corners: Vec<Vec3> = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
+            .collect();
+        let faces = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ];
+        let tris = faces
+            .iter()
+            .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
+            .collect();
+        let mut scene = Scene::new("seam");
+        let cube = scene.add_mesh(Mesh::new("cube", corners, tris).unwrap());
+        let place = |c: Vec3, size: Vec3| Mat4::from_translation(c) * Mat4::from_scale(size);
+        let walls = [
+            Aabb::new(Vec3::new(-20.0, -4.0, -4.0), Vec3::new(0.0, 8.0, 0.0)),
+            Aabb::new(Vec3::new(0.0, -4.0, -4.0), Vec3::new(20.0, 8.0, 0.0)),
+        ];
+        for (i, w) in walls.iter().enumerate() {
+            scene
+                .add_object(&format!("wall{i}"), cube, place(w.center(), w.extent()))
+                .unwrap();
+        }
+        let crate_ = scene
+            .add_object("crate", cube, place(Vec3::new(0.0, 2.0, -8.0), Vec3::ONE))
+            .unwrap();
+        let eyes: Vec<Vec3> = (0..3).map(|i| Vec3::new(i as f32 - 1.0, 1.7, 8.0)).collect();
+        let config = PvsConfig {
+            solids: false,
+            fusion_spacing: 1.0,
+            fusion_radius: 30.0,
+            ..PvsConfig::default()
+        };
+        let bake = |solids: Option<&SolidSpace>, config: &PvsConfig| {
+            let pvs = Pvs::bake_with_solids(&scene, &eyes, &[], config, solids, Shard::WHOLE, &|_, _| {}).unwrap();
+            let mut hidden = Vec::new();
+            pvs.hidden_from(Vec3::new(0.0, 1.7, 8.0), &mut hidden).unwrap();
+            hidden
+        };
+        let without = PvsConfig {
+            fusion_spacing: 0.0,
+            ..config.clone()
+        };
+        assert!(!bake(None, &without).contains(&crate_));
+        let bounds = Aabb::new(Vec3::new(-24.0, -6.0, -12.0), Vec3::new(24.0, 10.0, 12.0));
+        let space = SolidSpace::from_fn(&bounds, 0.25, |v| {
+            walls
+                .iter()
+                .any(|w| w.min.cmple(v.min + 1e-4).all() && (v.max - 1e-4).cmple(w.max).all())
+        })
+        .unwrap();
+        assert!(bake(Some(&space), &config).contains(&crate_));
+    }
 
     #[test]
     fn merging_sorted_runs() {
