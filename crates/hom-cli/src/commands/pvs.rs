@@ -69,8 +69,8 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         ..config_for(&path, a.cell_size, a.min_polygon_area, a.pad)
     };
     let shard = a.shard.unwrap_or(Shard::WHOLE);
-    let bar = progress_of(0, "pvs bake", "blocks");
     let start = Instant::now();
+    let bar = progress_of(0, "pvs bake", "blocks");
     let pvs = Pvs::bake(&scene, &eyes, &moving, &config, shard, &|done, total| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
@@ -280,16 +280,40 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
         seen_from(&renderer, &scene, &cube_cameras(eye, near, far, a.side), &mut fb, seen);
     };
     let mut rng = Rng(a.seed.max(1));
+    // A Quake 3 map's PVS serves eyes in its open space, clear of its
+    // opaque leaves by the near clearance (a camera inside a wall sees
+    // through it); other scenes' eyes may be anywhere in the cells.
+    let map = hom_walk::pvs::open_map(&a.scene).ok();
+    let clearance = pvs.config().near_clearance;
+    let open = |eye: Vec3| map.as_ref().is_none_or(|m| m.is_open(eye, clearance));
+    let mut rejected = 0usize;
     let mut point_in = |b: &Aabb| {
-        let t = Vec3::new(rng.f32(), rng.f32(), rng.f32());
-        b.min + (b.max - b.min) * t
+        for _ in 0..1000 {
+            let t = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+            let eye = b.min + (b.max - b.min) * t;
+            if open(eye) {
+                return Some(eye);
+            }
+            rejected += 1;
+        }
+        None
     };
     let n = scene.objects().len();
     let (mut violations, mut bad_points) = (0usize, 0usize);
     let bar = crate::setup::progress(a.points, "pvs check");
     let mut hidden = Vec::new();
-    for i in 0..a.points {
-        let eye = point_in(&cells[i % cells.len()]);
+    let (mut checked, mut closed_cells) = (0usize, 0usize);
+    let mut i = 0usize;
+    // Cells with no open point (wholly in a wall) are passed over.
+    while checked < a.points && closed_cells < cells.len() {
+        let cell = &cells[i % cells.len()];
+        i += 1;
+        let Some(eye) = point_in(cell) else {
+            closed_cells += 1;
+            continue;
+        };
+        closed_cells = 0;
+        checked += 1;
         hidden.clear();
         pvs.hidden_from(eye, &mut hidden);
         let mut seen = vec![false; n];
@@ -308,12 +332,17 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
     bar.finish_and_clear();
     println!(
         "conservative: {} random viewpoints in {} cells, 6 views of {}² each: {} hidden objects seen (at {} viewpoints)",
-        a.points,
+        checked,
         cells.len(),
         a.side,
         violations,
         bad_points
     );
+    if map.is_some() {
+        println!(
+            "({rejected} random points in the cells were in or within {clearance} m of opaque space, and drawn again)"
+        );
+    }
     // Tightness: the PVS's visible set against the union of exact visible sets.
     let picks: Vec<usize> = (0..a.cells.min(cells.len()))
         .map(|k| k * cells.len() / a.cells.min(cells.len()).max(1))
@@ -331,7 +360,9 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
             let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32());
             let t = (Vec3::new(ix as f32, iy as f32, iz as f32) + jitter) / k as f32;
             let eye = b.min + (b.max - b.min) * t;
-            look(eye, &mut seen);
+            if open(eye) {
+                look(eye, &mut seen);
+            }
         }
         let exact = seen.iter().filter(|&&s| s).count().max(1);
         let pvs_visible = static_live - hidden.len();
