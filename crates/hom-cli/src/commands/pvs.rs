@@ -340,7 +340,7 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
     );
     if map.is_some() {
         println!(
-            "({rejected} random points in the cells were in or within {clearance} m of opaque space, and drawn again)"
+            "({rejected} random points in the cells were in or within {clearance} m of a wall or the void, and drawn again)"
         );
     }
     // Tightness: the PVS's visible set against the union of exact visible sets.

@@ -664,7 +664,7 @@ mod tests {
         ];
         for (i, w) in walls.iter().enumerate() {
             scene
-                .add_object(&format!("wall{i}"), cube, place(w.center(), w.extent()))
+                .add_object(format!("wall{i}"), cube, place(w.center(), w.extent()))
                 .unwrap();
         }
         let crate_ = scene

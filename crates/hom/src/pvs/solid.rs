@@ -199,7 +199,7 @@ fn erode_axis(cells: &mut [u8], dims: [usize; 3], axis: usize, k: usize) {
     }
     let stride = [1, dims[0], dims[0] * dims[1]][axis];
     let n = dims[axis];
-    let lines: Vec<usize> = (0..cells.len()).filter(|&i| (i / stride) % n == 0).collect();
+    let lines: Vec<usize> = (0..cells.len()).filter(|&i| (i / stride).is_multiple_of(n)).collect();
     let mut line = vec![0u8; n];
     let mut run = vec![0usize; n];
     for start in lines {
@@ -213,7 +213,7 @@ fn erode_axis(cells: &mut [u8], dims: [usize; 3], axis: usize, k: usize) {
             run[j] = r;
         }
         for j in 0..n {
-            let keep = j >= k && j + k < n && run[j + k] >= 2 * k + 1;
+            let keep = j >= k && j + k < n && run[j + k] > 2 * k;
             cells[start + j * stride] = keep as u8;
         }
     }
