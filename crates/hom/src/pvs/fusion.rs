@@ -419,4 +419,100 @@ mod tests {
             "fusion hid only {found} boxes: the check would prove nothing"
         );
     }
+
+    /// Where the segment `a`–`b` crosses the surface of box `x`: the
+    /// parameters of its entry and exit that lie strictly inside (0, 1).
+    fn crossings(a: DVec3, b: DVec3, x: &Aabb) -> Vec<f64> {
+        let (lo, hi, d) = (x.min.as_dvec3(), x.max.as_dvec3(), b - a);
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for k in 0..3 {
+            if d[k].abs() < 1e-300 {
+                if a[k] < lo[k] || a[k] > hi[k] {
+                    return Vec::new();
+                }
+                continue;
+            }
+            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
+            t0 = t0.max(u.min(v));
+            t1 = t1.min(u.max(v));
+        }
+        if t0 > t1 {
+            return Vec::new();
+        }
+        [t0, t1].into_iter().filter(|t| *t > 0.0 && *t < 1.0).collect()
+    }
+
+    /// Against brute force with openings: the walls' surfaces are drawn
+    /// except inside the opening boxes, and whenever fusion hides a box,
+    /// every sampled segment from the cell to it crosses a drawn surface.
+    #[test]
+    fn fused_through_openings_means_every_sampled_segment_crosses_a_drawn_surface() {
+        let mut seed = 0x0DDB_1A5E_5BAD_5EEDu64;
+        let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
+        let mut found = 0;
+        let bounds = Aabb::new(Vec3::new(-16.0, -4.0, -16.0), Vec3::new(16.0, 10.0, 16.0));
+        let snap = |v: Vec3| (v * 5.0).round() / 5.0;
+        for case in 0..12 {
+            let walls: Vec<Aabb> = (0..6)
+                .map(|_| {
+                    let c = Vec3::new(rnd() * 16.0 - 8.0, rnd() * 4.0, rnd() * 4.0 - 2.0);
+                    let h = Vec3::new(rnd() * 3.0 + 0.8, rnd() * 3.0 + 1.0, rnd() * 2.0 + 0.8);
+                    Aabb::new(snap(c - h), snap(c + h))
+                })
+                .collect();
+            // Tunnels: patches of a wall's front and back left undrawn.
+            let openings: Vec<Aabb> = walls
+                .iter()
+                .map(|w| {
+                    let (x, y) = (
+                        w.min.x + (w.max.x - w.min.x) * rnd(),
+                        w.min.y + (w.max.y - w.min.y) * rnd(),
+                    );
+                    let (hx, hy) = (rnd() * 2.0 + 0.5, rnd() * 2.0 + 0.5);
+                    Aabb::new(
+                        Vec3::new(x - hx, y - hy, w.min.z - 0.01),
+                        Vec3::new(x + hx, y + hy, w.max.z + 0.01),
+                    )
+                })
+                .collect();
+            let mut space = space_of(bounds, &walls);
+            for o in &openings {
+                space.add_opening(*o);
+            }
+            let eroded = space.eroded(erosion(&config()));
+            let cell = Aabb::new(Vec3::new(-1.0, 1.0, 9.0), Vec3::new(1.0, 2.0, 11.0));
+            let boxes: Vec<Aabb> = (0..30)
+                .map(|_| {
+                    let c = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 3.0, -6.0 - rnd() * 6.0);
+                    Aabb::new(c - 0.4, c + 0.4)
+                })
+                .collect();
+            let ids: Vec<u32> = (0..30).collect();
+            for &id in &fused_hidden(&eroded, &boxes, &cell, &ids, &config()) {
+                found += 1;
+                let x = boxes[id as usize];
+                let mut tried = 0;
+                while tried < 2000 {
+                    let a = (cell.min + (cell.max - cell.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
+                    let clear = config().near_clearance;
+                    if walls.iter().any(|w| w.distance_squared(a.as_vec3()) < clear * clear) {
+                        continue;
+                    }
+                    tried += 1;
+                    let b = (x.min + (x.max - x.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
+                    let drawn = walls.iter().any(|w| {
+                        crossings(a, b, w).into_iter().any(|t| {
+                            let p = (a + (b - a) * t).as_vec3();
+                            !openings.iter().any(|o| o.contains_point(p))
+                        })
+                    });
+                    assert!(drawn, "case {case}: object {id} seen through the openings");
+                }
+            }
+        }
+        assert!(
+            found > 10,
+            "fusion hid only {found} boxes: the check would prove nothing"
+        );
+    }
 }
