@@ -255,7 +255,15 @@ fn seen_from(
 
 /// `hom pvs check`.
 pub fn check(a: PvsCheckArgs) -> Result<()> {
-    let (scene, _, _) = hom_walk::open_scene(&a.scene)?;
+    // A Quake 3 map's PVS serves eyes in its open space, clear of its
+    // opaque leaves by the near clearance (a camera inside a wall sees
+    // through it); other scenes' eyes may be anywhere in the cells. A map
+    // is loaded once, for its scene and its leaves.
+    let map = hom_walk::pvs::open_map(&a.scene).ok();
+    let scene = match &map {
+        Some(m) => m.scene.clone(),
+        None => hom_walk::open_scene(&a.scene)?.0,
+    };
     let pvs = read(&a.pvs)?;
     pvs.check_scene(&scene)?;
     if pvs.shard() != Shard::WHOLE {
@@ -280,10 +288,6 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
         seen_from(&renderer, &scene, &cube_cameras(eye, near, far, a.side), &mut fb, seen);
     };
     let mut rng = Rng(a.seed.max(1));
-    // A Quake 3 map's PVS serves eyes in its open space, clear of its
-    // opaque leaves by the near clearance (a camera inside a wall sees
-    // through it); other scenes' eyes may be anywhere in the cells.
-    let map = hom_walk::pvs::open_map(&a.scene).ok();
     let clearance = pvs.config().near_clearance;
     let open = |eye: Vec3| map.as_ref().is_none_or(|m| m.is_open(eye, clearance));
     let mut rejected = 0usize;

@@ -389,17 +389,23 @@ enum Occludee {
 }
 
 /// Does the segment `a`–`b` meet the box (slab test)?
-fn segment_meets_box(a: DVec3, b: DVec3, bounds: &Aabb) -> bool {
+pub(crate) fn segment_meets_box(a: DVec3, b: DVec3, bounds: &Aabb) -> bool {
+    line_in_box(a, b, bounds, (0.0, 1.0)).is_some()
+}
+
+/// The parameters `t` within `range` at which `a + t·(b − a)` lies in the
+/// box (slab test), or `None` when there are none.
+pub(crate) fn line_in_box(a: DVec3, b: DVec3, bounds: &Aabb, range: (f64, f64)) -> Option<(f64, f64)> {
     if bounds.is_empty() {
-        return false;
+        return None;
     }
     let (lo, hi) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
     let d = b - a;
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let (mut t0, mut t1) = range;
     for k in 0..3 {
         if d[k].abs() < 1e-300 {
             if a[k] < lo[k] || a[k] > hi[k] {
-                return false;
+                return None;
             }
             continue;
         }
@@ -407,8 +413,8 @@ fn segment_meets_box(a: DVec3, b: DVec3, bounds: &Aabb) -> bool {
         t0 = t0.max(u.min(v));
         t1 = t1.min(u.max(v));
         if t0 > t1 {
-            return false;
+            return None;
         }
     }
-    true
+    Some((t0, t1))
 }

@@ -278,6 +278,7 @@ fn sample_points(cell: &Aabb, counts: [usize; 3], step: DVec3) -> Vec<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pvs::bake::{line_in_box, segment_meets_box};
     use crate::pvs::solid::SolidSpace;
     use glam::Vec3;
 
@@ -348,106 +349,17 @@ mod tests {
         assert_eq!(fused_hidden(&e, &[behind, aside], &cell, &[0, 1], &config()), [1]);
     }
 
-    /// Does the segment `a`–`b` meet the box?
-    fn meets(a: DVec3, b: DVec3, x: &Aabb) -> bool {
-        let (lo, hi, d) = (x.min.as_dvec3(), x.max.as_dvec3(), b - a);
-        let (mut t0, mut t1) = (0.0f64, 1.0f64);
-        for k in 0..3 {
-            if d[k].abs() < 1e-300 {
-                if a[k] < lo[k] || a[k] > hi[k] {
-                    return false;
-                }
-                continue;
-            }
-            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
-            t0 = t0.max(u.min(v));
-            t1 = t1.min(u.max(v));
-        }
-        t0 <= t1
-    }
-
-    /// Against brute force: whenever fusion hides a box, no sampled segment
-    /// from a viewpoint of the cell outside the solids to the box misses
-    /// every solid.
-    #[test]
-    fn fused_means_every_sampled_segment_meets_a_solid() {
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
-        let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
-        let mut found = 0;
-        let bounds = Aabb::new(Vec3::new(-16.0, -4.0, -16.0), Vec3::new(16.0, 10.0, 16.0));
-        // Solids snapped to the voxels, so the voxels are exactly the solids.
-        let snap = |v: Vec3| (v * 5.0).round() / 5.0;
-        for case in 0..12 {
-            let walls: Vec<Aabb> = (0..6)
-                .map(|_| {
-                    let c = Vec3::new(rnd() * 16.0 - 8.0, rnd() * 4.0, rnd() * 4.0 - 2.0);
-                    let h = Vec3::new(rnd() * 3.0 + 0.8, rnd() * 3.0 + 1.0, rnd() * 2.0 + 0.8);
-                    Aabb::new(snap(c - h), snap(c + h))
-                })
-                .collect();
-            let space = space_of(bounds, &walls).eroded(erosion(&config()));
-            let cell = Aabb::new(Vec3::new(-1.0, 1.0, 9.0), Vec3::new(1.0, 2.0, 11.0));
-            let boxes: Vec<Aabb> = (0..30)
-                .map(|_| {
-                    let c = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 3.0, -6.0 - rnd() * 6.0);
-                    Aabb::new(c - 0.4, c + 0.4)
-                })
-                .collect();
-            let ids: Vec<u32> = (0..30).collect();
-            let got = fused_hidden(&space, &boxes, &cell, &ids, &config());
-            for &id in &got {
-                found += 1;
-                let x = boxes[id as usize];
-                let mut tried = 0;
-                while tried < 3000 {
-                    let a = (cell.min + (cell.max - cell.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
-                    let clear = config().near_clearance;
-                    if walls.iter().any(|w| w.distance_squared(a.as_vec3()) < clear * clear) {
-                        continue;
-                    }
-                    tried += 1;
-                    let b = (x.min + (x.max - x.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
-                    assert!(
-                        walls.iter().any(|w| meets(a, b, w)),
-                        "case {case}: object {id} seen between the walls"
-                    );
-                }
-            }
-        }
-        assert!(
-            found > 20,
-            "fusion hid only {found} boxes: the check would prove nothing"
-        );
-    }
-
-    /// Where the segment `a`–`b` crosses the surface of box `x`: the
-    /// parameters of its entry and exit that lie strictly inside (0, 1).
-    fn crossings(a: DVec3, b: DVec3, x: &Aabb) -> Vec<f64> {
-        let (lo, hi, d) = (x.min.as_dvec3(), x.max.as_dvec3(), b - a);
-        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
-        for k in 0..3 {
-            if d[k].abs() < 1e-300 {
-                if a[k] < lo[k] || a[k] > hi[k] {
-                    return Vec::new();
-                }
-                continue;
-            }
-            let (u, v) = ((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]);
-            t0 = t0.max(u.min(v));
-            t1 = t1.min(u.max(v));
-        }
-        if t0 > t1 {
-            return Vec::new();
-        }
-        [t0, t1].into_iter().filter(|t| *t > 0.0 && *t < 1.0).collect()
-    }
-
-    /// Against brute force with openings: the walls' surfaces are drawn
-    /// except inside the opening boxes, and whenever fusion hides a box,
-    /// every sampled segment from the cell to it crosses a drawn surface.
-    #[test]
-    fn fused_through_openings_means_every_sampled_segment_crosses_a_drawn_surface() {
-        let mut seed = 0x0DDB_1A5E_5BAD_5EEDu64;
+    /// Random scenes against brute force: six walls on the 0.2 m lattice (so
+    /// the voxels are exactly the walls), `openings` cut in them, thirty
+    /// boxes behind. For every box fusion hides from the cell, `tries`
+    /// segments from viewpoints clear of the walls to points of the box
+    /// must be `blocked`. Returns how many boxes fusion hid.
+    fn check_random_walls(
+        mut seed: u64,
+        tries: usize,
+        openings: impl Fn(&[Aabb], &mut dyn FnMut() -> f32) -> Vec<Aabb>,
+        blocked: impl Fn(DVec3, DVec3, &[Aabb], &[Aabb]) -> bool,
+    ) -> usize {
         let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
         let mut found = 0;
         let bounds = Aabb::new(Vec3::new(-16.0, -4.0, -16.0), Vec3::new(16.0, 10.0, 16.0));
@@ -460,21 +372,7 @@ mod tests {
                     Aabb::new(snap(c - h), snap(c + h))
                 })
                 .collect();
-            // Tunnels: patches of a wall's front and back left undrawn.
-            let openings: Vec<Aabb> = walls
-                .iter()
-                .map(|w| {
-                    let (x, y) = (
-                        w.min.x + (w.max.x - w.min.x) * rnd(),
-                        w.min.y + (w.max.y - w.min.y) * rnd(),
-                    );
-                    let (hx, hy) = (rnd() * 2.0 + 0.5, rnd() * 2.0 + 0.5);
-                    Aabb::new(
-                        Vec3::new(x - hx, y - hy, w.min.z - 0.01),
-                        Vec3::new(x + hx, y + hy, w.max.z + 0.01),
-                    )
-                })
-                .collect();
+            let openings = openings(&walls, &mut rnd);
             let mut space = space_of(bounds, &walls);
             for o in &openings {
                 space.add_opening(*o);
@@ -492,7 +390,7 @@ mod tests {
                 found += 1;
                 let x = boxes[id as usize];
                 let mut tried = 0;
-                while tried < 2000 {
+                while tried < tries {
                     let a = (cell.min + (cell.max - cell.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
                     let clear = config().near_clearance;
                     if walls.iter().any(|w| w.distance_squared(a.as_vec3()) < clear * clear) {
@@ -500,16 +398,63 @@ mod tests {
                     }
                     tried += 1;
                     let b = (x.min + (x.max - x.min) * Vec3::new(rnd(), rnd(), rnd())).as_dvec3();
-                    let drawn = walls.iter().any(|w| {
-                        crossings(a, b, w).into_iter().any(|t| {
-                            let p = (a + (b - a) * t).as_vec3();
-                            !openings.iter().any(|o| o.contains_point(p))
-                        })
-                    });
-                    assert!(drawn, "case {case}: object {id} seen through the openings");
+                    assert!(blocked(a, b, &walls, &openings), "case {case}: object {id} seen");
                 }
             }
         }
+        found
+    }
+
+    /// Whenever fusion hides a box, no sampled segment from a viewpoint of
+    /// the cell outside the solids to the box misses every solid.
+    #[test]
+    fn fused_means_every_sampled_segment_meets_a_solid() {
+        let found = check_random_walls(
+            0x2545_F491_4F6C_DD1D,
+            3000,
+            |_, _| Vec::new(),
+            |a, b, walls, _| walls.iter().any(|w| segment_meets_box(a, b, w)),
+        );
+        assert!(
+            found > 20,
+            "fusion hid only {found} boxes: the check would prove nothing"
+        );
+    }
+
+    /// With openings: the walls' surfaces are drawn except inside the
+    /// opening boxes (tunnels through the walls), and whenever fusion hides a
+    /// box, every sampled segment from the cell to it crosses a drawn
+    /// surface: its entry into or exit from a wall, outside every opening.
+    #[test]
+    fn fused_through_openings_means_every_sampled_segment_crosses_a_drawn_surface() {
+        let tunnels = |walls: &[Aabb], rnd: &mut dyn FnMut() -> f32| {
+            walls
+                .iter()
+                .map(|w| {
+                    let (x, y) = (
+                        w.min.x + (w.max.x - w.min.x) * rnd(),
+                        w.min.y + (w.max.y - w.min.y) * rnd(),
+                    );
+                    let (hx, hy) = (rnd() * 2.0 + 0.5, rnd() * 2.0 + 0.5);
+                    Aabb::new(
+                        Vec3::new(x - hx, y - hy, w.min.z - 0.01),
+                        Vec3::new(x + hx, y + hy, w.max.z + 0.01),
+                    )
+                })
+                .collect()
+        };
+        let drawn = |a: DVec3, b: DVec3, walls: &[Aabb], openings: &[Aabb]| {
+            walls.iter().any(|w| {
+                let Some((t0, t1)) = line_in_box(a, b, w, (f64::NEG_INFINITY, f64::INFINITY)) else {
+                    return false;
+                };
+                [t0, t1].into_iter().filter(|t| *t > 0.0 && *t < 1.0).any(|t| {
+                    let p = (a + (b - a) * t).as_vec3();
+                    !openings.iter().any(|o| o.contains_point(p))
+                })
+            })
+        };
+        let found = check_random_walls(0x0DDB_1A5E_5BAD_5EED, 2000, tunnels, drawn);
         assert!(
             found > 10,
             "fusion hid only {found} boxes: the check would prove nothing"

@@ -314,22 +314,14 @@ impl Pvs {
         let mut occluder_objects: Vec<u32> = occluders.iter().map(|o| o.object).collect();
         occluder_objects.dedup();
         let fused = if config.fusion_spacing > 0.0 {
-            let r = config.fusion_radius;
-            let cells = grid.bounds();
-            let reach = Aabb::new(cells.min - r, cells.max + r);
-            let reach = match solids {
-                Some(_) => reach,
-                None => {
-                    let b = scene.bounds();
-                    Aabb::new(reach.min.max(b.min), reach.max.min(b.max))
-                }
-            };
-            let space = if reach.is_empty() && solids.is_none() {
-                None
-            } else {
-                Some(bake::fusion_space(solids, &occluders, &reach)?)
-            };
-            space.map(|s| s.eroded(fusion::erosion(config)))
+            // Without a space of the scene's own, the inscribed solids fill a
+            // grid over what fusion reaches from the cells, inside the scene.
+            let (r, cells, b) = (config.fusion_radius, grid.bounds(), scene.bounds());
+            let reach = Aabb::new((cells.min - r).max(b.min), (cells.max + r).min(b.max));
+            match (solids, reach.is_empty()) {
+                (None, true) => None,
+                _ => Some(bake::fusion_space(solids, &occluders, &reach)?.eroded(fusion::erosion(config))),
+            }
         } else {
             None
         };
@@ -640,36 +632,22 @@ mod tests {
     /// scene's own.
     #[test]
     fn a_given_solid_space_fuses_walls_that_meet() {
-        let corners: Vec<Vec3> = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
-            .collect();
-        let faces = [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ];
-        let tris = faces
-            .iter()
-            .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
-            .collect();
-        let mut scene = Scene::new("seam");
-        let cube = scene.add_mesh(Mesh::new("cube", corners, tris).unwrap());
-        let place = |c: Vec3, size: Vec3| Mat4::from_translation(c) * Mat4::from_scale(size);
         let walls = [
             Aabb::new(Vec3::new(-20.0, -4.0, -4.0), Vec3::new(0.0, 8.0, 0.0)),
             Aabb::new(Vec3::new(0.0, -4.0, -4.0), Vec3::new(20.0, 8.0, 0.0)),
         ];
+        let crate_box = Aabb::new(Vec3::new(-0.5, 1.5, -8.5), Vec3::new(0.5, 2.5, -7.5));
+        let mut scene = Scene::new("seam");
+        let mut add_box = |name: String, b: &Aabb| {
+            let (mut p, mut t) = (Vec::new(), Vec::new());
+            crate::occluders::push_box(&mut p, &mut t, b.min, b.max);
+            let mesh = scene.add_mesh(Mesh::new(name.clone(), p, t).unwrap());
+            scene.add_object(name, mesh, Mat4::IDENTITY).unwrap()
+        };
         for (i, w) in walls.iter().enumerate() {
-            scene
-                .add_object(format!("wall{i}"), cube, place(w.center(), w.extent()))
-                .unwrap();
+            add_box(format!("wall{i}"), w);
         }
-        let crate_ = scene
-            .add_object("crate", cube, place(Vec3::new(0.0, 2.0, -8.0), Vec3::ONE))
-            .unwrap();
+        let crate_ = add_box("crate".into(), &crate_box);
         let eyes: Vec<Vec3> = (0..3).map(|i| Vec3::new(i as f32 - 1.0, 1.7, 8.0)).collect();
         let config = PvsConfig {
             solids: false,
