@@ -462,6 +462,12 @@ pub struct LodArgs {
     /// that differ are counted); `off` refines by the view alone.
     #[arg(long, value_enum, default_value = "on")]
     pub lod_guidance: OnOff,
+    /// --lod with the threshold: `on` draws each occluder whose cut is coarser than its
+    /// mesh as that cut, so the occluder budget buys more of them; what is culled is then
+    /// hidden in the level-of-detail image, which may differ from the full meshes' within
+    /// --lod-error along silhouettes. `off` draws occluders as their meshes.
+    #[arg(long, value_enum, default_value = "on")]
+    pub lod_occluders: OnOff,
 }
 
 /// A switch.

@@ -203,5 +203,6 @@ pub fn lod_for(args: &crate::args::LodArgs, scene: &Scene) -> Result<Option<hom_
     Ok(Some(hom_walk::lod::WalkLod {
         hierarchies: std::sync::Arc::new(hierarchies),
         options,
+        occluders: args.lod_occluders == OnOff::On,
     }))
 }

@@ -67,6 +67,13 @@ pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
             .lod_guidance_pixels_changed
             .map(|p| format!(", {p} pixels changed by guidance"))
             .unwrap_or_default();
+        let culling = l
+            .lod_culling_pixels_changed
+            .map(|p| {
+                let occluders = if l.lod_occluders { "at" } else { "not at" };
+                format!(", {p} pixels changed by culling (occluders {occluders} the level of detail)")
+            })
+            .unwrap_or_default();
         let full = l
             .lod_pixels_differ_from_full
             .map(|p| {
@@ -85,7 +92,7 @@ pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
             })
             .unwrap_or_default();
         println!(
-            "{name} lod: {:.0} triangles drawn (median), {:.1} % fewer than view-only level of detail of the frustum's objects, max error {:.2} px, {} nodes kept coarse as hidden, {:.3} ms selection (median){unguided}{oracle}{pixels}{full}{budget}",
+            "{name} lod: {:.0} triangles drawn (median), {:.1} % fewer than view-only level of detail of the frustum's objects, max error {:.2} px, {} nodes kept coarse as hidden, {:.3} ms selection (median){unguided}{oracle}{pixels}{culling}{full}{budget}",
             l.median_lod_triangles,
             fewer(l.lod_view_only_triangles),
             l.lod_max_error_px,

@@ -15,7 +15,7 @@
 
 use hom::cull::Culler;
 use hom::geom::{Camera, View};
-use hom::lod::{LodError, LodOptions, LodPart, LodSelector, LodStats, LodView, SceneLod};
+use hom::lod::{LodError, LodOptions, LodPart, LodSelector, LodStats, LodView, OccluderLod, SceneLod};
 use hom::scene::Scene;
 use hom_render::{Framebuffer, Part, RenderOptions, Renderer};
 use serde::Serialize;
@@ -29,6 +29,21 @@ pub struct WalkLod {
     pub hierarchies: Arc<SceneLod>,
     /// Threshold or budget, guidance on or off.
     pub options: LodOptions,
+    /// Occluders drawn at the frame's level of detail
+    /// ([`hom::cull::Culler::set_occluder_lod`]; threshold mode only: a
+    /// budget's cut is not known before the culler runs).
+    pub occluders: bool,
+}
+
+impl WalkLod {
+    /// What the culler is given: the hierarchies and the threshold, when
+    /// occluders are drawn at the level of detail and the threshold decides the cut.
+    pub fn occluder_lod(&self) -> Option<OccluderLod> {
+        (self.occluders && self.options.budget.is_none()).then(|| OccluderLod {
+            hierarchies: self.hierarchies.clone(),
+            error_px: self.options.error_px,
+        })
+    }
 }
 
 /// The report's level-of-detail fields of one frame.
@@ -70,6 +85,14 @@ pub struct LodFrame {
     /// silhouettes, within the error threshold).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lod_pixels_differ_from_full: Option<u64>,
+    /// With the oracle: pixels (colour or item) that differ from view-only
+    /// level of detail of every object in the frustum, nothing occlusion
+    /// culled: what culling and guidance together changed in the image the
+    /// level of detail shows. 0 expected with occluders at the level of
+    /// detail; without, an object hidden by an occluder's full mesh can show
+    /// where the occluder's cut lies within its error inside it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod_culling_pixels_changed: Option<u64>,
 }
 
 impl LodFrame {
@@ -88,6 +111,7 @@ impl LodFrame {
             lod_view_only_triangles: 0,
             lod_oracle_triangles: None,
             lod_pixels_differ_from_full: None,
+            lod_culling_pixels_changed: None,
         }
     }
 }
@@ -98,6 +122,9 @@ pub(crate) struct LodRun {
     selector: LodSelector,
     /// View-only twin, for the image comparison.
     unguided: Option<(LodSelector, Framebuffer)>,
+    /// With the oracle: the frame drawn from view-only level of detail of
+    /// every object in the frustum.
+    unculled: Option<Framebuffer>,
     /// View-only selection over the frustum's objects.
     view_only: LodSelector,
     /// View-only selection over the oracle's objects.
@@ -116,6 +143,7 @@ impl LodRun {
             setup: setup.clone(),
             selector: LodSelector::default(),
             unguided: (compare && setup.options.guidance).then(|| (LodSelector::default(), Framebuffer::new(1, 1))),
+            unculled: compare.then(|| Framebuffer::new(1, 1)),
             view_only: LodSelector::default(),
             oracle: LodSelector::default(),
             parts: Vec::new(),
@@ -173,17 +201,14 @@ impl LodRun {
             &mut parts,
         )?
         .triangles;
+        if let Some(unculled) = self.unculled.as_mut() {
+            renderer.render_parts(scene, &draw_parts(scene, lod, &parts), camera, draw, unculled);
+            record.lod_culling_pixels_changed = Some(pixels_differ(fb, unculled));
+        }
         if let Some((selector, unguided_fb)) = self.unguided.as_mut() {
             let unguided = by_view_alone(selector, &self.setup, scene, visible, lod_view, &mut parts)?;
             renderer.render_parts(scene, &draw_parts(scene, lod, &parts), camera, draw, unguided_fb);
-            let changed = fb
-                .color()
-                .iter()
-                .zip(unguided_fb.color())
-                .zip(fb.items().iter().zip(unguided_fb.items()))
-                .filter(|((a, b), (i, j))| a != b || i != j)
-                .count();
-            record.lod_guidance_pixels_changed = Some(changed as u64);
+            record.lod_guidance_pixels_changed = Some(pixels_differ(fb, unguided_fb));
             record.lod_unguided_triangles = Some(unguided.triangles);
         }
         Ok((record, render_ms))
@@ -206,6 +231,16 @@ impl LodRun {
         )?
         .triangles)
     }
+}
+
+/// Pixels whose colour or owning item differ between two frames of one size.
+fn pixels_differ(a: &Framebuffer, b: &Framebuffer) -> u64 {
+    a.color()
+        .iter()
+        .zip(b.color())
+        .zip(a.items().iter().zip(b.items()))
+        .filter(|((a, b), (i, j))| a != b || i != j)
+        .count() as u64
 }
 
 /// `selector`'s selection of `ids` with `setup`'s threshold or budget and
@@ -267,6 +302,12 @@ pub struct LodSummary {
     /// Summed pixels that guidance changed (0 expected), where compared.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lod_guidance_pixels_changed: Option<u64>,
+    /// Summed pixels that culling and guidance changed against view-only
+    /// level of detail of the whole frustum, where the oracle ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod_culling_pixels_changed: Option<u64>,
+    /// Whether occluders were drawn at the level of detail.
+    pub lod_occluders: bool,
     /// Budget mode: of the frames where the budget binds (the coarsest cut
     /// fits it and some drawn node in view is still above 0 px of error), the
     /// share within ±5 % of it.
@@ -278,7 +319,7 @@ pub struct LodSummary {
 }
 
 /// Sums and medians of the frames' level-of-detail fields.
-pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>) -> LodSummary {
+pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>, occluders: bool) -> LodSummary {
     let sum_opt = |f: fn(&LodFrame) -> Option<u64>| -> Option<u64> {
         let v: Option<Vec<u64>> = frames.iter().map(|r| f(r)).collect();
         v.filter(|v| !v.is_empty()).map(|v| v.iter().sum())
@@ -294,6 +335,8 @@ pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>) -> LodSummary {
         lod_nodes_occluded: frames.iter().map(|f| f.lod_nodes_occluded).sum(),
         median_lod_ms: crate::report::median(frames.iter().map(|f| f.lod_ms)),
         lod_guidance_pixels_changed: sum_opt(|f| f.lod_guidance_pixels_changed),
+        lod_culling_pixels_changed: sum_opt(|f| f.lod_culling_pixels_changed),
+        lod_occluders: occluders,
         lod_frames_within_budget: budget.map(|b| {
             let binding: Vec<_> = frames.iter().filter(|f| budget_binds(f, b)).collect();
             let within = binding

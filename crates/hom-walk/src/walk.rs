@@ -107,6 +107,10 @@ pub fn walk(
         .as_ref()
         .map(|l| LodRun::new(l, scene, options.oracle))
         .transpose()?;
+    // Occluders at the level of detail, where the culler draws occluders.
+    let occluder_lod = options.lod.as_ref().and_then(WalkLod::occluder_lod);
+    let lod_occluders = occluder_lod.is_some();
+    let lod_occluders = culler.set_occluder_lod(occluder_lod) && lod_occluders;
     let mut frames = Vec::with_capacity(frame_count);
     for i in 0..frame_count {
         let time_s = i as f32 / options.frame_rate;
@@ -247,7 +251,7 @@ pub fn walk(
     let mut summary = summarize(&frames, scene.triangle_count());
     if let Some(l) = &options.lod {
         let records: Vec<_> = frames.iter().filter_map(|f| f.lod.as_ref()).collect();
-        summary.lod = Some(summarize_lod(&records, l.options.budget));
+        summary.lod = Some(summarize_lod(&records, l.options.budget, lod_occluders));
     }
     Ok(WalkResult {
         header,

@@ -20,7 +20,11 @@ fn lod_walk(scene: &str, culler: &str, options: LodOptions, step: usize) -> hom_
     let walk_options = WalkOptions {
         oracle: true,
         baseline: false,
-        lod: Some(WalkLod { hierarchies, options }),
+        lod: Some(WalkLod {
+            hierarchies,
+            options,
+            occluders: false,
+        }),
         ..WalkOptions::default()
     };
     let renderer = Renderer::new(0).unwrap();
@@ -152,4 +156,68 @@ fn the_budget_is_held_on_the_city_walk() {
     );
     let summary = result.summary.lod.as_ref().unwrap();
     assert_eq!(summary.lod_frames_within_budget, Some(1.0));
+}
+
+/// Occluders drawn at the level of detail the frame shows: what they hide
+/// is hidden in the image of the cuts (no pixel of the frame differs from
+/// view-only level of detail of the whole frustum, nothing culled), and on
+/// the terrain, whose tiles are big meshes seen far, the same budget buys
+/// more occluders that hide more.
+#[test]
+fn occluders_at_the_level_of_detail_change_no_pixel_and_hide_more_on_terrain() {
+    let options = LodOptions::default();
+    let run = |occluders: bool| {
+        let built = hom_scene::builtin("terrain").unwrap();
+        let (mut scene, animation) = (built.scene, built.animation);
+        let mut path = built.path.with_viewport(400, 300);
+        path.frames = path.frames.iter().copied().step_by(15).collect();
+        let hierarchies = Arc::new(SceneLod::build(&scene, &LodConfig::default(), &|_, _| {}).unwrap());
+        let mut settings = cullers::CullerSettings::for_scene(&scene);
+        settings.hom.cost_model = false;
+        let mut culler = cullers::make("hom", &scene, &settings).unwrap();
+        let walk_options = WalkOptions {
+            oracle: true,
+            baseline: false,
+            lod: Some(WalkLod {
+                hierarchies,
+                options,
+                occluders,
+            }),
+            ..WalkOptions::default()
+        };
+        let renderer = Renderer::new(0).unwrap();
+        walk(
+            &mut scene,
+            &animation,
+            &path,
+            culler.as_mut(),
+            &renderer,
+            &walk_options,
+            |_| {},
+        )
+        .unwrap()
+    };
+    let (whole, cut) = (run(false), run(true));
+    assert!(!whole.summary.lod.as_ref().unwrap().lod_occluders);
+    assert!(cut.summary.lod.as_ref().unwrap().lod_occluders);
+    let mut cuts = 0;
+    for f in &cut.frames {
+        let lod = f.lod.as_ref().unwrap();
+        assert_eq!(
+            lod.lod_culling_pixels_changed,
+            Some(0),
+            "frame {}: culling changed the image",
+            f.frame
+        );
+        assert_eq!(lod.lod_guidance_pixels_changed, Some(0), "frame {}", f.frame);
+        cuts += f.counters.get("occluder_cuts").copied().unwrap_or(0);
+    }
+    assert!(cuts > 0, "no occluder was drawn as a cut");
+    let occluded = |r: &hom_walk::WalkResult| r.frames.iter().map(|f| f.triangles_occlusion_culled).sum::<u64>();
+    assert!(
+        occluded(&cut) > occluded(&whole),
+        "cuts hid {} triangles, whole meshes {}",
+        occluded(&cut),
+        occluded(&whole)
+    );
 }

@@ -115,6 +115,7 @@ fn write_lod_pictures(
     let (scene, camera) = (&w.scene, w.path.camera(a.frame));
     let view = camera.to_view();
     let mut culler = make_culler_after_pvs(&a.view.culler, scene, &a.view.hom, pvs)?;
+    culler.set_occluder_lod(lod.occluder_lod());
     let mut cull = CullOutput::default();
     renderer.install(|| culler.cull(scene, &view, &mut cull))?;
     let lod_view = LodView::new(&view).context("the frame's view has no frustum")?;

@@ -168,6 +168,11 @@ impl Culler for HomCuller {
         self.common.set_known_hidden(scene, hidden);
     }
 
+    fn set_occluder_lod(&mut self, lod: Option<crate::lod::OccluderLod>) -> bool {
+        self.common.set_occluder_lod(lod);
+        true
+    }
+
     fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
         match (self.common.last_rect(corners), self.buffer.as_mut()) {
             (Some(r), Some(buffer)) => buffer.rect_is_occluded(&r),

@@ -222,6 +222,11 @@ impl Culler for HzbCuller {
         self.common.set_known_hidden(scene, hidden);
     }
 
+    fn set_occluder_lod(&mut self, lod: Option<crate::lod::OccluderLod>) -> bool {
+        self.common.set_occluder_lod(lod);
+        true
+    }
+
     fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
         let Some(r) = self.common.last_rect(corners) else {
             return false;

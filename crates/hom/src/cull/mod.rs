@@ -133,4 +133,17 @@ pub trait Culler: Send {
     fn box_hidden(&mut self, _corners: &[glam::Vec3; 8]) -> bool {
         false
     }
+
+    /// Draws occluders at the level of detail the frames are rendered at
+    /// (`None`: as their meshes, the default): from the next frame, an
+    /// occluder whose view-only cut is coarser than its mesh is drawn as
+    /// that cut and costs the budget its triangles. The guarantee is then
+    /// the image of every object's view-only cut at `lod.error_px`
+    /// ([`crate::lod::OccluderLod`]), which is what a caller that draws
+    /// [`crate::lod::LodSelector`]'s selection at that threshold shows.
+    /// Returns whether the culler draws occluders this way (the occluder
+    /// cullers: HOM, HZB, masked, otree; not frustum or HV culling).
+    fn set_occluder_lod(&mut self, _lod: Option<crate::lod::OccluderLod>) -> bool {
+        false
+    }
 }

@@ -169,6 +169,11 @@ impl Culler for OtreeCuller {
         self.common.set_known_hidden(scene, hidden);
     }
 
+    fn set_occluder_lod(&mut self, lod: Option<crate::lod::OccluderLod>) -> bool {
+        self.common.set_occluder_lod(lod);
+        true
+    }
+
     fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
         match (self.common.last_rect(corners), self.tree.as_mut()) {
             (Some(r), Some(tree)) => tree.rect_is_occluded(&r),

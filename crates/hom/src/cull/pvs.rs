@@ -138,4 +138,8 @@ impl Culler for PvsCuller {
     fn box_hidden(&mut self, corners: &[glam::Vec3; 8]) -> bool {
         self.inner.box_hidden(corners)
     }
+
+    fn set_occluder_lod(&mut self, lod: Option<crate::lod::OccluderLod>) -> bool {
+        self.inner.set_occluder_lod(lod)
+    }
 }

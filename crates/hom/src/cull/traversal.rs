@@ -23,9 +23,10 @@ use super::kd_traversal::{Hierarchy, KdModel};
 use super::model_db::{Change, ModelDb};
 use super::{CullError, CullOutput};
 use crate::geom::{project_points, Containment, Eye, Footprint, Frustum, ScreenRect, View};
+use crate::lod::OccluderLod;
 use crate::map::Hole;
 use crate::occluders::draw_occluders;
-use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderDb, OccluderSelector, SelectionStats};
+use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderCuts, OccluderDb, OccluderSelector, SelectionStats};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
 use crate::scene::{Object, Scene};
 use crate::spatial::bvh::BvhNode;
@@ -79,6 +80,8 @@ pub(crate) struct OccluderCulling {
     /// The last frame's world to clip and viewport, while its buffer holds
     /// that frame's occluders (`None` after a resting frame).
     last_frame: Option<(Mat4, u32, u32)>,
+    /// Occluders at the frame's level of detail ([`super::Culler::set_occluder_lod`]).
+    cuts: OccluderCuts,
 }
 
 /// One frame after occluder selection.
@@ -128,7 +131,14 @@ impl OccluderCulling {
             known_hidden: Vec::new(),
             known_hidden_ids: Vec::new(),
             last_frame: None,
+            cuts: OccluderCuts::default(),
         }
+    }
+
+    /// Draws occluders at their level of detail from the next frame on
+    /// (see [`super::Culler::set_occluder_lod`]); `None`: as their meshes.
+    pub fn set_occluder_lod(&mut self, lod: Option<OccluderLod>) {
+        self.cuts.set(lod);
     }
 
     /// This frame's objects known hidden (ascending ids; see
@@ -228,6 +238,7 @@ impl OccluderCulling {
         };
         let mut occluders = std::mem::take(&mut out.occluders);
         let mut originals = Vec::new();
+        self.cuts.begin(view);
         let stats = out.time("selection", || {
             self.selector.select(
                 &self.db,
@@ -241,6 +252,7 @@ impl OccluderCulling {
                 &eye,
                 &frustum,
                 hole.as_ref(),
+                &mut self.cuts,
                 &mut occluders,
                 &mut originals,
             )
@@ -261,7 +273,8 @@ impl OccluderCulling {
     /// occluders nearest first and draws them. Returns the occluder
     /// triangles submitted; the buffer's own account of the work goes to
     /// the counters (`occluder_triangles_drawn` after clipping and culling,
-    /// `occluder_setup_us` and `occluder_raster_us`, the tiles drawn and rejected).
+    /// `occluder_setup_us` and `occluder_raster_us`, the tiles drawn and
+    /// rejected; with occluders at the level of detail, `occluder_cuts`).
     pub fn draw(
         &self,
         scene: &Scene,
@@ -269,12 +282,13 @@ impl OccluderCulling {
         buffer: &mut impl OcclusionBuffer,
         out: &mut CullOutput,
     ) -> u64 {
-        let drawn = out.time("raster", || {
+        let (drawn, cuts) = out.time("raster", || {
             buffer.clear();
             let n = draw_occluders(
                 buffer,
                 scene,
                 &self.db,
+                &self.cuts,
                 &frame.occluders,
                 &frame.originals,
                 &frame.world_to_clip,
@@ -285,6 +299,9 @@ impl OccluderCulling {
             n
         });
         let stats = buffer.stats();
+        if self.cuts.is_on() {
+            out.count("occluder_cuts", cuts);
+        }
         out.count("occluder_triangles_drawn", stats.triangles_drawn);
         out.count("occluder_setup_us", (stats.setup_ms * 1e3) as u64);
         out.count("occluder_raster_us", (stats.raster_ms * 1e3) as u64);
@@ -366,6 +383,7 @@ impl OccluderCulling {
             + self.selector.heap_bytes()
             + self.temporal.heap_bytes()
             + self.kd.as_ref().map_or(0, KdModel::heap_bytes)
+            + self.cuts.heap_bytes()
     }
 
     /// The configuration entries every occluder-based culler reports: its

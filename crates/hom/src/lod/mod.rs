@@ -57,7 +57,7 @@ mod refine;
 mod tests;
 
 pub use hierarchy::{LodHierarchy, LodNode};
-pub use refine::{top_down_cut, LodOptions, LodPart, LodSelector, LodStats, LodView};
+pub use refine::{top_down_cut, view_only_cut, LodOptions, LodPart, LodSelector, LodStats, LodView};
 
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -98,6 +98,24 @@ pub enum LodError {
         /// Meshes of the scene.
         scene: usize,
     },
+}
+
+/// Occluders drawn at the level of detail the frame is rendered at
+/// ([`crate::cull::Culler::set_occluder_lod`]): an occluder whose view-only
+/// cut ([`view_only_cut`]) at `error_px` is coarser than its mesh is drawn
+/// as that cut, and costs the occluder budget the cut's triangles, so the
+/// budget buys more occluders where meshes are big and far (terrain tiles).
+///
+/// The guarantee moves with it: an object the culler hides is hidden in the
+/// image of every object's view-only cut (what [`LodSelector`] draws, with
+/// or without guidance), not in the full-resolution image, where it may
+/// show along an occluder's silhouette by up to `error_px`.
+#[derive(Clone, Debug)]
+pub struct OccluderLod {
+    /// A hierarchy per mesh of the culled scene.
+    pub hierarchies: std::sync::Arc<SceneLod>,
+    /// The threshold the frame is refined to, pixels.
+    pub error_px: f32,
 }
 
 /// A level-of-detail hierarchy for every mesh of a scene.

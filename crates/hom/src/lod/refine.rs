@@ -493,6 +493,19 @@ impl LodSelector {
     }
 }
 
+/// The cut refinement by the view alone draws for `object` at the threshold
+/// `error_px` (no guidance): the front [`LodSelector`] moves to with
+/// guidance off, found from the root. Node ids ascending (pre-order). What
+/// an occluder is drawn as when the frame renders at this level of detail
+/// ([`crate::lod::OccluderLod`]).
+pub fn view_only_cut(lod: &SceneLod, object: &Object, view: &LodView, error_px: f32) -> Vec<u32> {
+    let eval = Eval::of(lod, object, view, error_px, false);
+    let mut stats = LodStats::default();
+    top_down_cut(eval.h, |n| {
+        eval.classify(n, &mut |_| false, &mut stats) == Class::Refine
+    })
+}
+
 /// The cut found top down: from the root, a node is refined iff
 /// `refine(node)` (asked only of inner nodes whose ancestors were refined).
 /// The reference the moved front is tested against.
@@ -516,6 +529,36 @@ mod tests {
     use super::super::tests::{camera, ground_scene};
     use super::super::LodConfig;
     use super::*;
+
+    /// The view-only cut is the front the selector moves to with guidance off.
+    #[test]
+    fn the_view_only_cut_is_the_unguided_front() {
+        let scene = ground_scene(4);
+        let lod = SceneLod::build(&scene, &LodConfig { leaf_triangles: 48 }, &|_, _| {}).expect("built");
+        let ids: Vec<u32> = (0..4).collect();
+        let mut selector = LodSelector::default();
+        let mut parts = Vec::new();
+        let mut seed = 7u64;
+        let mut coarse = 0;
+        for frame in 0..40 {
+            let view = LodView::new(&camera(&mut seed).to_view()).expect("valid view");
+            let options = LodOptions {
+                error_px: [0.5, 1.0, 4.0][frame % 3],
+                guidance: false,
+                budget: None,
+            };
+            selector
+                .select(&scene, &lod, &ids, &view, &options, &mut |_| true, &mut parts)
+                .expect("valid selection");
+            for &id in &ids {
+                let cut = view_only_cut(&lod, scene.object(id), &view, options.error_px);
+                assert_eq!(selector.front(id), cut.as_slice(), "frame {frame}, object {id}");
+                let h = lod.hierarchy(scene.object(id).mesh);
+                coarse += cut.iter().any(|&n| !h.nodes()[n as usize].is_leaf(n)) as u32;
+            }
+        }
+        assert!(coarse > 0, "no cut was coarser than its mesh: the test shows nothing");
+    }
 
     /// Frame after frame, from wherever last frame left it, the moved front
     /// is the cut found from the root with the same classification.

@@ -4,8 +4,10 @@
 //! the world first, as the renderer places it), two-sided, nearest first by
 //! box centre — the order the buffers want (the HZB then skips what is
 //! already hidden; HOM's depth cells keep the first, mostly nearest, cover).
+//! An occluder with a cut this frame ([`OccluderCuts`]) is drawn as that
+//! cut, exactly, as the renderer draws it.
 
-use super::OccluderDb;
+use super::{OccluderCuts, OccluderDb};
 #[cfg(doc)]
 use crate::geom::View;
 use crate::geom::{Aabb, Eye, Frustum};
@@ -35,28 +37,48 @@ fn centre_nearness(eye: &Eye, b: &Aabb) -> f32 {
 
 /// Queues the occluders `ids` of `scene` in `buffer` (whose clip convention
 /// is hom's, [`crate::geom::ClipConvention::ZeroToOne`]), nearest centre
-/// first as seen from `eye`, those in `originals` (ascending) as their own meshes.
-/// Returns the number of occluder triangles submitted.
+/// first as seen from `eye`, those in `originals` (ascending) as their own
+/// meshes, those with a cut in `cuts` as their cuts. Returns the number of
+/// occluder triangles submitted and of occluders drawn as cuts.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn draw_occluders(
     buffer: &mut impl OcclusionBuffer,
     scene: &Scene,
     db: &OccluderDb,
+    cuts: &OccluderCuts,
     ids: &[u32],
     originals: &[u32],
     world_to_clip: &Mat4,
     eye: &Eye,
     frustum: &Frustum,
-) -> u64 {
+) -> (u64, u64) {
     let mut order: Vec<(f32, u32)> = ids
         .iter()
         .map(|&id| (centre_nearness(eye, &scene.object(id).aabb), id))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-    let mut submitted = 0;
+    let (mut submitted, mut cut_count) = (0, 0);
     let mut world = Vec::new();
+    let mut cut = Vec::new();
     for (_, id) in order {
         let o = scene.object(id);
+        cut.clear();
+        if cuts.cut_triangles(scene, id, &mut cut) {
+            // A cut indexes its mesh's own vertices: placed as an original is.
+            world.clear();
+            world.extend(
+                scene
+                    .mesh_of(o)
+                    .positions()
+                    .iter()
+                    .map(|&q| o.transform.transform_point3(q)),
+            );
+            let drawn = buffer.render_triangles(&world, &cut, world_to_clip, FaceCull::None);
+            debug_assert!(drawn.is_ok(), "occluder {id}'s cut: {drawn:?}");
+            submitted += cut.len() as u64;
+            cut_count += 1;
+            continue;
+        }
         let Some((mesh, stands_in)) = db
             .occluder(id)
             .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum, originals.binary_search(&id).is_ok()))
@@ -78,5 +100,5 @@ pub(crate) fn draw_occluders(
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
         submitted += mesh.triangle_count() as u64;
     }
-    submitted
+    (submitted, cut_count)
 }

@@ -2,11 +2,13 @@
 //! handing the selected ones to an occlusion buffer.
 
 mod convex_part;
+mod cuts;
 mod database;
 mod draw;
 mod selection;
 mod virtual_occluder;
 
+pub(crate) use cuts::OccluderCuts;
 pub use database::{MeshBake, Occluder, OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 pub(crate) use draw::draw_occluders;
 pub(crate) use selection::{ObjectBoxes, OccluderSelector, SelectionStats};

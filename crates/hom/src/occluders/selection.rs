@@ -16,6 +16,7 @@
 //! - **temporal coherence**: last frame's occluders win ties.
 
 use super::database::OccluderDb;
+use super::OccluderCuts;
 use crate::geom::{Aabb, Containment, Eye, Frustum, View};
 use crate::map::Hole;
 use crate::scene::Scene;
@@ -164,7 +165,9 @@ impl OccluderSelector {
     /// worst hole of the last frame's coarsest map, if the caller found one.
     ///
     /// `world_to_clip` is the view in hom's clip convention, `eye` its viewer
-    /// ([`crate::geom::View::world_to_clip`], [`crate::geom::View::eye`]).
+    /// ([`crate::geom::View::world_to_clip`], [`crate::geom::View::eye`]);
+    /// `cuts` prices an occluder drawn at its level of detail (its cut's
+    /// triangles; without level of detail, its own cost).
     #[allow(clippy::too_many_arguments)]
     pub fn select(
         &mut self,
@@ -175,6 +178,7 @@ impl OccluderSelector {
         eye: &Eye,
         frustum: &Frustum,
         hole: Option<&Hole>,
+        cuts: &mut OccluderCuts,
         out: &mut Vec<u32>,
         originals: &mut Vec<u32>,
     ) -> SelectionStats {
@@ -221,7 +225,8 @@ impl OccluderSelector {
             } else {
                 key
             };
-            self.candidates.push((key, occ.object, occ.triangles));
+            let triangles = cuts.cost(scene, occ);
+            self.candidates.push((key, occ.object, triangles));
         }
         stats.candidates = self.candidates.len() as u32;
         self.candidates
@@ -270,7 +275,14 @@ impl OccluderSelector {
         if self.config.originals_from_leftover && spent < budget {
             for &(_, id, tris) in &self.candidates {
                 let occ = match db.occluder(id) {
-                    Some(o) if chosen[id as usize] && o.stand_in.is_none() && o.virtual_occluder.is_some() => o,
+                    Some(o)
+                        if chosen[id as usize]
+                            && o.stand_in.is_none()
+                            && o.virtual_occluder.is_some()
+                            && !cuts.has_cut(id) =>
+                    {
+                        o
+                    }
                     _ => continue,
                 };
                 let full = u64::from(scene.object(occ.object).triangles);
