@@ -17,7 +17,8 @@
 //! between the cell's and the occludee's centres crosses (every segment must
 //! cross the one that hides), found in a BVH over the occluders.
 
-use super::region::{box_distance, ConvexOccluder, DPlane, Margins, Shape};
+use super::planar_union::planar_unions;
+use super::region::{ConvexOccluder, DPlane, Margins, Shape};
 use super::solid::{Eroded, SolidSpace, MAX_VOXELS};
 use super::PvsError;
 use super::{CellGrid, PvsConfig};
@@ -82,7 +83,7 @@ pub(crate) fn convex_occluders(scene: &Scene, is_static: &[bool], config: &PvsCo
         })
         .collect();
     let min_area = config.min_polygon_area as f64;
-    objects
+    let mut occluders: Vec<ConvexOccluder> = objects
         .par_iter()
         .enumerate()
         .filter(|(id, o)| is_static[*id] && o.occluder)
@@ -126,6 +127,36 @@ pub(crate) fn convex_occluders(scene: &Scene, is_static: &[bool], config: &PvsCo
             }
             out
         })
+        .collect();
+    if config.min_polygon_area.is_finite() {
+        occluders.extend(joined_planes(scene, is_static, min_area));
+    }
+    occluders
+}
+
+/// Triangles of the static occluder objects that lie exactly in one
+/// axis-aligned plane, joined per plane (`pvs/planar_union.rs`): walls with
+/// doorways, slabs meeting edge to edge. Planes of fewer than three
+/// triangles or less than `min_area` are left to the convex polygons.
+fn joined_planes(scene: &Scene, is_static: &[bool], min_area: f64) -> Vec<ConvexOccluder> {
+    let triangles: Vec<(u32, [Vec3; 3])> = scene
+        .objects()
+        .par_iter()
+        .enumerate()
+        .filter(|(id, o)| is_static[*id] && o.occluder)
+        .flat_map_iter(|(id, o)| {
+            let m = scene.mesh_of(o);
+            let t = o.transform;
+            m.triangles()
+                .iter()
+                .map(move |tri| tri.map(|i| t.transform_point3(m.positions()[i as usize])))
+                .filter(|w| (0..3).any(|k| w[0][k] == w[1][k] && w[1][k] == w[2][k]))
+                .map(move |w| (id as u32, w))
+        })
+        .collect();
+    planar_unions(&triangles, 3, min_area)
+        .into_iter()
+        .map(ConvexOccluder::union)
         .collect()
 }
 
@@ -243,10 +274,7 @@ impl<'a> BakeContext<'a> {
             for &o in self.occluder_bvh.leaf_items(node) {
                 let occ = &self.occluders[o as usize];
                 let own = items.contains(&(self.item_pos[occ.object as usize] as usize));
-                if own
-                    || box_distance(&occ.bounds, cell) < self.config.near_clearance
-                    || !occ.crossed_by(a, b, margins.lateral)
-                {
+                if own || occ.too_near(cell, self.config.near_clearance) || !occ.crossed_by(a, b, margins.lateral) {
                     continue;
                 }
                 if occ.hides(cell, x, margins) {

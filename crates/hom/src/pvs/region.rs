@@ -31,8 +31,10 @@
 //! depth tie (an occludee within `gap` of the occluder's box is never
 //! hidden by it, so no part of it lies inside a solid occluder). [`Margins::for_pair`] scales both with the distance involved.
 
+use super::planar_union::PlanarUnion;
 use crate::geom::Aabb;
 use glam::{DVec3, Vec3};
+use std::sync::Arc;
 
 /// A plane `normal · p + d = 0`; "inside" is `normal · p + d <= 0`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +81,9 @@ pub(crate) enum Shape {
     /// A planar convex polygon: its plane and its edges' planes (normal in
     /// the polygon's plane, pointing out of it).
     Polygon { plane: DPlane, edges: Vec<DPlane> },
+    /// Triangles in one axis-aligned plane, joined: not convex
+    /// (`pvs/planar_union.rs` has its test).
+    Union(Arc<PlanarUnion>),
 }
 
 /// A convex occluder in world space, from one static object.
@@ -94,6 +99,14 @@ pub(crate) struct ConvexOccluder {
 }
 
 impl ConvexOccluder {
+    /// The objects whose triangles it stands for (one but for a union).
+    pub(crate) fn objects(&self) -> &[u32] {
+        match &self.shape {
+            Shape::Union(u) => &u.objects,
+            _ => std::slice::from_ref(&self.object),
+        }
+    }
+
     /// A convex solid from triangles bounding it (any winding: each plane is
     /// oriented by the corners' centroid, which lies inside a convex body).
     pub(crate) fn solid(object: u32, triangles: &[[Vec3; 3]], above: Option<DPlane>) -> Option<ConvexOccluder> {
@@ -180,10 +193,41 @@ impl ConvexOccluder {
         })
     }
 
+    /// Triangles in one axis-aligned plane, joined, as an occluder; its
+    /// `object` is the least of its objects (it hides nothing that reaches
+    /// its plane, so none of them).
+    pub(crate) fn union(union: PlanarUnion) -> ConvexOccluder {
+        ConvexOccluder {
+            object: union.objects[0],
+            bounds: union.bounds,
+            shape: Shape::Union(Arc::new(union)),
+            above: None,
+        }
+    }
+
+    /// Whether some eye in `cell` may come nearer than `clearance` to the
+    /// occluder's surface (then the near plane could cut it open): its box
+    /// that near, or for a union, the cell that near its plane.
+    pub(crate) fn too_near(&self, cell: &Aabb, clearance: f32) -> bool {
+        match &self.shape {
+            Shape::Union(u) => {
+                let (lo, hi) = cell
+                    .corners()
+                    .iter()
+                    .map(|c| u.side(c.as_dvec3()))
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), d| (lo.min(d), hi.max(d)));
+                // A cell across the plane is as near as can be.
+                lo <= 0.0 && hi >= 0.0 || lo.abs().min(hi.abs()) < clearance as f64
+            }
+            _ => box_distance(&self.bounds, cell) < clearance,
+        }
+    }
+
     /// Does the segment `a`–`b` cross the occluder at least `lateral` inside
     /// its boundary?
     pub(crate) fn crossed_by(&self, a: DVec3, b: DVec3, lateral: f64) -> bool {
         match &self.shape {
+            Shape::Union(u) => u.crossed_by(a, b, lateral),
             Shape::Solid(planes) => {
                 // Cyrus–Beck against the planes pulled in by `lateral`.
                 let (mut t0, mut t1) = (0.0f64, 1.0f64);
@@ -225,6 +269,11 @@ impl ConvexOccluder {
     /// (grown by `margins.gap`) by this occluder, with `margins.lateral`?
     /// The 64 corner segments decide (see the module docs).
     pub(crate) fn hides(&self, cell: &Aabb, x: &Aabb, margins: Margins) -> bool {
+        if let Shape::Union(u) = &self.shape {
+            // Grown by `gap` and strictly beyond the plane, `x` lies `gap`
+            // beyond every triangle of the union.
+            return u.hides(cell, x, margins.gap, margins.lateral);
+        }
         // An occludee reaching into the occluder's box could reach into the
         // solid, and lie there closer to the surface than depth resolves;
         // apart from it, every point of `x` lies `gap` beyond the occluder.
