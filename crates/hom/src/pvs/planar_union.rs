@@ -52,10 +52,6 @@ fn flat(p: DVec3, axis: usize) -> DVec2 {
     DVec2::new(p[(axis + 1) % 3], p[(axis + 2) % 3])
 }
 
-fn cross(a: DVec2, b: DVec2) -> f64 {
-    a.x * b.y - a.y * b.x
-}
-
 impl PlanarUnion {
     /// Joins `triangles` (world space) of the objects `objects`, which must
     /// all lie in the plane `axis = at` exactly; degenerate ones are
@@ -71,7 +67,7 @@ impl PlanarUnion {
         for t in triangles {
             let q = t.map(|p| flat(p.as_dvec3(), axis));
             // Exact for f32 corners: the differences and products fit a double.
-            let area2 = cross(q[1] - q[0], q[2] - q[0]);
+            let area2 = (q[1] - q[0]).perp_dot(q[2] - q[0]);
             if area2 == 0.0 || !area2.is_finite() {
                 continue;
             }
@@ -180,7 +176,7 @@ impl PlanarUnion {
             (0..3).all(|k| {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
                 let len = (b - a).length();
-                cross(b - a, inner - a) >= -HAIR * len
+                (b - a).perp_dot(inner - a) >= -HAIR * len
             })
         })
     }
@@ -188,7 +184,7 @@ impl PlanarUnion {
 
 /// The convex hull of points, counter-clockwise, collinear points dropped
 /// (Andrew's monotone chain); one or two points when all coincide or lie on a line.
-pub(crate) fn convex_hull(mut p: Vec<DVec2>) -> Vec<DVec2> {
+fn convex_hull(mut p: Vec<DVec2>) -> Vec<DVec2> {
     p.sort_by(|a, b| (a.x, a.y).partial_cmp(&(b.x, b.y)).unwrap_or(std::cmp::Ordering::Equal));
     p.dedup();
     if p.len() < 3 {
@@ -204,7 +200,7 @@ pub(crate) fn convex_hull(mut p: Vec<DVec2>) -> Vec<DVec2> {
         };
         for &q in points {
             while hull.len() >= start + 2
-                && cross(hull[hull.len() - 1] - hull[hull.len() - 2], q - hull[hull.len() - 2]) <= 0.0
+                && (hull[hull.len() - 1] - hull[hull.len() - 2]).perp_dot(q - hull[hull.len() - 2]) <= 0.0
             {
                 hull.pop();
             }
@@ -234,12 +230,12 @@ fn segment_polygon_distance(a: DVec2, b: DVec2, s: &[DVec2]) -> f64 {
 }
 
 fn inside_convex(p: DVec2, s: &[DVec2]) -> bool {
-    (0..s.len()).all(|k| cross(s[(k + 1) % s.len()] - s[k], p - s[k]) >= 0.0)
+    (0..s.len()).all(|k| (s[(k + 1) % s.len()] - s[k]).perp_dot(p - s[k]) >= 0.0)
 }
 
 /// Distance between two segments (0 when they cross).
 fn segment_distance(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> f64 {
-    let o = |p: DVec2, q: DVec2, r: DVec2| cross(q - p, r - p);
+    let o = |p: DVec2, q: DVec2, r: DVec2| (q - p).perp_dot(r - p);
     let (d1, d2, d3, d4) = (o(a, b, c), o(a, b, d), o(c, d, a), o(c, d, b));
     if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0)) && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0)) {
         return 0.0;
