@@ -143,6 +143,8 @@ pub trait Culler: Send {
     /// [`crate::lod::LodSelector`]'s selection at that threshold shows.
     /// Returns whether the culler draws occluders this way (the occluder
     /// cullers: HOM, HZB, masked, otree; not frustum or HV culling).
+    /// Hierarchies built for another scene than the one culled are not
+    /// used: its occluders are then drawn as their meshes.
     fn set_occluder_lod(&mut self, _lod: Option<crate::lod::OccluderLod>) -> bool {
         false
     }

@@ -395,3 +395,53 @@ fn bad_options_and_another_scene_are_refused() {
         Some(LodError::BadLeafSize)
     );
 }
+
+/// Occluders at the level of detail: with the scene's own hierarchies some
+/// occluder is drawn as its cut; hierarchies built for another scene are
+/// not used (no panic, the same answer as without).
+#[test]
+fn occluder_cuts_follow_the_scene_they_were_built_for() {
+    use crate::cull::{CullOutput, Culler, HomConfig, HomCuller};
+    let scene = ground_scene(6);
+    let own = std::sync::Arc::new(SceneLod::build(&scene, &LodConfig::default(), &|_, _| {}).expect("built"));
+    let mut other_scene = ground_scene(1);
+    other_scene.add_mesh(height_field(4, 9, 0.1));
+    let other = std::sync::Arc::new(SceneLod::build(&other_scene, &LodConfig::default(), &|_, _| {}).expect("built"));
+    let config = HomConfig {
+        cost_model: false,
+        ..HomConfig::for_scene(&scene)
+    };
+    let (mut plain, mut cut, mut wrong) = (
+        HomCuller::new(&scene, config.clone()),
+        HomCuller::new(&scene, config.clone()),
+        HomCuller::new(&scene, config),
+    );
+    let lod = |hierarchies| {
+        Some(OccluderLod {
+            hierarchies,
+            error_px: 1.0,
+        })
+    };
+    assert!(cut.set_occluder_lod(lod(own)));
+    assert!(wrong.set_occluder_lod(lod(other)));
+    let mut seed = 3u64;
+    let mut cuts = 0;
+    for _ in 0..30 {
+        let view = camera(&mut seed).to_view();
+        let (mut a, mut b, mut c) = (CullOutput::default(), CullOutput::default(), CullOutput::default());
+        plain.cull(&scene, &view, &mut a).expect("culled");
+        cut.cull(&scene, &view, &mut b).expect("culled");
+        wrong.cull(&scene, &view, &mut c).expect("culled");
+        assert_eq!(a.visible, c.visible);
+        assert_eq!(
+            c.counters.iter().find(|(k, _)| *k == "occluder_cuts").map(|kv| kv.1),
+            Some(0)
+        );
+        cuts += b
+            .counters
+            .iter()
+            .find(|(k, _)| *k == "occluder_cuts")
+            .map_or(0, |kv| kv.1);
+    }
+    assert!(cuts > 0, "no occluder was drawn as its cut");
+}

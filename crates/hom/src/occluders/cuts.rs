@@ -68,7 +68,12 @@ impl OccluderCuts {
             return occ.triangles;
         };
         let (id, otherwise) = (occ.object, occ.triangles);
-        if occ.stand_in.is_some() || occ.virtual_occluder.is_some() || otherwise < MIN_CUT_TRIANGLES {
+        // Hierarchies built for another scene (or before a mesh was added) are not used.
+        if occ.stand_in.is_some()
+            || occ.virtual_occluder.is_some()
+            || otherwise < MIN_CUT_TRIANGLES
+            || lod.hierarchies.check_scene(scene).is_err()
+        {
             return otherwise;
         }
         let i = id as usize;
