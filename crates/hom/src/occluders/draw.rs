@@ -63,42 +63,34 @@ pub(crate) fn draw_occluders(
     for (_, id) in order {
         let o = scene.object(id);
         cut.clear();
-        if cuts.cut_triangles(scene, id, &mut cut) {
-            // A cut indexes its mesh's own vertices: placed as an original is.
-            world.clear();
-            world.extend(
-                scene
-                    .mesh_of(o)
-                    .positions()
-                    .iter()
-                    .map(|&q| o.transform.transform_point3(q)),
-            );
-            let drawn = buffer.render_triangles(&world, &cut, world_to_clip, FaceCull::None);
-            debug_assert!(drawn.is_ok(), "occluder {id}'s cut: {drawn:?}");
-            submitted += cut.len() as u64;
+        // Its cut (the mesh's own vertices, some of its levels' triangles), or
+        // the mesh the database draws it with.
+        let (mesh, triangles, stands_in) = if cuts.cut_triangles(scene, id, &mut cut) {
             cut_count += 1;
-            continue;
-        }
-        let Some((mesh, stands_in)) = db
-            .occluder(id)
-            .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum, originals.binary_search(&id).is_ok()))
-        else {
-            continue;
+            (scene.mesh_of(o), &cut[..], false)
+        } else {
+            let Some((mesh, stands_in)) = db
+                .occluder(id)
+                .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum, originals.binary_search(&id).is_ok()))
+            else {
+                continue;
+            };
+            (mesh, mesh.triangles(), stands_in)
         };
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
-        let (p, t) = (mesh.positions(), mesh.triangles());
+        let p = mesh.positions();
         let drawn = if stands_in {
-            buffer.render_stand_in_triangles(p, t, &(*world_to_clip * o.transform), FaceCull::None)
+            buffer.render_stand_in_triangles(p, triangles, &(*world_to_clip * o.transform), FaceCull::None)
         } else {
             // World first, as the renderer transforms (`geom::object_to_clip`):
             // an exactly sampled original covers the renderer's samples, no more.
             world.clear();
             world.extend(p.iter().map(|&q| o.transform.transform_point3(q)));
-            buffer.render_triangles(&world, t, world_to_clip, FaceCull::None)
+            buffer.render_triangles(&world, triangles, world_to_clip, FaceCull::None)
         };
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
-        submitted += mesh.triangle_count() as u64;
+        submitted += triangles.len() as u64;
     }
     (submitted, cut_count)
 }
