@@ -109,8 +109,8 @@ pub fn walk(
         .transpose()?;
     // Occluders at the level of detail, where the culler draws occluders.
     let occluder_lod = options.lod.as_ref().and_then(WalkLod::occluder_lod);
-    let lod_occluders = occluder_lod.is_some();
-    let lod_occluders = culler.set_occluder_lod(occluder_lod) && lod_occluders;
+    let asked = occluder_lod.is_some();
+    let lod_occluders = culler.set_occluder_lod(occluder_lod) && asked;
     let mut frames = Vec::with_capacity(frame_count);
     for i in 0..frame_count {
         let time_s = i as f32 / options.frame_rate;

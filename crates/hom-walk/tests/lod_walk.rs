@@ -10,12 +10,25 @@ use hom_walk::{cullers, walk, WalkOptions};
 use std::sync::Arc;
 
 fn lod_walk(scene: &str, culler: &str, options: LodOptions, step: usize) -> hom_walk::WalkResult {
+    lod_walk_with(scene, culler, options, step, false, true)
+}
+
+/// [`lod_walk`] with occluders at the level of detail or not, and the cost model on or off.
+fn lod_walk_with(
+    scene: &str,
+    culler: &str,
+    options: LodOptions,
+    step: usize,
+    occluders: bool,
+    cost_model: bool,
+) -> hom_walk::WalkResult {
     let built = hom_scene::builtin(scene).unwrap();
     let (mut scene, animation) = (built.scene, built.animation);
     let mut path = built.path.with_viewport(400, 300);
     path.frames = path.frames.iter().copied().step_by(step).collect();
     let hierarchies = Arc::new(SceneLod::build(&scene, &LodConfig::default(), &|_, _| {}).unwrap());
-    let settings = cullers::CullerSettings::for_scene(&scene);
+    let mut settings = cullers::CullerSettings::for_scene(&scene);
+    settings.hom.cost_model = cost_model;
     let mut culler = cullers::make(culler, &scene, &settings).unwrap();
     let walk_options = WalkOptions {
         oracle: true,
@@ -23,7 +36,7 @@ fn lod_walk(scene: &str, culler: &str, options: LodOptions, step: usize) -> hom_
         lod: Some(WalkLod {
             hierarchies,
             options,
-            occluders: false,
+            occluders,
         }),
         ..WalkOptions::default()
     };
@@ -165,38 +178,7 @@ fn the_budget_is_held_on_the_city_walk() {
 /// more occluders that hide more.
 #[test]
 fn occluders_at_the_level_of_detail_change_no_pixel_and_hide_more_on_terrain() {
-    let options = LodOptions::default();
-    let run = |occluders: bool| {
-        let built = hom_scene::builtin("terrain").unwrap();
-        let (mut scene, animation) = (built.scene, built.animation);
-        let mut path = built.path.with_viewport(400, 300);
-        path.frames = path.frames.iter().copied().step_by(15).collect();
-        let hierarchies = Arc::new(SceneLod::build(&scene, &LodConfig::default(), &|_, _| {}).unwrap());
-        let mut settings = cullers::CullerSettings::for_scene(&scene);
-        settings.hom.cost_model = false;
-        let mut culler = cullers::make("hom", &scene, &settings).unwrap();
-        let walk_options = WalkOptions {
-            oracle: true,
-            baseline: false,
-            lod: Some(WalkLod {
-                hierarchies,
-                options,
-                occluders,
-            }),
-            ..WalkOptions::default()
-        };
-        let renderer = Renderer::new(0).unwrap();
-        walk(
-            &mut scene,
-            &animation,
-            &path,
-            culler.as_mut(),
-            &renderer,
-            &walk_options,
-            |_| {},
-        )
-        .unwrap()
-    };
+    let run = |occluders: bool| lod_walk_with("terrain", "hom", LodOptions::default(), 15, occluders, false);
     let (whole, cut) = (run(false), run(true));
     assert!(!whole.summary.lod.as_ref().unwrap().lod_occluders);
     assert!(cut.summary.lod.as_ref().unwrap().lod_occluders);

@@ -26,6 +26,7 @@
 //! coordinate on the plane's axis, so the 2D coordinates are the other two
 //! coordinates, exact, and matching edges is comparing bits.
 
+use super::region::grown_corners;
 use crate::geom::Aabb;
 use glam::{DVec2, DVec3, Vec3};
 use std::collections::HashMap;
@@ -131,11 +132,8 @@ impl PlanarUnion {
     /// Is every segment from a point of `cell` to a point of `x` grown by
     /// `gap` crossing the union at least `lateral` inside its boundary?
     pub(crate) fn hides(&self, cell: &Aabb, x: &Aabb, gap: f64, lateral: f64) -> bool {
-        let g = DVec3::splat(gap);
-        let (lo, hi) = (x.min.as_dvec3() - g, x.max.as_dvec3() + g);
         let cs = cell.corners().map(|c| c.as_dvec3());
-        let xs: [DVec3; 8] =
-            std::array::from_fn(|i| DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo));
+        let xs = grown_corners(x, gap);
         let below = |ps: &[DVec3; 8]| ps.iter().all(|&p| self.side(p) < 0.0);
         let above = |ps: &[DVec3; 8]| ps.iter().all(|&p| self.side(p) > 0.0);
         if !((below(&cs) && above(&xs)) || (above(&cs) && below(&xs))) {

@@ -285,10 +285,7 @@ impl ConvexOccluder {
                 return false;
             }
         }
-        let g = DVec3::splat(margins.gap);
-        let (lo, hi) = (x.min.as_dvec3() - g, x.max.as_dvec3() + g);
-        let xs: [DVec3; 8] =
-            std::array::from_fn(|i| DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo));
+        let xs = grown_corners(x, margins.gap);
         cell.corners()
             .iter()
             .all(|c| xs.iter().all(|&p| self.crossed_by(c.as_dvec3(), p, margins.lateral)))
@@ -324,6 +321,14 @@ impl Margins {
             gap: lateral + DEPTH_ULPS * far * far / near,
         }
     }
+}
+
+/// The corners of `x` grown by `gap` on every side, in `f64` (the growth
+/// exact, not rounded back to the box's `f32`).
+pub(crate) fn grown_corners(x: &Aabb, gap: f64) -> [DVec3; 8] {
+    let g = DVec3::splat(gap);
+    let (lo, hi) = (x.min.as_dvec3() - g, x.max.as_dvec3() + g);
+    std::array::from_fn(|i| DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo))
 }
 
 /// The smallest distance between two boxes (0 when they touch or overlap).
