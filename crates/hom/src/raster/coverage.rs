@@ -74,16 +74,31 @@ impl CoverageBuffer {
     }
 }
 
+/// The words of a row that samples `lo..hi` (`lo < hi`) touch, each with
+/// its bits among them: one mask per word, no per-word shift count.
+#[inline(always)]
+fn span_words(lo: u32, hi: u32) -> impl Iterator<Item = (usize, u64)> {
+    let (wa, wb) = ((lo / 64) as usize, ((hi - 1) / 64) as usize);
+    let (first, last) = (u64::MAX << (lo % 64), u64::MAX >> (63 - (hi - 1) % 64));
+    (wa..wb + 1).map(move |w| {
+        let mut mask = u64::MAX;
+        if w == wa {
+            mask &= first;
+        }
+        if w == wb {
+            mask &= last;
+        }
+        (w, mask)
+    })
+}
+
 /// Sets bits `lo..hi` of a row.
 #[inline]
 pub(crate) fn set_span(row: &mut [u64], lo: u32, hi: u32) {
-    let mut x = lo;
-    while x < hi {
-        let bit = x % 64;
-        let n = (64 - bit).min(hi - x);
-        let mask = if n == 64 { u64::MAX } else { ((1u64 << n) - 1) << bit };
-        row[(x / 64) as usize] |= mask;
-        x += n;
+    if lo < hi {
+        for (w, mask) in span_words(lo, hi) {
+            row[w] |= mask;
+        }
     }
 }
 
@@ -92,13 +107,11 @@ pub(crate) fn set_span(row: &mut [u64], lo: u32, hi: u32) {
 /// row) to `py` for each word `w` that took any; whether there were any.
 #[inline]
 fn set_span_fresh(row: &mut [u64], fresh: &mut [u64], rows: &mut [(u32, u32)], py: u32, lo: u32, hi: u32) -> bool {
+    if lo >= hi {
+        return false;
+    }
     let mut any = 0;
-    let mut x = lo;
-    while x < hi {
-        let bit = x % 64;
-        let n = (64 - bit).min(hi - x);
-        let mask = if n == 64 { u64::MAX } else { ((1u64 << n) - 1) << bit };
-        let w = (x / 64) as usize;
+    for (w, mask) in span_words(lo, hi) {
         let new = mask & !row[w];
         row[w] |= mask;
         if new != 0 {
@@ -106,7 +119,6 @@ fn set_span_fresh(row: &mut [u64], fresh: &mut [u64], rows: &mut [(u32, u32)], p
             rows[w] = (rows[w].0.min(py), py);
         }
         any |= new;
-        x += n;
     }
     any != 0
 }
@@ -208,8 +220,19 @@ impl CellGrid {
     /// Lowers each cell of a band (rows `band.0..band.1`, cells `cells`) that
     /// `t` covers whole, within its rows `rows` there, to `t`'s farthest depth
     /// over it, if nearer.
-    #[inline]
+    #[inline(always)]
     fn lower_whole(self, cells: &mut [f32], t: &Tri, band: (u32, u32), rows: (u32, u32)) {
+        // Only the viewport's last row and column of cells are smaller than a cell.
+        let tall = rows.1 - rows.0 >= self.row_of.w || rows.1 >= band.1;
+        let wide = u32::from(t.x1 - t.x0) >= self.col_of.w || u32::from(t.x1) >= self.width;
+        if tall && wide {
+            self.lower_whole_cells(cells, t, band, rows);
+        }
+    }
+
+    /// [`CellGrid::lower_whole`] past its size test.
+    #[inline(never)]
+    fn lower_whole_cells(self, cells: &mut [f32], t: &Tri, band: (u32, u32), rows: (u32, u32)) {
         let (h, cols) = (self.row_of.w, self.cols as usize);
         let first = self.row_of.of(rows.0 - band.0 + h - 1);
         let end = if rows.1 >= band.1 {
