@@ -6,9 +6,12 @@
 //! 5.5): their boxes move, so only pose-independent criteria (size, cost,
 //! shape) apply to them, never redundancy.
 
+use super::back_faces::{back_faces, outward_winding, Outward};
 use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
+use crate::occlusion::FaceCull;
 use crate::scene::{Mesh, Scene};
+use glam::Mat4;
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -118,6 +121,21 @@ pub struct OccluderDb {
     config: OccluderDbConfig,
     /// Per mesh id.
     bakes: Vec<MeshBake>,
+    /// Per mesh id: the winding of its outward faces when closed, checked
+    /// for the meshes kept occluders draw as their own.
+    shells: Vec<Shell>,
+}
+
+/// What a mesh is as a surface ([`outward_winding`]), once checked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum Shell {
+    /// Not checked yet (no kept occluder has it).
+    #[default]
+    Unchecked,
+    /// Open, or not consistently oriented: drawn two-sided.
+    Open,
+    /// Closed: drawn without its back faces.
+    Closed(Outward),
 }
 
 /// Surface area of a mesh in its own space.
@@ -130,6 +148,24 @@ fn mesh_area(mesh: &Mesh) -> f32 {
             (b - a).cross(c - a).length() * 0.5
         })
         .sum()
+}
+
+/// `shells` (by mesh id) with every mesh of a kept occluder checked, in parallel.
+fn check_shells(scene: &Scene, verdicts: &[Verdict], mut shells: Vec<Shell>) -> Vec<Shell> {
+    shells.resize(scene.meshes().len(), Shell::Unchecked);
+    let mut wanted = vec![false; scene.meshes().len()];
+    for (o, v) in scene.objects().iter().zip(verdicts) {
+        wanted[o.mesh as usize] |= *v == Verdict::Kept;
+    }
+    shells
+        .par_iter_mut()
+        .zip(scene.meshes())
+        .zip(wanted)
+        .filter(|((shell, _), wanted)| *wanted && **shell == Shell::Unchecked)
+        .for_each(|((shell, mesh), _)| {
+            *shell = outward_winding(mesh).map_or(Shell::Open, Shell::Closed);
+        });
+    shells
 }
 
 fn second_largest(v: glam::Vec3) -> f32 {
@@ -150,17 +186,27 @@ impl OccluderDb {
             .flatten()
             .map(|v| std::mem::size_of_val(v.mesh().positions()) + std::mem::size_of_val(v.mesh().triangles()))
             .sum();
-        crate::vec_bytes(&self.occluders) + crate::vec_bytes(&self.verdicts) + crate::vec_bytes(&self.bakes) + baked
+        crate::vec_bytes(&self.occluders)
+            + crate::vec_bytes(&self.verdicts)
+            + crate::vec_bytes(&self.bakes)
+            + crate::vec_bytes(&self.shells)
+            + baked
     }
 
     /// Preprocesses `scene` with `config`.
     pub fn build(scene: &Scene, config: &OccluderDbConfig) -> OccluderDb {
-        OccluderDb::build_reusing(scene, config, Vec::new())
+        OccluderDb::build_reusing(scene, config, Vec::new(), Vec::new())
     }
 
     /// [`OccluderDb::build`], keeping the virtual occluders already baked
-    /// in `bakes` (by mesh id) and baking the rest in parallel.
-    fn build_reusing(scene: &Scene, config: &OccluderDbConfig, mut bakes: Vec<MeshBake>) -> OccluderDb {
+    /// in `bakes` and the meshes already checked in `shells` (by mesh id),
+    /// baking and checking the rest in parallel.
+    fn build_reusing(
+        scene: &Scene,
+        config: &OccluderDbConfig,
+        mut bakes: Vec<MeshBake>,
+        shells: Vec<Shell>,
+    ) -> OccluderDb {
         // Per-mesh fill ratio, computed once for meshes shared by many objects.
         let fill: Vec<f32> = scene
             .meshes()
@@ -223,6 +269,7 @@ impl OccluderDb {
             }
         }
         mark_redundant(scene, config.redundancy_margin, &mut verdicts);
+        let shells = check_shells(scene, &verdicts, shells);
         let occluders = verdicts
             .iter()
             .enumerate()
@@ -248,6 +295,7 @@ impl OccluderDb {
             verdicts,
             config: config.clone(),
             bakes,
+            shells,
         }
     }
 
@@ -285,6 +333,16 @@ impl OccluderDb {
         }
     }
 
+    /// The faces to drop when drawing the kept occluder `object` as its own
+    /// mesh, placed by `model_to_clip`: its back faces when the mesh is
+    /// closed ([`back_faces`]), else none.
+    pub(crate) fn faces_to_drop(&self, scene: &Scene, object: u32, model_to_clip: &Mat4) -> FaceCull {
+        match self.shells.get(scene.object(object).mesh as usize) {
+            Some(Shell::Closed(outward)) => back_faces(*outward, model_to_clip),
+            _ => FaceCull::None,
+        }
+    }
+
     /// The kept occluder `object`, when it is one.
     pub fn occluder(&self, object: u32) -> Option<&Occluder> {
         let i = self.occluders.binary_search_by_key(&object, |o| o.object).ok()?;
@@ -294,7 +352,7 @@ impl OccluderDb {
     /// Every object as an occluder, no preprocessing (for tests and tiny scenes),
     /// except objects the scene marks as never occluders ([`Verdict::NotAnOccluder`]).
     pub fn all(scene: &Scene) -> OccluderDb {
-        OccluderDb {
+        let mut db = OccluderDb {
             occluders: scene
                 .objects()
                 .iter()
@@ -320,7 +378,10 @@ impl OccluderDb {
                 .collect(),
             config: OccluderDbConfig::default(),
             bakes: Vec::new(),
-        }
+            shells: Vec::new(),
+        };
+        db.shells = check_shells(scene, &db.verdicts, Vec::new());
+        db
     }
 
     /// The kept occluders, in object id order.
@@ -343,8 +404,8 @@ impl OccluderDb {
     /// keeping the stand-ins of objects that are still occluders.
     pub fn rebuild(&mut self, scene: &Scene) {
         let config = self.config.clone();
-        let bakes = std::mem::take(&mut self.bakes);
-        let old = std::mem::replace(self, OccluderDb::build_reusing(scene, &config, bakes));
+        let (bakes, shells) = (std::mem::take(&mut self.bakes), std::mem::take(&mut self.shells));
+        let old = std::mem::replace(self, OccluderDb::build_reusing(scene, &config, bakes, shells));
         for o in old.occluders {
             if let Some(mesh) = o.stand_in {
                 self.set_stand_in(o.object, mesh);

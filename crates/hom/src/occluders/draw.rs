@@ -1,11 +1,12 @@
 //! Handing the selected occluders to an occlusion buffer: each occluder's
 //! mesh (its stand-in or virtual occluder where it has a usable one, drawn
 //! conservatively, under `world_to_clip · transform`; an original placed in
-//! the world first, as the renderer places it), two-sided, nearest first by
-//! box centre — the order the buffers want (the HZB then skips what is
-//! already hidden; HOM's depth cells keep the first, mostly nearest, cover).
-//! An occluder with a cut this frame ([`OccluderCuts`]) is drawn as that
-//! cut, exactly, as the renderer draws it.
+//! the world first, as the renderer places it, without its back faces when
+//! the mesh is closed), nearest first by box centre — the order the buffers
+//! want (the HZB then skips what is already hidden; HOM's depth cells keep
+//! the first, mostly nearest, cover). An occluder with a cut this frame
+//! ([`OccluderCuts`]) is drawn as that cut, exactly, as the renderer draws
+//! it, two-sided. Stand-ins are drawn two-sided too.
 
 use super::{OccluderCuts, OccluderDb};
 #[cfg(doc)]
@@ -65,9 +66,9 @@ pub(crate) fn draw_occluders(
         cut.clear();
         // Its cut (the mesh's own vertices, some of its levels' triangles), or
         // the mesh the database draws it with.
-        let (mesh, triangles, stands_in) = if cuts.cut_triangles(scene, id, &mut cut) {
+        let (mesh, triangles, stands_in, is_cut) = if cuts.cut_triangles(scene, id, &mut cut) {
             cut_count += 1;
-            (scene.mesh_of(o), &cut[..], false)
+            (scene.mesh_of(o), &cut[..], false, true)
         } else {
             let Some((mesh, stands_in)) = db
                 .occluder(id)
@@ -75,7 +76,7 @@ pub(crate) fn draw_occluders(
             else {
                 continue;
             };
-            (mesh, mesh.triangles(), stands_in)
+            (mesh, mesh.triangles(), stands_in, false)
         };
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
@@ -87,7 +88,14 @@ pub(crate) fn draw_occluders(
             // an exactly sampled original covers the renderer's samples, no more.
             world.clear();
             world.extend(p.iter().map(|&q| o.transform.transform_point3(q)));
-            buffer.render_triangles(&world, triangles, world_to_clip, FaceCull::None)
+            // A closed mesh drawn whole loses nothing with its back faces
+            // (`back_faces.rs`); a cut is drawn two-sided.
+            let cull = if is_cut {
+                FaceCull::None
+            } else {
+                db.faces_to_drop(scene, id, &(*world_to_clip * o.transform))
+            };
+            buffer.render_triangles(&world, triangles, world_to_clip, cull)
         };
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
         submitted += triangles.len() as u64;
