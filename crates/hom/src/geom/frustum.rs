@@ -60,6 +60,13 @@ impl Frustum {
         Frustum::from_plane_rows([r0 - r3 * x.0, r3 * x.1 - r0, r1 - r3 * y.0, r3 * y.1 - r1, r2, r3 - r2])
     }
 
+    /// Whether the whole box lies beyond the near plane (nothing of it is
+    /// clipped there).
+    pub fn beyond_near(&self, b: &Aabb) -> bool {
+        let near = &self.planes[4];
+        near.signed_distance(Vec3::select(near.normal.cmpge(Vec3::ZERO), b.min, b.max)) > 0.0
+    }
+
     /// Three-way test of an axis-aligned box.
     pub fn test_aabb(&self, b: &Aabb) -> Containment {
         let mut result = Containment::Inside;

@@ -6,10 +6,9 @@
 //! 5.5): their boxes move, so only pose-independent criteria (size, cost,
 //! shape) apply to them, never redundancy.
 
-use super::back_faces::{back_faces, outward_winding, Outward};
 use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
-use crate::occlusion::FaceCull;
+use crate::occlusion::{ClipConvention, ClosedMesh, FaceCull};
 use crate::scene::{Mesh, Scene};
 use glam::Mat4;
 use rayon::prelude::*;
@@ -126,7 +125,7 @@ pub struct OccluderDb {
     shells: Vec<Shell>,
 }
 
-/// What a mesh is as a surface ([`outward_winding`]), once checked.
+/// What a mesh is as a surface ([`ClosedMesh::of`]), once checked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum Shell {
     /// Not checked yet (no kept occluder has it).
@@ -135,7 +134,7 @@ enum Shell {
     /// Open, or not consistently oriented: drawn two-sided.
     Open,
     /// Closed: drawn without its back faces.
-    Closed(Outward),
+    Closed(ClosedMesh),
 }
 
 /// Surface area of a mesh in its own space.
@@ -163,7 +162,7 @@ fn check_shells(scene: &Scene, verdicts: &[Verdict], mut shells: Vec<Shell>) -> 
         .zip(wanted)
         .filter(|((shell, _), wanted)| *wanted && **shell == Shell::Unchecked)
         .for_each(|((shell, mesh), _)| {
-            *shell = outward_winding(mesh).map_or(Shell::Open, Shell::Closed);
+            *shell = ClosedMesh::of(mesh.positions(), mesh.triangles()).map_or(Shell::Open, Shell::Closed);
         });
     shells
 }
@@ -334,11 +333,11 @@ impl OccluderDb {
     }
 
     /// The faces to drop when drawing the kept occluder `object` as its own
-    /// mesh, placed by `model_to_clip`: its back faces when the mesh is
-    /// closed ([`back_faces`]), else none.
+    /// mesh, placed by `model_to_clip` (hom's clip convention): its back
+    /// faces when the mesh is closed ([`ClosedMesh::back_faces`]), else none.
     pub(crate) fn faces_to_drop(&self, scene: &Scene, object: u32, model_to_clip: &Mat4) -> FaceCull {
         match self.shells.get(scene.object(object).mesh as usize) {
-            Some(Shell::Closed(outward)) => back_faces(*outward, model_to_clip),
+            Some(Shell::Closed(closed)) => closed.back_faces(model_to_clip, ClipConvention::ZeroToOne),
             _ => FaceCull::None,
         }
     }

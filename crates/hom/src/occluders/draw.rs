@@ -88,9 +88,10 @@ pub(crate) fn draw_occluders(
             // an exactly sampled original covers the renderer's samples, no more.
             world.clear();
             world.extend(p.iter().map(|&q| o.transform.transform_point3(q)));
-            // A closed mesh drawn whole loses nothing with its back faces
-            // (`back_faces.rs`); a cut is drawn two-sided.
-            let cull = if is_cut {
+            // A closed mesh drawn whole, and not cut by the near plane, covers
+            // the same samples without its back faces (`occlusion/closed_mesh.rs`);
+            // a cut is drawn two-sided.
+            let cull = if is_cut || !frustum.beyond_near(&o.aabb) {
                 FaceCull::None
             } else {
                 db.faces_to_drop(scene, id, &(*world_to_clip * o.transform))

@@ -187,10 +187,7 @@ impl VirtualOccluder {
     /// the solids and nothing of the original is clipped), and above the
     /// floor when there is one.
     pub fn usable(&self, transform: &Mat4, world_box: &Aabb, eye: &Eye, frustum: &Frustum) -> bool {
-        let near = &frustum.planes[4];
-        let nearest = Vec3::select(near.normal.cmpge(Vec3::ZERO), world_box.min, world_box.max);
-        let beyond_near = near.signed_distance(nearest) > 0.0;
-        if !beyond_near {
+        if !frustum.beyond_near(world_box) {
             return false;
         }
         let Some(floor) = self.floor else {
