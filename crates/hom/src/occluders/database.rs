@@ -8,7 +8,7 @@
 
 use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
-use crate::occlusion::{ClipConvention, ClosedMesh, FaceCull};
+use crate::occlusion::{faces_turned_away, height_field, ClipConvention, ClosedMesh, FaceCull};
 use crate::scene::{Mesh, Scene};
 use glam::Mat4;
 use rayon::prelude::*;
@@ -135,6 +135,10 @@ enum Shell {
     Open,
     /// Closed: drawn without its back faces.
     Closed(ClosedMesh),
+    /// An open height field whose triangles all wind counter-clockwise
+    /// (`true`) or all clockwise seen from above: drawn without the faces
+    /// turned away from the eye.
+    HeightField(bool),
 }
 
 /// Surface area of a mesh in its own space.
@@ -162,7 +166,11 @@ fn check_shells(scene: &Scene, verdicts: &[Verdict], mut shells: Vec<Shell>) -> 
         .zip(wanted)
         .filter(|((shell, _), wanted)| *wanted && **shell == Shell::Unchecked)
         .for_each(|((shell, mesh), _)| {
-            *shell = ClosedMesh::of(mesh.positions(), mesh.triangles()).map_or(Shell::Open, Shell::Closed);
+            let (p, t) = (mesh.positions(), mesh.triangles());
+            *shell = match ClosedMesh::of(p, t) {
+                Some(closed) => Shell::Closed(closed),
+                None => height_field(p, t).map_or(Shell::Open, Shell::HeightField),
+            };
         });
     shells
 }
@@ -334,10 +342,12 @@ impl OccluderDb {
 
     /// The faces to drop when drawing the kept occluder `object` as its own
     /// mesh, placed by `model_to_clip` (hom's clip convention): its back
-    /// faces when the mesh is closed ([`ClosedMesh::back_faces`]), else none.
+    /// faces when the mesh is closed ([`ClosedMesh::back_faces`]) or an
+    /// open height field (`occlusion/closed_mesh.rs`), else none.
     pub(crate) fn faces_to_drop(&self, scene: &Scene, object: u32, model_to_clip: &Mat4) -> FaceCull {
         match self.shells.get(scene.object(object).mesh as usize) {
             Some(Shell::Closed(closed)) => closed.back_faces(model_to_clip, ClipConvention::ZeroToOne),
+            Some(Shell::HeightField(up_ccw)) => faces_turned_away(*up_ccw, model_to_clip, ClipConvention::ZeroToOne),
             _ => FaceCull::None,
         }
     }

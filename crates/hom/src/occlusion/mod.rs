@@ -85,6 +85,7 @@ mod masked;
 mod otree;
 
 pub use self::closed_mesh::ClosedMesh;
+pub(crate) use self::closed_mesh::{faces_turned_away, height_field};
 pub use self::hom::{DepthMode, HomBuffer, MapOptions, Opacity};
 pub use self::hzb::HzBuffer;
 pub use self::masked::MaskedBuffer;
