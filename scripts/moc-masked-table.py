@@ -40,10 +40,11 @@ def main():
     avx512 = load_moc(root / "moc_avx512.json")
     print(
         "| input | resolution | masked ms | z ms | MOC AVX2 ms | masked ÷ MOC AVX2 | "
+        "MOC AVX-512 ms | masked ÷ MOC AVX-512 | "
         "hidden | masked found | z found | MOC found | wrong occluded masked / z / MOC | "
         "masked query ms | MOC query ms |"
     )
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|")
     for r in hom:
         if r.get("threads") != 1:
             continue
@@ -52,6 +53,9 @@ def main():
         # Clear + render, as the side-by-side table counts it.
         moc_ms = moc.get("render_ms")
         ratio = r["masked_ms"] / moc_ms if moc_ms else None
+        # The yardstick: MOC's AVX-512 code, where this host has it.
+        moc512_ms = avx512.get(key, {}).get("render_ms")
+        ratio512 = r["masked_ms"] / moc512_ms if moc512_ms else None
         m, z = r.get("masked_queries"), r.get("queries")
         hidden = m["hidden"] if m else None
 
@@ -64,7 +68,7 @@ def main():
         wrong = f"{m['wrong_occluded']} / {z['wrong_occluded']} / {m['peer_wrong_occluded']}" if m and z else ""
         print(
             f"| {r['input']} | {r['width']}×{r['height']} | {r['masked_ms']:.2f} | {r['total_ms']:.2f} | "
-            f"{fmt(moc_ms)} | {fmt(ratio)} | {fmt(hidden, 'd')} | {pct(m)} | {pct(z)} | {moc_found} | {wrong} | "
+            f"{fmt(moc_ms)} | {fmt(ratio)} | {fmt(moc512_ms)} | {fmt(ratio512)} | {fmt(hidden, 'd')} | {pct(m)} | {pct(z)} | {moc_found} | {wrong} | "
             f"{fmt(m['ms'] if m else None)} | {fmt(moc.get('rect_ms'))} |"
         )
 
