@@ -315,10 +315,11 @@ fn raise_fresh_cells(
     }
 }
 
-/// Where a triangle's rows come from: exact spans, or a vector kernel's masks.
+/// Where a triangle's rows come from: exact spans stepped row to row, or a
+/// vector kernel's masks (into the band's scratch rows).
 enum Rows {
-    Spans(Stepper, [(u32, u32); MASK_ROWS]),
-    Masks([u64; MASK_ROWS]),
+    Spans(Stepper),
+    Masks,
 }
 
 /// Rows per parallel band (whole rows of depth cells when gathering depth,
@@ -481,6 +482,8 @@ impl CoverageRasterizer {
                 };
                 let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
                 let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
+                // A triangle's rows, a chunk at a time: spans or masks (one scratch for the band).
+                let (mut spans, mut masks) = ([(0u32, 0u32); MASK_ROWS], [0u64; MASK_ROWS]);
                 for (k, &i) in bin.iter().enumerate() {
                     // Bins skip through the triangles: fetch a few ahead.
                     if let Some(&next) = bin.get(k + PREFETCH_AHEAD) {
@@ -522,9 +525,9 @@ impl CoverageRasterizer {
                         if ta >= tb {
                             continue; // no covered row in this band: nothing to set up or mark full
                         }
-                        (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta), [(0, 0); MASK_ROWS]))
+                        (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta)))
                     } else {
-                        (ta, tb, Rows::Masks([0; MASK_ROWS]))
+                        (ta, tb, Rows::Masks)
                     };
                     let mut py0 = ta;
                     while py0 < tb {
@@ -541,7 +544,7 @@ impl CoverageRasterizer {
                         while py0 < run_end {
                             let n = ((run_end - py0) as usize).min(MASK_ROWS);
                             match &mut rows {
-                                Rows::Spans(stepper, spans) => {
+                                Rows::Spans(stepper) => {
                                     stepper.rows(&mut spans[..n]);
                                     for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
                                         let row = &mut words[(py - y0) as usize * wpr..][..wpr];
@@ -554,7 +557,7 @@ impl CoverageRasterizer {
                                         }
                                     }
                                 }
-                                Rows::Masks(masks) => {
+                                Rows::Masks => {
                                     row_masks(backend, t, py0, &mut masks[..n]);
                                     for (py, &m) in (py0..).zip(&masks[..n]) {
                                         let row = &mut words[(py - y0) as usize * wpr..][..wpr];
