@@ -120,8 +120,8 @@ pub struct OccluderDb {
     config: OccluderDbConfig,
     /// Per mesh id.
     bakes: Vec<MeshBake>,
-    /// Per mesh id: the winding of its outward faces when closed, checked
-    /// for the meshes kept occluders draw as their own.
+    /// Per mesh id: whether it is closed or an open height field, and which
+    /// way it is turned, checked for the meshes of kept occluders.
     shells: Vec<Shell>,
 }
 
