@@ -153,17 +153,22 @@ fn mesh_area(mesh: &Mesh) -> f32 {
         .sum()
 }
 
+/// Per mesh id, whether some object `verdicts` keeps as an occluder has it.
+fn meshes_of_kept(scene: &Scene, verdicts: &[Verdict]) -> Vec<bool> {
+    let mut kept = vec![false; scene.meshes().len()];
+    for (o, v) in scene.objects().iter().zip(verdicts) {
+        kept[o.mesh as usize] |= *v == Verdict::Kept;
+    }
+    kept
+}
+
 /// `shells` (by mesh id) with every mesh of a kept occluder checked, in parallel.
 fn check_shells(scene: &Scene, verdicts: &[Verdict], mut shells: Vec<Shell>) -> Vec<Shell> {
     shells.resize(scene.meshes().len(), Shell::Unchecked);
-    let mut wanted = vec![false; scene.meshes().len()];
-    for (o, v) in scene.objects().iter().zip(verdicts) {
-        wanted[o.mesh as usize] |= *v == Verdict::Kept;
-    }
     shells
         .par_iter_mut()
         .zip(scene.meshes())
-        .zip(wanted)
+        .zip(meshes_of_kept(scene, verdicts))
         .filter(|((shell, _), wanted)| *wanted && **shell == Shell::Unchecked)
         .for_each(|((shell, mesh), _)| {
             let (p, t) = (mesh.positions(), mesh.triangles());
@@ -255,14 +260,10 @@ impl OccluderDb {
             .collect();
         bakes.resize(scene.meshes().len(), None);
         if config.meshes == OccluderMeshes::Virtual {
-            let mut wanted = vec![false; scene.meshes().len()];
-            for (o, v) in scene.objects().iter().zip(&verdicts) {
-                wanted[o.mesh as usize] |= *v == Verdict::Kept;
-            }
             bakes
                 .par_iter_mut()
                 .zip(scene.meshes())
-                .zip(wanted)
+                .zip(meshes_of_kept(scene, &verdicts))
                 .filter(|((bake, _), wanted)| *wanted && bake.is_none())
                 .for_each(|((bake, mesh), _)| {
                     *bake = Some(VirtualOccluder::bake(mesh, &config.virtual_config).map(Arc::new));

@@ -2,7 +2,7 @@
 //! mesh (its stand-in or virtual occluder where it has a usable one, drawn
 //! conservatively, under `world_to_clip · transform`; an original placed in
 //! the world first, as the renderer places it, without its back faces when
-//! the mesh is closed), nearest first by box centre — the order the buffers
+//! the mesh is closed or an open height field), nearest first by box centre — the order the buffers
 //! want (the HZB then skips what is already hidden; HOM's depth cells keep
 //! the first, mostly nearest, cover). An occluder with a cut this frame
 //! ([`OccluderCuts`]) is drawn as that cut, exactly, as the renderer draws
@@ -88,9 +88,9 @@ pub(crate) fn draw_occluders(
             // an exactly sampled original covers the renderer's samples, no more.
             world.clear();
             world.extend(p.iter().map(|&q| o.transform.transform_point3(q)));
-            // A closed mesh drawn whole, and not cut by the near plane, covers
-            // the same samples without its back faces (`occlusion/closed_mesh.rs`);
-            // a cut is drawn two-sided.
+            // A closed mesh (or open height field) drawn whole, and not cut by
+            // the near plane, covers the same samples without its back faces
+            // (`occlusion/closed_mesh.rs`); a cut is drawn two-sided.
             let cull = if is_cut || !frustum.beyond_near(&o.aabb) {
                 FaceCull::None
             } else {

@@ -169,24 +169,17 @@ mod tests {
     use glam::Quat;
     use hom_testkit::Rng;
 
-    /// A unit cube, outward faces counter-clockwise; each face its own four
-    /// vertices (as flat-shaded meshes come), so edges match by position only.
+    /// `hom_testkit::cube()` turned outward counter-clockwise, each triangle
+    /// with its own three vertices (as flat-shaded meshes come), so edges
+    /// match by position only.
     fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let faces: [[usize; 4]; 6] = [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ];
-        let corner = |i: usize| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5;
+        let kit = hom_testkit::cube();
         let (mut p, mut t) = (Vec::new(), Vec::new());
-        for f in faces {
-            let b = p.len() as u32;
-            p.extend(f.map(corner));
-            // The listed corners wind clockwise seen from outside: reversed here.
-            t.extend([[b, b + 2, b + 1], [b, b + 3, b + 2]]);
+        for &[a, b, c] in kit.triangles() {
+            let n = p.len() as u32;
+            // The kit's triangles wind clockwise seen from outside: reversed here.
+            p.extend([a, c, b].map(|i| kit.positions()[i as usize]));
+            t.push([n, n + 1, n + 2]);
         }
         (p, t)
     }
