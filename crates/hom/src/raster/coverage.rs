@@ -615,25 +615,11 @@ mod tests {
     use proptest::prelude::*;
     use std::collections::BTreeMap;
 
-    /// `hom_testkit::cube()`'s twin: the kit's is a `Mesh` of the non-test
-    /// compilation of this crate, a different type here.
+    /// `hom_testkit::cube()` as a `Mesh` of this compilation (the kit's is
+    /// a `Mesh` of the non-test compilation of this crate, a different type).
     fn cube() -> Mesh {
-        let p: Vec<Vec3> = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) - 0.5)
-            .collect();
-        let faces = [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ];
-        let tris = faces
-            .iter()
-            .flat_map(|f| [[f[0], f[1], f[2]], [f[0], f[2], f[3]]])
-            .collect();
-        Mesh::new("cube", p, tris).unwrap()
+        let kit = hom_testkit::cube();
+        Mesh::new("cube", kit.positions().to_vec(), kit.triangles().to_vec()).unwrap()
     }
 
     /// Random boxes of every size (slivers to huge), plus a soup of random
