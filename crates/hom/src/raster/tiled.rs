@@ -81,13 +81,20 @@ impl TiledRasterizer {
         let backend = self.backend;
         let (samples, maxima, touched) = zb.parts_mut();
         let band_tiles = (tiles_x * BAND_TILES) as usize;
-        let stats = samples
-            .par_chunks_mut(band_tiles * TILE_SAMPLES)
-            .zip(maxima.par_chunks_mut(band_tiles))
-            .zip(touched.par_chunks_mut(band_tiles))
-            .zip(self.bins.par_iter())
+        // Costliest bands first, one per job (as the coverage raster does).
+        let bins = &self.bins;
+        let mut jobs: Vec<_> = samples
+            .chunks_mut(band_tiles * TILE_SAMPLES)
+            .zip(maxima.chunks_mut(band_tiles))
+            .zip(touched.chunks_mut(band_tiles))
             .enumerate()
-            .map(|(band, (((samples, maxima), touched), bin))| {
+            .collect();
+        jobs.sort_by_key(|&(band, _)| std::cmp::Reverse(bins[band].len()));
+        let stats = jobs
+            .into_par_iter()
+            .with_max_len(1)
+            .map(|(band, ((samples, maxima), touched))| {
+                let bin = &bins[band];
                 let band = Band {
                     ty0: band as u32 * BAND_TILES,
                     tiles_x,
