@@ -108,13 +108,32 @@ impl Pyramid {
         let (width, height) = self.viewport;
         assert!(words_per_row * 64 >= width as usize, "coverage rows too short");
         assert!(coverage.len() >= height as usize * words_per_row, "coverage too short");
-        let b = self.block;
-        match b {
-            4 | 8 => count_blocks_swar(&mut self.levels[0], coverage, words_per_row, b, height),
-            1 | 2 | 16 | 32 | 64 => count_blocks_aligned(&mut self.levels[0], coverage, words_per_row, b, height),
-            _ => count_blocks_scalar(&mut self.levels[0], coverage, words_per_row, b, height, width),
+        let counter = self.base_counter();
+        counter.count(&mut self.levels[0].counts, coverage, words_per_row, height);
+        self.finish_base();
+    }
+
+    /// What counts the base level's pixels from coverage, a part of the
+    /// rows at a time ([`BaseCounter::count`]); with [`Pyramid::base_counts_mut`]
+    /// and [`Pyramid::finish_base`], for callers that count bands of rows in
+    /// parallel as they draw them.
+    pub(crate) fn base_counter(&self) -> BaseCounter {
+        BaseCounter {
+            block: self.block,
+            base_width: self.levels[0].width as usize,
+            width: self.viewport.0,
         }
-        // Samples past the viewport's right and bottom edges count as covered.
+    }
+
+    /// The base level's counts, row-major (for [`BaseCounter::count`]).
+    pub(crate) fn base_counts_mut(&mut self) -> &mut [u32] {
+        &mut self.levels[0].counts
+    }
+
+    /// After every base pixel was counted from coverage: counts the samples
+    /// past the viewport's edges as covered and builds the levels above.
+    pub(crate) fn finish_base(&mut self) {
+        let ((width, height), b) = (self.viewport, self.block);
         let base = &mut self.levels[0];
         let (last_x, last_y) = (base.width - 1, base.height - 1);
         let edge = (0..base.height)
@@ -142,20 +161,56 @@ impl Pyramid {
     }
 }
 
+/// Counts base pixels (covered samples inside the viewport, without the
+/// samples past its edges: [`Pyramid::finish_base`] adds those).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BaseCounter {
+    block: u32,
+    base_width: usize,
+    width: u32,
+}
+
+impl BaseCounter {
+    /// Samples a base pixel stands for, a side.
+    pub(crate) fn block(self) -> u32 {
+        self.block
+    }
+
+    /// Base pixels standing for `rows` sample rows from a multiple of the block.
+    pub(crate) fn pixels_for_rows(self, rows: u32) -> usize {
+        rows.div_ceil(self.block) as usize * self.base_width
+    }
+
+    /// Counts the base pixels of `out` (whole rows of the base, from a row
+    /// of blocks whose first sample row is a multiple of the block) from
+    /// `coverage`: the `rows` sample rows they stand for, `words_per_row`
+    /// words each (bits past the viewport zero).
+    pub(crate) fn count(self, out: &mut [u32], coverage: &[u64], words_per_row: usize, rows: u32) {
+        let (b, bw) = (self.block, self.base_width);
+        debug_assert_eq!(out.len(), self.pixels_for_rows(rows), "whole rows of blocks");
+        match b {
+            4 | 8 => count_blocks_swar(out, bw, coverage, words_per_row, b, rows),
+            1 | 2 | 16 | 32 | 64 => count_blocks_aligned(out, bw, coverage, words_per_row, b, rows),
+            _ => count_blocks_scalar(out, bw, coverage, words_per_row, b, rows, self.width),
+        }
+    }
+}
+
 /// Covered samples inside the viewport per base pixel, one pixel at a time:
 /// the reference for [`count_blocks_swar`], and the path for unusual block sizes.
-fn count_blocks_scalar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, height: u32, width: u32) {
-    for my in 0..base.height {
-        let y0 = my * b;
+fn count_blocks_scalar(out: &mut [u32], bw: usize, coverage: &[u64], wpr: usize, b: u32, height: u32, width: u32) {
+    for (my, out) in out.chunks_mut(bw).enumerate() {
+        let y0 = my as u32 * b;
         let inside_h = b.min(height - y0);
-        for mx in 0..base.width {
+        for (mx, count_out) in out.iter_mut().enumerate() {
+            let mx = mx as u32;
             let x0 = mx * b;
             let inside_w = b.min(width - x0);
             let mut count = 0;
             for y in y0..y0 + inside_h {
                 count += count_bits(&coverage[y as usize * wpr..][..wpr], x0, inside_w);
             }
-            base.counts[(my * base.width + mx) as usize] = count;
+            *count_out = count;
         }
     }
 }
@@ -164,16 +219,14 @@ fn count_blocks_scalar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, h
 /// time: per-group population counts in SIMD-within-a-register lanes, summed
 /// over the block's rows, then read out. Bits past the viewport are zero in
 /// coverage rows, so whole words can be counted.
-fn count_blocks_swar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, height: u32) {
+fn count_blocks_swar(out: &mut [u32], bw: usize, coverage: &[u64], wpr: usize, b: u32, height: u32) {
     const M1: u64 = 0x5555_5555_5555_5555;
     const M2: u64 = 0x3333_3333_3333_3333;
     const M4: u64 = 0x0F0F_0F0F_0F0F_0F0F;
     let per_word = 64 / b as usize;
-    let bw = base.width as usize;
-    for my in 0..base.height {
-        let y0 = my * b;
+    for (my, out) in out.chunks_mut(bw).enumerate() {
+        let y0 = my as u32 * b;
         let rows = b.min(height - y0);
-        let out = &mut base.counts[my as usize * bw..][..bw];
         for word in 0..wpr {
             let first = word * per_word;
             let n = per_word.min(bw.saturating_sub(first));
@@ -234,12 +287,11 @@ fn count_blocks_swar(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, hei
 /// at 256², HOM's map path fell from 1.0–2.6 to 0.8–1.6 ms against the
 /// pixel-by-pixel count. Bits past the viewport are zero in coverage rows,
 /// so whole words can be counted.
-fn count_blocks_aligned(base: &mut Level, coverage: &[u64], wpr: usize, b: u32, height: u32) {
+fn count_blocks_aligned(out: &mut [u32], bw: usize, coverage: &[u64], wpr: usize, b: u32, height: u32) {
     debug_assert!(64 % b == 0);
     let per_word = (64 / b) as usize;
     let mask = if b == 64 { u64::MAX } else { (1u64 << b) - 1 };
-    let bw = base.width as usize;
-    for (my, out) in base.counts.chunks_mut(bw).enumerate() {
+    for (my, out) in out.chunks_mut(bw).enumerate() {
         out.fill(0);
         let y0 = my as u32 * b;
         for y in y0..y0 + b.min(height - y0) {

@@ -246,9 +246,8 @@ impl HomBuffer {
             (Depth::Buffer(b), DepthMode::Rasterized(..)) => Some(b),
             _ => None,
         };
-        self.raster.rasterize(&mut self.coverage, tris, gather);
-        self.pyramid
-            .build_from_coverage(self.coverage.bits(), self.coverage.words_per_row());
+        self.raster
+            .rasterize(&mut self.coverage, tris, gather, Some(&mut self.pyramid));
         if !matches!(self.map.depth, DepthMode::Rasterized(..)) {
             for r in occluder_rects(tris) {
                 match &mut self.depth {
