@@ -3,7 +3,8 @@
 //! under every clip convention, perspective and orthographic, every
 //! `Occluded` answer checked by brute-force ray casting (no ray from the eye
 //! through a sample may reach a box called occluded, and a fair share of the
-//! hidden boxes must be found); every convention answers as `ZeroToOne` does
+//! hidden boxes must be found; solid boxes among the occluders go in as
+//! convex stand-ins, drawn as their silhouettes); every convention answers as `ZeroToOne` does
 //! on the same geometry; bad input gets its typed error.
 
 use hom::geom::Aabb;
@@ -90,10 +91,13 @@ impl Cam {
 struct World {
     positions: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
+    /// Solid boxes among `triangles` (after the quads), 12 triangles each,
+    /// drawn as convex stand-ins.
+    solids: usize,
     boxes: Vec<Aabb>,
 }
 
-fn world(seed: u64, quads: usize, boxes: usize, cam: &Cam) -> World {
+fn world(seed: u64, quads: usize, solids: usize, boxes: usize, cam: &Cam) -> World {
     let mut rng = Rng::new(seed);
     let f = (cam.target - cam.eye).normalize();
     let (mut positions, mut triangles) = (Vec::new(), Vec::new());
@@ -109,6 +113,16 @@ fn world(seed: u64, quads: usize, boxes: usize, cam: &Cam) -> World {
         let k = 4 * q as u32;
         triangles.extend([[k, k + 1, k + 2], [k, k + 2, k + 3]]);
     }
+    let cube = hom_testkit::cube();
+    for _ in 0..solids {
+        let c = cam.eye
+            + f * rng.range(3.0, 25.0)
+            + Vec3::new(rng.range(-7.0, 7.0), rng.range(-4.0, 4.0), rng.range(-7.0, 7.0));
+        let size = Vec3::new(rng.range(0.3, 4.0), rng.range(0.3, 4.0), rng.range(0.3, 4.0));
+        let k = positions.len() as u32;
+        positions.extend(cube.positions().iter().map(|&p| c + p * size));
+        triangles.extend(cube.triangles().iter().map(|t| t.map(|i| k + i)));
+    }
     let boxes = (0..boxes)
         .map(|_| {
             let c = cam.eye
@@ -121,6 +135,7 @@ fn world(seed: u64, quads: usize, boxes: usize, cam: &Cam) -> World {
     World {
         positions,
         triangles,
+        solids,
         boxes,
     }
 }
@@ -207,8 +222,12 @@ fn options(clip: ClipConvention) -> BufferOptions {
 /// Every answer of `buf` for the world's boxes.
 fn answers(buf: &mut impl OcclusionBuffer, w: &World, view_proj: &Mat4) -> Vec<Visibility> {
     buf.clear();
-    buf.render_triangles(&w.positions, &w.triangles, view_proj, FaceCull::None)
+    let quads = w.triangles.len() - 12 * w.solids;
+    buf.render_triangles(&w.positions, &w.triangles[..quads], view_proj, FaceCull::None)
         .unwrap();
+    for solid in w.triangles[quads..].chunks(12) {
+        buf.render_convex_stand_in(&w.positions, solid, view_proj).unwrap();
+    }
     w.boxes.iter().map(|b| buf.test_aabb(b, view_proj)).collect()
 }
 
@@ -225,7 +244,7 @@ fn check_against_rays(seed: u64, ortho: bool, clip: ClipConvention) -> (usize, u
         width: 48 + (seed % 5) as u32 * 7,
         height: 36 + (seed % 3) as u32 * 5,
     };
-    let w = world(seed, 14, 40, &cam);
+    let w = world(seed, 14, 6, 40, &cam);
     let vp = cam.view_proj(clip);
     let truth = ray_cast(&w, &cam, clip == ClipConvention::ReversedZ && !ortho);
     let (mut hidden, mut found, mut wrong) = (0, 0, 0);
@@ -675,7 +694,7 @@ fn stand_in_triangles_are_sampled_conservatively_in_every_buffer() {
                 width: 61,
                 height: 43,
             };
-            let w = world(seed, 14, 60, &cam);
+            let w = world(seed, 14, 0, 60, &cam);
             let vp = cam.view_proj(ClipConvention::ZeroToOne);
             let run = |buf: &mut Box<dyn OcclusionBuffer>, stand_in: bool| -> Vec<Visibility> {
                 buf.clear();

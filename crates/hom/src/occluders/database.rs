@@ -12,6 +12,7 @@ use crate::occlusion::{faces_turned_away, height_field, ClipConvention, ClosedMe
 use crate::scene::{Mesh, Scene};
 use glam::Mat4;
 use rayon::prelude::*;
+use std::ops::Range;
 use std::sync::Arc;
 
 /// Which meshes occluders are drawn with. The default is virtual: on the six
@@ -106,6 +107,18 @@ pub struct Occluder {
     /// Triangles this occluder costs to draw (its stand-in's or virtual
     /// occluder's, when it has one).
     pub triangles: u32,
+}
+
+/// What an occluder is drawn as this frame ([`OccluderDb::mesh_to_draw`]).
+pub(crate) enum ToDraw<'s> {
+    /// The object's own mesh.
+    Original(&'s Mesh),
+    /// A mesh standing in for the object's, with the triangle ranges that
+    /// each bound a convex solid (none known for a stand-in set from outside).
+    StandIn {
+        mesh: &'s Mesh,
+        convex_pieces: &'s [Range<u32>],
+    },
 }
 
 /// The bake of one mesh: not baked (no occluder uses it, or original
@@ -317,11 +330,11 @@ impl OccluderDb {
         }
     }
 
-    /// The mesh drawn for occluder `occluder` and whether it stands in for
-    /// the object's own (its stand-in, or its virtual occluder when usable
-    /// from `eye` through `frustum`, unless `original` asks for the object's
-    /// own), or `None` when nothing should be drawn (an object over the
-    /// triangle limit whose virtual occluder is not usable from here).
+    /// The mesh drawn for occluder `occluder`: its stand-in, or its virtual
+    /// occluder when usable from `eye` through `frustum` (unless `original`
+    /// asks for the object's own), or the object's own; `None` when nothing
+    /// should be drawn (an object over the triangle limit whose virtual
+    /// occluder is not usable from here).
     pub(crate) fn mesh_to_draw<'s>(
         &'s self,
         scene: &'s Scene,
@@ -329,15 +342,21 @@ impl OccluderDb {
         eye: &crate::geom::Eye,
         frustum: &crate::geom::Frustum,
         original: bool,
-    ) -> Option<(&'s Mesh, bool)> {
+    ) -> Option<ToDraw<'s>> {
         let o = scene.object(occluder.object);
         if let Some(mesh) = &occluder.stand_in {
-            return Some((mesh, true));
+            return Some(ToDraw::StandIn {
+                mesh,
+                convex_pieces: &[],
+            });
         }
         match &occluder.virtual_occluder {
-            Some(v) if !original && v.usable(&o.transform, &o.aabb, eye, frustum) => Some((v.mesh(), true)),
+            Some(v) if !original && v.usable(&o.transform, &o.aabb, eye, frustum) => Some(ToDraw::StandIn {
+                mesh: v.mesh(),
+                convex_pieces: v.convex_pieces(),
+            }),
             _ if o.triangles > self.config.max_triangles => None,
-            _ => Some((scene.mesh_of(o), false)),
+            _ => Some(ToDraw::Original(scene.mesh_of(o))),
         }
     }
 

@@ -8,13 +8,15 @@
 //! ([`OccluderCuts`]) is drawn as that cut, exactly, as the renderer draws
 //! it, two-sided. Stand-ins are drawn two-sided too.
 
+use super::database::ToDraw;
 use super::{OccluderCuts, OccluderDb};
 #[cfg(doc)]
 use crate::geom::View;
 use crate::geom::{Aabb, Eye, Frustum};
 use crate::occlusion::{FaceCull, OcclusionBuffer};
 use crate::scene::Scene;
-use glam::Mat4;
+use glam::{Mat4, Vec3};
+use std::ops::Range;
 
 /// The draw order's key (smaller first): the squared distance from the eye
 /// to the box's centre, or for a parallel projection the centre's depth.
@@ -64,25 +66,27 @@ pub(crate) fn draw_occluders(
     for (_, id) in order {
         let o = scene.object(id);
         cut.clear();
+        let m = *world_to_clip * o.transform;
         // Its cut (the mesh's own vertices, some of its levels' triangles), or
         // the mesh the database draws it with.
-        let (mesh, triangles, stands_in, is_cut) = if cuts.cut_triangles(scene, id, &mut cut) {
+        let (mesh, triangles, convex_pieces, is_cut) = if cuts.cut_triangles(scene, id, &mut cut) {
             cut_count += 1;
-            (scene.mesh_of(o), &cut[..], false, true)
+            (scene.mesh_of(o), &cut[..], None, true)
         } else {
-            let Some((mesh, stands_in)) = db
+            match db
                 .occluder(id)
                 .and_then(|occ| db.mesh_to_draw(scene, occ, eye, frustum, originals.binary_search(&id).is_ok()))
-            else {
-                continue;
-            };
-            (mesh, mesh.triangles(), stands_in, false)
+            {
+                None => continue,
+                Some(ToDraw::Original(mesh)) => (mesh, mesh.triangles(), None, false),
+                Some(ToDraw::StandIn { mesh, convex_pieces }) => (mesh, mesh.triangles(), Some(convex_pieces), false),
+            }
         };
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
         let p = mesh.positions();
-        let drawn = if stands_in {
-            buffer.render_stand_in_triangles(p, triangles, &(*world_to_clip * o.transform), FaceCull::None)
+        let drawn = if let Some(pieces) = convex_pieces {
+            draw_stand_in(buffer, p, triangles, pieces, &m, frustum.beyond_near(&o.aabb))
         } else {
             // World first, as the renderer transforms (`geom::object_to_clip`):
             // an exactly sampled original covers the renderer's samples, no more.
@@ -94,7 +98,7 @@ pub(crate) fn draw_occluders(
             let cull = if is_cut || !frustum.beyond_near(&o.aabb) {
                 FaceCull::None
             } else {
-                db.faces_to_drop(scene, id, &(*world_to_clip * o.transform))
+                db.faces_to_drop(scene, id, &m)
             };
             buffer.render_triangles(&world, triangles, world_to_clip, cull)
         };
@@ -102,4 +106,41 @@ pub(crate) fn draw_occluders(
         submitted += triangles.len() as u64;
     }
     (submitted, cut_count)
+}
+
+/// Queues a stand-in's triangles: each convex piece with at most 8
+/// corners (a box) as its silhouette when the stand-in lies wholly beyond
+/// the near plane ([`OcclusionBuffer::render_convex_stand_in`]: a box's 12
+/// triangles become a fan of at most 6), the rest two-sided by the inner
+/// rule, in as few submissions as the order allows.
+fn draw_stand_in(
+    buffer: &mut impl OcclusionBuffer,
+    positions: &[Vec3],
+    triangles: &[[u32; 3]],
+    convex_pieces: &[Range<u32>],
+    model_to_clip: &Mat4,
+    beyond_near: bool,
+) -> Result<(), crate::occlusion::OcclusionError> {
+    let two_sided = |buffer: &mut _, run: Range<usize>| -> Result<(), crate::occlusion::OcclusionError> {
+        if run.is_empty() {
+            return Ok(());
+        }
+        OcclusionBuffer::render_stand_in_triangles(buffer, positions, &triangles[run], model_to_clip, FaceCull::None)
+    };
+    // Triangles not yet queued start here.
+    let mut next = 0;
+    for piece in convex_pieces.iter().filter(|_| beyond_near) {
+        let piece = piece.start as usize..piece.end as usize;
+        let (lo, hi) = triangles[piece.clone()]
+            .iter()
+            .flatten()
+            .fold((u32::MAX, 0), |(lo, hi), &i| (lo.min(i), hi.max(i)));
+        if piece.start < next || hi.wrapping_sub(lo) >= 8 {
+            continue; // not a box: drawn with its neighbours
+        }
+        two_sided(buffer, next..piece.start)?;
+        buffer.render_convex_stand_in(positions, &triangles[piece.clone()], model_to_clip)?;
+        next = piece.end;
+    }
+    two_sided(buffer, next..triangles.len())
 }

@@ -265,6 +265,24 @@ pub trait OcclusionBuffer {
         cull: FaceCull,
     ) -> Result<(), OcclusionError>;
 
+    /// [`OcclusionBuffer::render_stand_in_triangles`] for a stand-in that is
+    /// one convex solid (a box or a convex hull; `indices`, its closed
+    /// surface, use its corners only): drawn as its silhouette, the outline
+    /// of its projection shrunk by more than the snapping error, as a fan of
+    /// a few triangles (a box: 1–4 where its 12 would be set up) at or
+    /// behind the solid's front, by the exact rule. Where it cannot be (a
+    /// corner in front of the near plane, a projection too thin to shrink),
+    /// the triangles are drawn as `render_stand_in_triangles` draws them.
+    /// Not for a solid that is not convex: its silhouette covers its hollows.
+    fn render_convex_stand_in(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+    ) -> Result<(), OcclusionError> {
+        self.render_stand_in_triangles(positions, indices, model_to_clip, FaceCull::None)
+    }
+
     /// Queues occluder triangles whose vertices are already in clip space (the buffer's convention).
     fn render_clip_triangles(
         &mut self,
@@ -420,6 +438,21 @@ impl Front {
         Ok(())
     }
 
+    fn render_convex(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+    ) -> Result<(), OcclusionError> {
+        if !model_to_clip.is_finite() {
+            return Err(OcclusionError::NonFiniteMatrix);
+        }
+        let m = self.options.clip.to_zero_to_one() * *model_to_clip;
+        self.queue.push_convex(positions, indices, &m)?;
+        self.stats.triangles_submitted += indices.len() as u64;
+        Ok(())
+    }
+
     fn render_clip_triangles(
         &mut self,
         vertices: &[Vec4],
@@ -559,6 +592,15 @@ macro_rules! occlusion_buffer {
             ) -> Result<(), $crate::occlusion::OcclusionError> {
                 self.front
                     .render_triangles(positions, indices, model_to_clip, cull, true)
+            }
+
+            fn render_convex_stand_in(
+                &mut self,
+                positions: &[glam::Vec3],
+                indices: &[[u32; 3]],
+                model_to_clip: &glam::Mat4,
+            ) -> Result<(), $crate::occlusion::OcclusionError> {
+                self.front.render_convex(positions, indices, model_to_clip)
             }
 
             fn render_clip_triangles(

@@ -24,6 +24,8 @@ pub(crate) mod masked;
 pub(crate) mod queue;
 #[forbid(unsafe_code)]
 mod scanline;
+#[forbid(unsafe_code)]
+mod silhouette;
 // The renderer (`hom-render`) shares this setup and sampling rule: public for it, not the front door.
 #[doc(hidden)]
 #[forbid(unsafe_code)]

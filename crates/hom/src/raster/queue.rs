@@ -4,6 +4,7 @@
 //! runs at once, in parallel, in submission order.
 
 use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewport};
+use super::silhouette::{silhouette, Scratch};
 use super::simd::RasterBackend;
 use super::simd_setup::{setup_clip4, SETUP_LANES};
 use glam::{Mat4, Vec3, Vec4};
@@ -31,12 +32,15 @@ pub(crate) enum QueueError {
 }
 
 /// One submission: its first triangle, which winding it drops, and whether
-/// it is set up by the inner rule whatever the buffer's sampling.
+/// it is set up by the inner rule whatever the buffer's sampling; for a
+/// convex stand-in, its corners (`verts[first..first + count]`), drawn as
+/// its silhouette where it can be ([`super::silhouette`]).
 #[derive(Clone, Copy, Debug)]
 struct Batch {
     first: usize,
     cull: FaceCull,
     inner: bool,
+    corners: Option<(u32, u32)>,
 }
 
 /// Clip-space triangles in submission order, with their face culling; see the module docs.
@@ -47,6 +51,8 @@ pub(crate) struct TriangleQueue {
     /// Indices into `verts`.
     tris: Vec<[u32; 3]>,
     batches: Vec<Batch>,
+    /// A convex stand-in's vertices, while it is queued.
+    used: Vec<u32>,
 }
 
 impl TriangleQueue {
@@ -91,6 +97,7 @@ impl TriangleQueue {
             first: self.tris.len(),
             cull,
             inner,
+            corners: None,
         });
         let base = base as u32;
         self.tris.extend(indices.iter().map(|t| t.map(|i| base + i)));
@@ -124,6 +131,58 @@ impl TriangleQueue {
         self.verts
             .extend(positions.iter().map(|p| *model_to_clip * p.extend(1.0)));
         self.push_indices(base, indices, cull, inner);
+        Ok(())
+    }
+
+    /// Queues the triangles `indices` of a convex solid inside an occluder
+    /// (a stand-in), over `positions` transformed by `model_to_clip` (hom's
+    /// clip convention): set up as the solid's shrunk silhouette where it
+    /// can be, else as the triangles by the inner rule, two-sided. Only the
+    /// vertices the triangles use are queued: they are the solid's corners.
+    pub fn push_convex(
+        &mut self,
+        positions: &[Vec3],
+        indices: &[[u32; 3]],
+        model_to_clip: &Mat4,
+    ) -> Result<(), QueueError> {
+        self.check(indices, positions.len())?;
+        let base = self.verts.len();
+        let (lo, hi) = indices
+            .iter()
+            .flatten()
+            .fold((u32::MAX, 0), |(lo, hi), &i| (lo.min(i), hi.max(i)));
+        // Most solids use a short run of vertices, every one of them (a box's 8).
+        let run = (hi.wrapping_sub(lo) < 64).then(|| {
+            let mask = indices.iter().flatten().fold(0u64, |m, &i| m | 1 << (i - lo));
+            mask.count_ones() == hi - lo + 1
+        });
+        let corners = if run == Some(true) {
+            self.verts.extend(
+                positions[lo as usize..=hi as usize]
+                    .iter()
+                    .map(|p| *model_to_clip * p.extend(1.0)),
+            );
+            self.tris
+                .extend(indices.iter().map(|t| t.map(|i| base as u32 + i - lo)));
+            hi - lo + 1
+        } else {
+            self.used.clear();
+            self.used.extend(indices.iter().flatten());
+            self.used.sort_unstable();
+            self.used.dedup();
+            let used = &self.used;
+            self.verts
+                .extend(used.iter().map(|&i| *model_to_clip * positions[i as usize].extend(1.0)));
+            let new_index = |i: u32| (base + used.partition_point(|&u| u < i)) as u32;
+            self.tris.extend(indices.iter().map(|t| t.map(new_index)));
+            used.len() as u32
+        };
+        self.batches.push(Batch {
+            first: self.tris.len() - indices.len(),
+            cull: FaceCull::None,
+            inner: true,
+            corners: Some((base as u32, corners)),
+        });
         Ok(())
     }
 
@@ -167,18 +226,40 @@ impl TriangleQueue {
                 // The batch holding the chunk's first triangle, then onwards.
                 let mut b = batches.partition_point(|b| b.first <= first) - 1;
                 let mut out = Vec::with_capacity(chunk.len());
+                let (mut scratch, mut tried) = (Scratch::default(), None);
+                // Silhouette triangles of consecutive convex stand-ins, with their
+                // batches, set up four at a time before anything queued after them.
+                let mut fans: Vec<([Vec4; 3], u32)> = Vec::new();
+                let fan_rule = SetupRule {
+                    cull: FaceCull::None,
+                    inner,
+                };
                 let mut i = 0;
                 while i < chunk.len() {
                     while b + 1 < batches.len() && batches[b + 1].first <= first + i {
                         b += 1;
                     }
+                    let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
+                    if let (Some((v, n)), true) = (batches[b].corners, tried != Some(b)) {
+                        // A convex stand-in: its silhouette, set up by the chunk it starts
+                        // in (a chunk it continues into asks again, for the answer only).
+                        tried = Some(b);
+                        let corners = &verts[v as usize..][..n as usize];
+                        if let Some(fan) = silhouette(corners, vp, &mut scratch) {
+                            if batches[b].first == first + i {
+                                fans.extend(fan.iter().map(|&t| (t, b as u32)));
+                            }
+                            i = (batch_end - first).min(chunk.len());
+                            continue;
+                        }
+                    }
+                    set_up_fans(backend, &mut fans, vp, fan_rule, &mut out);
                     let rule = SetupRule {
                         cull: batches[b].cull,
                         inner: inner || batches[b].inner,
                     };
                     // Four of one batch at once; where one of them is clipped,
                     // all four by the scalar setup (not tried again from the next).
-                    let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
                     let group = i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end;
                     let n = if group { SETUP_LANES } else { 1 };
                     if group {
@@ -195,6 +276,7 @@ impl TriangleQueue {
                     }
                     i += n;
                 }
+                set_up_fans(backend, &mut fans, vp, fan_rule, &mut out);
                 out
             })
             .collect();
@@ -202,6 +284,29 @@ impl TriangleQueue {
             out.extend(c);
         }
     }
+}
+
+/// Sets up and empties `fans` (clip-space triangles with their batches),
+/// four at a time by `backend` where none of them needs clipping.
+fn set_up_fans(
+    backend: RasterBackend,
+    fans: &mut Vec<([Vec4; 3], u32)>,
+    vp: &Viewport,
+    rule: SetupRule,
+    out: &mut Vec<Tri>,
+) {
+    for group in fans.chunks(SETUP_LANES) {
+        if let [a, b, c, d] = group {
+            if setup_clip4(backend, &[a.0, b.0, c.0, d.0], vp, rule, [a.1, b.1, c.1, d.1], out) {
+                continue;
+            }
+        }
+        for (t, item) in group {
+            let [p, q, r] = t.map(|v| Vertex::new(v, vp));
+            setup_triangle_with([&p, &q, &r], vp, rule, *item, [0; 4], out);
+        }
+    }
+    fans.clear();
 }
 
 #[cfg(test)]
@@ -232,6 +337,59 @@ mod tests {
         let items: Vec<u32> = out.iter().map(|t| t.item).collect();
         let want: Vec<u32> = (0..n as u32).filter(|k| k % 2 == 0).collect();
         assert_eq!(items, want);
+    }
+
+    /// A convex stand-in is set up once, as its silhouette or (in front of
+    /// the near plane) as its triangles, also when it straddles two chunks.
+    #[test]
+    fn convex_stand_ins_are_set_up_once_across_chunks() {
+        let cube = hom_testkit::cube();
+        let tri = [
+            Vec4::new(-0.5, -0.5, 0.5, 1.0),
+            Vec4::new(0.5, -0.5, 0.5, 1.0),
+            Vec4::new(0.0, 0.5, 0.5, 1.0),
+        ];
+        let vp = Viewport::new(64, 64);
+        // Boxes in view (w from 4 to 6) and through the near plane (z < 0 at some corner).
+        let place = |k: usize| {
+            let z = if k % 3 == 2 { -0.2 } else { 0.5 };
+            Mat4::from_cols(
+                Vec4::X,
+                Vec4::Y,
+                Vec4::new(0.0, 0.0, 0.4, 1.0),
+                Vec4::new(0.0, 0.0, z, 4.0 + (k % 3) as f32),
+            )
+        };
+        for lead in [SETUP_CHUNK - 12, SETUP_CHUNK - 7, SETUP_CHUNK - 1, SETUP_CHUNK] {
+            let mut q = TriangleQueue::default();
+            for _ in 0..lead {
+                q.push_clip(&tri, &[[0, 1, 2]], |v| v, FaceCull::None).unwrap();
+            }
+            let boxes = 50;
+            for k in 0..boxes {
+                q.push_convex(cube.positions(), cube.triangles(), &place(k)).unwrap();
+            }
+            let mut out = Vec::new();
+            q.set_up(&vp, false, &mut out);
+            for k in 0..boxes {
+                let item = (lead + k) as u32;
+                let got: Vec<&Tri> = out.iter().filter(|t| t.item == item).collect();
+                // What this box alone sets up.
+                let mut alone = TriangleQueue::default();
+                alone
+                    .push_convex(cube.positions(), cube.triangles(), &place(k))
+                    .unwrap();
+                let mut want = Vec::new();
+                alone.set_up(&vp, false, &mut want);
+                assert!(!want.is_empty(), "box {k} covers something");
+                assert_eq!(got.len(), want.len(), "lead {lead}, box {k}");
+                for (g, w) in got.iter().zip(&want) {
+                    assert_eq!((g.a, g.b, g.c, g.zref), (w.a, w.b, w.c, w.zref), "lead {lead}, box {k}");
+                }
+            }
+            // Items rise: every box's triangles in submission order.
+            assert!(out.windows(2).all(|w| w[0].item <= w[1].item));
+        }
     }
 
     #[test]
