@@ -53,10 +53,13 @@ pub(crate) const SHRINK: f64 = 5.0 / ONE as f64;
 
 /// Most corners a silhouette is drawn from: a box's 8. A convex part's hull
 /// (`occluders/convex_part.rs`) keeps three corners per triangle (36 for
-/// the smallest) and is drawn as its triangles: as silhouettes, hulls of
-/// up to 64 corners took HOM's efficiency on sculpture-park from 83.0 to
-/// 80.5 % (`hom bench --cullers hom --no-cost-model`, 2026-12-04; HZB's
-/// and masked's rose), for a reason not found yet.
+/// the smallest) and is drawn as its triangles. As silhouettes, hulls of up
+/// to 64 corners took HOM's efficiency on sculpture-park from 83.0 to
+/// 80.5 % (`hom bench --cullers hom --no-cost-model`, 2026-12-04; HZB's and
+/// masked's rose by 0.6 points). The likely cause, not confirmed: a round
+/// hull's front is not a fan from one corner, so the fan's triangles run
+/// through its inside, behind the front, and HOM's depth cells keep the
+/// farthest first cover.
 const MAX_CORNERS: usize = 8;
 
 /// Corners farther out than this (pixels from the origin) fall back to the
