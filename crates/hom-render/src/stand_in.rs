@@ -6,7 +6,8 @@
 use crate::{oracle_pixel_counts, Framebuffer, Renderer};
 use glam::{Mat4, Vec3};
 use hom::geom::{Aabb, Camera};
-use hom::occlusion::{BufferOptions, FaceCull, HzBuffer, OcclusionBuffer, Sampling};
+use hom::occluders::VirtualOccluder;
+use hom::occlusion::{BufferOptions, FaceCull, HzBuffer, OcclusionBuffer, OcclusionError, Sampling};
 use hom::scene::{Mesh, SceneBuilder};
 
 /// Samples of one view: what each mesh covers alone, and where the stand-in
@@ -53,7 +54,29 @@ pub fn compare_stand_in(
     transform: Mat4,
     camera: &Camera,
 ) -> StandInComparison {
-    let (o, s) = stand_in_depths(renderer, original, stand_in, transform, camera);
+    compare(stand_in_depths(renderer, original, stand_in, transform, camera))
+}
+
+/// [`compare_stand_in`] for a virtual occluder, drawn as the cullers draw
+/// it ([`VirtualOccluder::render`]: its boxes as their silhouettes).
+pub fn compare_virtual_occluder(
+    renderer: &Renderer,
+    original: &Mesh,
+    virtual_occluder: &VirtualOccluder,
+    transform: Mat4,
+    camera: &Camera,
+) -> StandInComparison {
+    compare(virtual_occluder_depths(
+        renderer,
+        original,
+        virtual_occluder,
+        transform,
+        camera,
+    ))
+}
+
+/// Counts the samples of the two depth images of [`stand_in_depths`].
+fn compare((o, s): (Vec<f32>, Vec<f32>)) -> StandInComparison {
     let mut c = StandInComparison::default();
     for (&o, &s) in o.iter().zip(&s) {
         c.original += u64::from(o < 1.0);
@@ -73,6 +96,33 @@ pub fn stand_in_depths(
     transform: Mat4,
     camera: &Camera,
 ) -> (Vec<f32>, Vec<f32>) {
+    depths(renderer, original, transform, camera, |buffer, mvp| {
+        buffer.render_stand_in_triangles(stand_in.positions(), stand_in.triangles(), mvp, FaceCull::None)
+    })
+}
+
+/// [`stand_in_depths`] for a virtual occluder, drawn as the cullers draw it.
+pub fn virtual_occluder_depths(
+    renderer: &Renderer,
+    original: &Mesh,
+    virtual_occluder: &VirtualOccluder,
+    transform: Mat4,
+    camera: &Camera,
+) -> (Vec<f32>, Vec<f32>) {
+    depths(renderer, original, transform, camera, |buffer, mvp| {
+        virtual_occluder.render(buffer, mvp)
+    })
+}
+
+/// The original's depths as the renderer draws it, and what `draw` queues
+/// in an exactly sampled z-buffer under the same placement.
+fn depths(
+    renderer: &Renderer,
+    original: &Mesh,
+    transform: Mat4,
+    camera: &Camera,
+    draw: impl FnOnce(&mut HzBuffer, &Mat4) -> Result<(), OcclusionError>,
+) -> (Vec<f32>, Vec<f32>) {
     let mut b = SceneBuilder::new("stand-in check");
     let m = b.add_mesh(original.clone());
     let placed = b.add_object("object", m, transform);
@@ -88,10 +138,7 @@ pub fn stand_in_depths(
     };
     if let Ok(mut buffer) = HzBuffer::new(camera.width, camera.height, exact) {
         let mvp = camera.view_proj() * transform;
-        if buffer
-            .render_stand_in_triangles(stand_in.positions(), stand_in.triangles(), &mvp, FaceCull::None)
-            .is_ok()
-        {
+        if draw(&mut buffer, &mvp).is_ok() {
             buffer.zbuffer().to_row_major(&mut drawn);
         }
     }

@@ -8,7 +8,7 @@ use glam::Vec3;
 use hom::geom::{Containment, Eye, Frustum};
 use hom::occluders::{OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 use hom::scene::{Scene, SceneBuilder, SceneError};
-use hom_render::stand_in::{axis_views, compare_stand_in, view_from, StandInComparison};
+use hom_render::stand_in::{axis_views, compare_virtual_occluder, view_from, StandInComparison};
 use hom_render::Renderer;
 use hom_scene::{Animation, CameraPath};
 use rayon::prelude::*;
@@ -64,7 +64,7 @@ pub fn virtual_rows(scene: &Scene, db: &OccluderDb, side: u32) -> Vec<VirtualRow
                     for camera in axis_views(&o.aabb, side) {
                         let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("a valid view");
                         if v.usable(&o.transform, &o.aabb, &Eye::Point(camera.eye), &frustum) {
-                            views += compare_stand_in(&renderer, original, v.mesh(), o.transform, &camera);
+                            views += compare_virtual_occluder(&renderer, original, v, o.transform, &camera);
                         }
                     }
                     (Ok(v.mesh().triangle_count() as u32), views)
@@ -142,7 +142,7 @@ pub fn walk_comparison(
                     let renderer = Renderer::new(1).expect("one thread");
                     (
                         1,
-                        compare_stand_in(&renderer, scene.mesh_of(o), v.mesh(), o.transform, &camera),
+                        compare_virtual_occluder(&renderer, scene.mesh_of(o), v, o.transform, &camera),
                     )
                 })
             })
@@ -212,7 +212,7 @@ pub fn write_pictures(
         );
         for (k, camera) in views {
             let (original, stand_in) =
-                hom_render::stand_in::stand_in_depths(&renderer, scene.mesh_of(o), v.mesh(), o.transform, &camera);
+                hom_render::stand_in::virtual_occluder_depths(&renderer, scene.mesh_of(o), v, o.transform, &camera);
             let rgba: Vec<[u8; 4]> = original
                 .iter()
                 .zip(&stand_in)

@@ -9,7 +9,7 @@ use glam::{Mat4, Quat, Vec3};
 use hom::geom::{Camera, Eye, Frustum};
 use hom::occluders::{NoVirtual, VirtualConfig, VirtualOccluder};
 use hom::scene::Mesh;
-use hom_render::stand_in::compare_stand_in;
+use hom_render::stand_in::compare_virtual_occluder;
 use hom_render::Renderer;
 use hom_testkit::Rng;
 use proptest::prelude::*;
@@ -195,7 +195,7 @@ fn violations(original: &Mesh, v: &VirtualOccluder, transform: Mat4, cameras: &[
             continue;
         }
         used += 1;
-        bad += compare_stand_in(&renderer, original, v.mesh(), transform, camera).violations;
+        bad += compare_virtual_occluder(&renderer, original, v, transform, camera).violations;
     }
     (bad, used)
 }
@@ -275,7 +275,7 @@ fn a_one_pixel_window_through_a_wall_stays_open() {
         63,
     );
     let renderer = Renderer::new(1).unwrap();
-    let c = compare_stand_in(&renderer, &original, v.mesh(), Mat4::IDENTITY, &camera);
+    let c = compare_virtual_occluder(&renderer, &original, &v, Mat4::IDENTITY, &camera);
     assert_eq!(c.violations, 0);
     assert!(c.original < 63 * 63, "the window shows through the original");
     assert!(c.stand_in > 0);

@@ -112,8 +112,9 @@ pub(crate) fn draw_occluders(
 /// corners (a box) as its silhouette when the stand-in lies wholly beyond
 /// the near plane ([`OcclusionBuffer::render_convex_stand_in`]: a box's 12
 /// triangles become a fan of at most 6), the rest two-sided by the inner
-/// rule, in as few submissions as the order allows.
-fn draw_stand_in(
+/// rule, in as few submissions as the order allows. (`beyond_near` false
+/// skips the pieces: every corner would be checked and refused.)
+pub(super) fn draw_stand_in(
     buffer: &mut impl OcclusionBuffer,
     positions: &[Vec3],
     triangles: &[[u32; 3]],

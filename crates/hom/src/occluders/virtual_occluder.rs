@@ -46,7 +46,9 @@
 //! is outside it, and a hole in an open sheet makes no solid at all.
 
 use super::convex_part::{convex_part, ConvexPart};
+use super::draw::draw_stand_in;
 use crate::geom::{Aabb, Eye, Frustum};
+use crate::occlusion::{OcclusionBuffer, OcclusionError};
 use crate::scene::{Mesh, SceneError};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -151,6 +153,21 @@ pub struct VirtualOccluder {
 }
 
 impl VirtualOccluder {
+    /// Queues the stand-in in `buffer` as the cullers draw it, placed by
+    /// `model_to_clip` (the buffer's clip convention): its boxes as their
+    /// shrunk silhouettes ([`OcclusionBuffer::render_convex_stand_in`]), the
+    /// rest as stand-in triangles ([`OcclusionBuffer::render_stand_in_triangles`]).
+    pub fn render(&self, buffer: &mut impl OcclusionBuffer, model_to_clip: &Mat4) -> Result<(), OcclusionError> {
+        draw_stand_in(
+            buffer,
+            self.mesh.positions(),
+            self.mesh.triangles(),
+            &self.convex_pieces,
+            model_to_clip,
+            true,
+        )
+    }
+
     /// The stand-in, in the original's (object) space.
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
