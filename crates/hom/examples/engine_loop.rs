@@ -11,7 +11,7 @@ use hom::geom::Aabb;
 use hom::glam::camera::rh::proj::directx::perspective_infinite_reverse;
 use hom::glam::camera::rh::view::look_at_mat4;
 use hom::glam::{Mat4, Vec3};
-use hom::occlusion::{BufferOptions, ClipConvention, FaceCull, HzBuffer, OcclusionBuffer, Visibility};
+use hom::occlusion::{BufferOptions, ClipConvention, HzBuffer, OcclusionBuffer, Visibility};
 use std::time::Instant;
 
 /// A unit cube's corners and its 12 triangles.
@@ -91,7 +91,9 @@ fn main() -> Result<(), hom::occlusion::OcclusionError> {
 
         let start = Instant::now();
         buf.clear();
-        // Occluders: the 24 nearest buildings, nearest first.
+        // Occluders: the 24 nearest buildings, nearest first. Each is one convex
+        // box, drawn as its shrunk outline (2–6 triangles where its 12 would be
+        // drawn two-sided under the buffer's conservative sampling).
         let mut near: Vec<(f32, usize)> = buildings
             .iter()
             .enumerate()
@@ -99,7 +101,7 @@ fn main() -> Result<(), hom::occlusion::OcclusionError> {
             .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0));
         for &(_, k) in near.iter().take(24) {
-            buf.render_triangles(&unit, &tris, &(view_proj * buildings[k].model), FaceCull::None)?;
+            buf.render_convex_stand_in(&unit, &tris, &(view_proj * buildings[k].model))?;
         }
         // Test everything; what is not visible is not drawn.
         let (mut visible, mut occluded, mut outside) = (0, 0, 0);

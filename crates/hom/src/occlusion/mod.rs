@@ -57,6 +57,13 @@
 //!   default [`Sampling::Conservative`] stay [`FaceCull::None`] (there the
 //!   back faces cover the samples the inner rule takes off the edges
 //!   between front faces).
+//! - Draw a stand-in that is one convex solid (a box inside a building,
+//!   using its corners only) with
+//!   [`OcclusionBuffer::render_convex_stand_in`]: its outline, shrunk by
+//!   more than the snapping error, as a fan of a few triangles at or behind
+//!   its front (a box: 2–6 where its 12 would be drawn two-sided), in
+//!   either sampling. A solid that is not convex goes through
+//!   [`OcclusionBuffer::render_stand_in_triangles`].
 //!
 //! ## The two buffers
 //! - [`HzBuffer`]: the hierarchical Z-buffer (Greene, Kass and Miller 1993) —
@@ -273,7 +280,10 @@ pub trait OcclusionBuffer {
     /// behind the solid's front, by the exact rule. Where it cannot be (a
     /// corner in front of the near plane, a projection too thin to shrink),
     /// the triangles are drawn as `render_stand_in_triangles` draws them.
-    /// Not for a solid that is not convex: its silhouette covers its hollows.
+    /// The fan is set up by the exact rule whatever [`BufferOptions::sampling`]
+    /// says: it already covers only samples inside the solid's unsnapped
+    /// outline (by a margin) and lies behind its front. Not for a solid
+    /// that is not convex: its silhouette covers its hollows.
     fn render_convex_stand_in(
         &mut self,
         positions: &[Vec3],

@@ -230,9 +230,12 @@ impl TriangleQueue {
                 // Silhouette triangles of consecutive convex stand-ins, with their
                 // batches, set up four at a time before anything queued after them.
                 let mut fans: Vec<([Vec4; 3], u32)> = Vec::new();
+                // By the exact rule in either sampling: a fan already keeps the inner
+                // rule's guarantees (inside the unsnapped outline with a margin, behind
+                // the solid), and the inner rule on its chords would open cracks.
                 let fan_rule = SetupRule {
                     cull: FaceCull::None,
-                    inner,
+                    inner: false,
                 };
                 let mut i = 0;
                 while i < chunk.len() {
