@@ -47,7 +47,9 @@ use std::collections::HashMap;
 /// [`Sampling::Conservative`](super::Sampling::Conservative) draw it
 /// two-sided too: the inner rule takes the samples along each edge between
 /// two front faces off both, and the back faces are what cover them (an
-/// engine-style street of boxes lost hidden buildings when they went).
+/// engine-style street of boxes lost hidden buildings when they went). A
+/// convex mesh (a box) does better in either sampling as its silhouette,
+/// [`OcclusionBuffer::render_convex_stand_in`](super::OcclusionBuffer::render_convex_stand_in).
 ///
 /// ```
 /// use hom::glam::{Mat4, Vec3};
