@@ -13,12 +13,13 @@
 //! defines the result, and the vector kernels of
 //! [`super::simd`] produce bit-identical coverage and depth cells.
 
+use super::costliest_first;
 use super::scanline::{ScanEdges, Stepper};
 use super::setup::Tri;
 use super::simd::{prefetch, row_masks, RasterBackend, MASK_MAX};
 use crate::depth::DepthEstimationBuffer;
 use crate::map::Pyramid;
-use rayon::prelude::*;
+use rayon::iter::ParallelIterator;
 use std::ops::Range;
 
 /// One bit per output sample: bit `x % 64` of word `y * words_per_row + x / 64`.
@@ -457,180 +458,172 @@ impl CoverageRasterizer {
             _ => (0..bands).map(|_| <&mut [u32]>::default()).collect(),
         };
         debug_assert_eq!(base_rows.len(), bands, "the pyramid's base and bands share rows");
-        // Bands cost very unequal amounts (the horizon's 20–30 times the sky's
-        // on the city), about in proportion to their triangles. Rayon's halving
-        // split would give each thread a run of neighbouring bands, and one of
-        // them the horizon. Costliest first, one band per job: the thread that
-        // steals takes the cheaper half, and both end on cheap bands.
-        let mut jobs: Vec<_> = coverage
+        let bands: Vec<_> = coverage
             .bits
             .chunks_mut(wpr * band_rows as usize)
             .zip(cell_rows)
             .zip(base_rows)
             .enumerate()
-            .map(|(band, ((words, cells), base))| (band, words, cells, base))
+            .map(|(band, ((words, cells), base))| (band, (words, cells, base)))
             .collect();
-        jobs.sort_by_key(|&(band, ..)| std::cmp::Reverse(bins[band].len()));
-        jobs.into_par_iter()
-            .with_max_len(1)
-            .for_each(|(band, words, cells, base)| {
-                let bin = &bins[band];
-                let y0 = band as u32 * band_rows;
-                let y1 = y0 + (words.len() / wpr) as u32;
-                let gather = !cells.is_empty();
-                // Cells with nothing covered hold INFINITY; while drawing they hold
-                // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
-                for c in cells.iter_mut() {
-                    if *c == f32::INFINITY {
-                        *c = f32::NEG_INFINITY;
-                    }
+        costliest_first(bands, |band| bins[band].len()).for_each(|(band, (words, cells, base))| {
+            let bin = &bins[band];
+            let y0 = band as u32 * band_rows;
+            let y1 = y0 + (words.len() / wpr) as u32;
+            let gather = !cells.is_empty();
+            // Cells with nothing covered hold INFINITY; while drawing they hold
+            // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
+            for c in cells.iter_mut() {
+                if *c == f32::INFINITY {
+                    *c = f32::NEG_INFINITY;
                 }
-                // This triangle's first-covered samples in the current run, OR-ed over its rows.
-                let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
-                // Per word, the first and last rows of the run where it took new samples.
-                let mut fresh_rows = if gather {
-                    vec![(u32::MAX, 0u32); wpr]
-                } else {
-                    Vec::new()
-                };
-                // Per word column (64 samples): whether every row of the band covers
-                // it wholly, and (made when asked, after the column was drawn in)
-                // the samples every row covers. A triangle whose box lies in full
-                // columns, or whose own columns in the band are covered by every
-                // row, covers no sample first, so it changes neither coverage nor
-                // depth cells and is skipped. (On layered occluders this is most of them.)
-                let rows = words.len() / wpr;
-                let column_full = |words: &[u64], c: usize| {
-                    let inside = if c + 1 == wpr { last_word } else { u64::MAX };
-                    (0..rows).all(|r| words[r * wpr + c] & inside == inside)
-                };
-                let covered_by_all = |words: &[u64], c: usize| {
-                    let outside = if c + 1 == wpr { !last_word } else { 0 };
-                    (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
-                };
-                let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
-                let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
-                // A triangle's rows, a chunk at a time: spans or masks (one scratch for the band).
-                let (mut spans, mut masks) = ([(0u32, 0u32); MASK_ROWS], [0u64; MASK_ROWS]);
-                for (k, &i) in bin.iter().enumerate() {
-                    // Bins skip through the triangles: fetch a few ahead.
-                    if let Some(&next) = bin.get(k + PREFETCH_AHEAD) {
-                        prefetch(&tris[next as usize]);
-                    }
-                    let t = &tris[i as usize];
-                    let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                    let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
-                    if full[wa..=wb].iter().all(|&f| f) {
-                        if gather {
-                            grid.lower_whole(cells, t, (y0, y1), (ta, tb));
-                        }
-                        continue;
-                    }
-                    let (xa, xb) = t.columns_in_rows(ta, tb);
-                    if xa >= xb {
-                        continue;
-                    }
-                    let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
-                    let covered = (wa..=wb).all(|c| {
-                        let lo = (xa as usize).max(c * 64) - c * 64;
-                        let hi = (xb as usize).min(c * 64 + 64) - c * 64;
-                        let within = (u64::MAX >> (64 - (hi - lo))) << lo;
-                        *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
-                    });
-                    if covered {
-                        if gather {
-                            grid.lower_whole(cells, t, (y0, y1), (ta, tb));
-                        }
-                        continue;
-                    }
-                    let x0 = u32::from(t.x0);
-                    let wide = backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX;
-                    // Rows come from exact spans stepped row to row (`Tri::row_span`'s,
-                    // without its divisions) or from a vector kernel's bit masks.
-                    let (ta, tb, mut rows) = if wide {
-                        let edges = ScanEdges::new(t);
-                        let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
-                        if ta >= tb {
-                            continue; // no covered row in this band: nothing to set up or mark full
-                        }
-                        (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta)))
-                    } else {
-                        (ta, tb, Rows::Masks)
-                    };
-                    let mut py0 = ta;
-                    while py0 < tb {
-                        // A run: up to `RUN_ROWS` rows within one row of depth cells (the
-                        // whole band when not gathering).
-                        let run_end = if gather {
-                            tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
-                                .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
-                        } else {
-                            tb
-                        };
-                        // Some row of the run covered a sample first (then its first row).
-                        let mut fa = u32::MAX;
-                        while py0 < run_end {
-                            let n = ((run_end - py0) as usize).min(MASK_ROWS);
-                            match &mut rows {
-                                Rows::Spans(stepper) => {
-                                    stepper.rows(&mut spans[..n]);
-                                    for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
-                                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                        if lo >= hi {
-                                            continue;
-                                        } else if !gather {
-                                            set_span(row, lo, hi);
-                                        } else if set_span_fresh(row, &mut fresh, &mut fresh_rows, py, lo, hi) {
-                                            fa = fa.min(py);
-                                        }
-                                    }
-                                }
-                                Rows::Masks => {
-                                    row_masks(backend, t, py0, &mut masks[..n]);
-                                    for (py, &m) in (py0..).zip(&masks[..n]) {
-                                        let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                        if m == 0 {
-                                            continue;
-                                        } else if !gather {
-                                            or_mask(row, x0, m);
-                                        } else if or_mask_fresh(row, &mut fresh, &mut fresh_rows, py, x0, m) {
-                                            fa = fa.min(py);
-                                        }
-                                    }
-                                }
-                            }
-                            py0 += n as u32;
-                        }
-                        if fa != u32::MAX {
-                            let cells = &mut cells[((fa - y0) / cell_h) as usize * cols..][..cols];
-                            let words_of_tri = usize::from(t.x0) / 64..=(usize::from(t.x1) - 1) / 64;
-                            raise_fresh_cells(
-                                cells,
-                                cell_of,
-                                &mut fresh[words_of_tri.clone()],
-                                &mut fresh_rows[words_of_tri],
-                                x0 - x0 % 64,
-                                t,
-                            );
-                        }
-                    }
+            }
+            // This triangle's first-covered samples in the current run, OR-ed over its rows.
+            let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
+            // Per word, the first and last rows of the run where it took new samples.
+            let mut fresh_rows = if gather {
+                vec![(u32::MAX, 0u32); wpr]
+            } else {
+                Vec::new()
+            };
+            // Per word column (64 samples): whether every row of the band covers
+            // it wholly, and (made when asked, after the column was drawn in)
+            // the samples every row covers. A triangle whose box lies in full
+            // columns, or whose own columns in the band are covered by every
+            // row, covers no sample first, so it changes neither coverage nor
+            // depth cells and is skipped. (On layered occluders this is most of them.)
+            let rows = words.len() / wpr;
+            let column_full = |words: &[u64], c: usize| {
+                let inside = if c + 1 == wpr { last_word } else { u64::MAX };
+                (0..rows).all(|r| words[r * wpr + c] & inside == inside)
+            };
+            let covered_by_all = |words: &[u64], c: usize| {
+                let outside = if c + 1 == wpr { !last_word } else { 0 };
+                (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
+            };
+            let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
+            let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
+            // A triangle's rows, a chunk at a time: spans or masks (one scratch for the band).
+            let (mut spans, mut masks) = ([(0u32, 0u32); MASK_ROWS], [0u64; MASK_ROWS]);
+            for (k, &i) in bin.iter().enumerate() {
+                // Bins skip through the triangles: fetch a few ahead.
+                if let Some(&next) = bin.get(k + PREFETCH_AHEAD) {
+                    prefetch(&tris[next as usize]);
+                }
+                let t = &tris[i as usize];
+                let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
+                let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
+                if full[wa..=wb].iter().all(|&f| f) {
                     if gather {
                         grid.lower_whole(cells, t, (y0, y1), (ta, tb));
                     }
-                    for c in wa..=wb {
-                        full[c] = full[c] || column_full(words, c);
-                        all_rows[c] = None;
+                    continue;
+                }
+                let (xa, xb) = t.columns_in_rows(ta, tb);
+                if xa >= xb {
+                    continue;
+                }
+                let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
+                let covered = (wa..=wb).all(|c| {
+                    let lo = (xa as usize).max(c * 64) - c * 64;
+                    let hi = (xb as usize).min(c * 64 + 64) - c * 64;
+                    let within = (u64::MAX >> (64 - (hi - lo))) << lo;
+                    *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
+                });
+                if covered {
+                    if gather {
+                        grid.lower_whole(cells, t, (y0, y1), (ta, tb));
+                    }
+                    continue;
+                }
+                let x0 = u32::from(t.x0);
+                let wide = backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX;
+                // Rows come from exact spans stepped row to row (`Tri::row_span`'s,
+                // without its divisions) or from a vector kernel's bit masks.
+                let (ta, tb, mut rows) = if wide {
+                    let edges = ScanEdges::new(t);
+                    let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
+                    if ta >= tb {
+                        continue; // no covered row in this band: nothing to set up or mark full
+                    }
+                    (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta)))
+                } else {
+                    (ta, tb, Rows::Masks)
+                };
+                let mut py0 = ta;
+                while py0 < tb {
+                    // A run: up to `RUN_ROWS` rows within one row of depth cells (the
+                    // whole band when not gathering).
+                    let run_end = if gather {
+                        tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
+                            .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
+                    } else {
+                        tb
+                    };
+                    // Some row of the run covered a sample first (then its first row).
+                    let mut fa = u32::MAX;
+                    while py0 < run_end {
+                        let n = ((run_end - py0) as usize).min(MASK_ROWS);
+                        match &mut rows {
+                            Rows::Spans(stepper) => {
+                                stepper.rows(&mut spans[..n]);
+                                for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
+                                    let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                    if lo >= hi {
+                                        continue;
+                                    } else if !gather {
+                                        set_span(row, lo, hi);
+                                    } else if set_span_fresh(row, &mut fresh, &mut fresh_rows, py, lo, hi) {
+                                        fa = fa.min(py);
+                                    }
+                                }
+                            }
+                            Rows::Masks => {
+                                row_masks(backend, t, py0, &mut masks[..n]);
+                                for (py, &m) in (py0..).zip(&masks[..n]) {
+                                    let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                    if m == 0 {
+                                        continue;
+                                    } else if !gather {
+                                        or_mask(row, x0, m);
+                                    } else if or_mask_fresh(row, &mut fresh, &mut fresh_rows, py, x0, m) {
+                                        fa = fa.min(py);
+                                    }
+                                }
+                            }
+                        }
+                        py0 += n as u32;
+                    }
+                    if fa != u32::MAX {
+                        let cells = &mut cells[((fa - y0) / cell_h) as usize * cols..][..cols];
+                        let words_of_tri = usize::from(t.x0) / 64..=(usize::from(t.x1) - 1) / 64;
+                        raise_fresh_cells(
+                            cells,
+                            cell_of,
+                            &mut fresh[words_of_tri.clone()],
+                            &mut fresh_rows[words_of_tri],
+                            x0 - x0 % 64,
+                            t,
+                        );
                     }
                 }
-                for c in cells.iter_mut() {
-                    if *c == f32::NEG_INFINITY {
-                        *c = f32::INFINITY; // nothing covered: nothing is behind this cell
-                    }
+                if gather {
+                    grid.lower_whole(cells, t, (y0, y1), (ta, tb));
                 }
-                if let Some(c) = in_bands {
-                    c.count(base, words, wpr, y1 - y0);
+                for c in wa..=wb {
+                    full[c] = full[c] || column_full(words, c);
+                    all_rows[c] = None;
                 }
-            });
+            }
+            for c in cells.iter_mut() {
+                if *c == f32::NEG_INFINITY {
+                    *c = f32::INFINITY; // nothing covered: nothing is behind this cell
+                }
+            }
+            if let Some(c) = in_bands {
+                c.count(base, words, wpr, y1 - y0);
+            }
+        });
         match (pyramid, in_bands) {
             (Some(p), Some(_)) => p.finish_base(),
             (Some(p), None) => p.build_from_coverage(&coverage.bits, wpr),

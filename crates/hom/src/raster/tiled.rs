@@ -19,6 +19,7 @@
 //! cannot make nearer. Bands are independent, so the result is the same for
 //! any thread count.
 
+use super::costliest_first;
 use super::setup::Tri;
 use super::simd::RasterBackend;
 use super::simd_tiles::render_band;
@@ -81,18 +82,14 @@ impl TiledRasterizer {
         let backend = self.backend;
         let (samples, maxima, touched) = zb.parts_mut();
         let band_tiles = (tiles_x * BAND_TILES) as usize;
-        // Costliest bands first, one per job (as the coverage raster does).
         let bins = &self.bins;
-        let mut jobs: Vec<_> = samples
+        let bands: Vec<_> = samples
             .chunks_mut(band_tiles * TILE_SAMPLES)
             .zip(maxima.chunks_mut(band_tiles))
             .zip(touched.chunks_mut(band_tiles))
             .enumerate()
             .collect();
-        jobs.sort_by_key(|&(band, _)| std::cmp::Reverse(bins[band].len()));
-        let stats = jobs
-            .into_par_iter()
-            .with_max_len(1)
+        let stats = costliest_first(bands, |band| bins[band].len())
             .map(|(band, ((samples, maxima), touched))| {
                 let bin = &bins[band];
                 let band = Band {
