@@ -439,10 +439,7 @@ impl Front {
         cull: FaceCull,
         inner: bool,
     ) -> Result<(), OcclusionError> {
-        if !model_to_clip.is_finite() {
-            return Err(OcclusionError::NonFiniteMatrix);
-        }
-        let m = self.options.clip.to_zero_to_one() * *model_to_clip;
+        let m = self.to_hom(model_to_clip).ok_or(OcclusionError::NonFiniteMatrix)?;
         self.queue.push_model_with(positions, indices, &m, cull, inner)?;
         self.stats.triangles_submitted += indices.len() as u64;
         Ok(())
@@ -454,10 +451,7 @@ impl Front {
         indices: &[[u32; 3]],
         model_to_clip: &Mat4,
     ) -> Result<(), OcclusionError> {
-        if !model_to_clip.is_finite() {
-            return Err(OcclusionError::NonFiniteMatrix);
-        }
-        let m = self.options.clip.to_zero_to_one() * *model_to_clip;
+        let m = self.to_hom(model_to_clip).ok_or(OcclusionError::NonFiniteMatrix)?;
         self.queue.push_convex(positions, indices, &m)?;
         self.stats.triangles_submitted += indices.len() as u64;
         Ok(())
