@@ -113,12 +113,9 @@ pub struct Occluder {
 pub(crate) enum ToDraw<'s> {
     /// The object's own mesh.
     Original(&'s Mesh),
-    /// A mesh standing in for the object's, with the triangle ranges that
-    /// each bound a convex solid (none known for a stand-in set from outside).
-    StandIn {
-        mesh: &'s Mesh,
-        convex_pieces: &'s [Range<u32>],
-    },
+    /// A mesh standing in for the object's, with the triangle ranges, in
+    /// order, that are boxes (none known for a stand-in set from outside).
+    StandIn { mesh: &'s Mesh, boxes: &'s [Range<u32>] },
 }
 
 /// The bake of one mesh: not baked (no occluder uses it, or original
@@ -345,15 +342,12 @@ impl OccluderDb {
     ) -> Option<ToDraw<'s>> {
         let o = scene.object(occluder.object);
         if let Some(mesh) = &occluder.stand_in {
-            return Some(ToDraw::StandIn {
-                mesh,
-                convex_pieces: &[],
-            });
+            return Some(ToDraw::StandIn { mesh, boxes: &[] });
         }
         match &occluder.virtual_occluder {
             Some(v) if !original && v.usable(&o.transform, &o.aabb, eye, frustum) => Some(ToDraw::StandIn {
                 mesh: v.mesh(),
-                convex_pieces: v.convex_pieces(),
+                boxes: v.box_pieces(),
             }),
             _ if o.triangles > self.config.max_triangles => None,
             _ => Some(ToDraw::Original(scene.mesh_of(o))),

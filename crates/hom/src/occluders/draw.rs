@@ -69,7 +69,7 @@ pub(crate) fn draw_occluders(
         let m = *world_to_clip * o.transform;
         // Its cut (the mesh's own vertices, some of its levels' triangles), or
         // the mesh the database draws it with.
-        let (mesh, triangles, convex_pieces, is_cut) = if cuts.cut_triangles(scene, id, &mut cut) {
+        let (mesh, triangles, boxes, is_cut) = if cuts.cut_triangles(scene, id, &mut cut) {
             cut_count += 1;
             (scene.mesh_of(o), &cut[..], None, true)
         } else {
@@ -79,14 +79,14 @@ pub(crate) fn draw_occluders(
             {
                 None => continue,
                 Some(ToDraw::Original(mesh)) => (mesh, mesh.triangles(), None, false),
-                Some(ToDraw::StandIn { mesh, convex_pieces }) => (mesh, mesh.triangles(), Some(convex_pieces), false),
+                Some(ToDraw::StandIn { mesh, boxes }) => (mesh, mesh.triangles(), Some(boxes), false),
             }
         };
         // Scene meshes hold only valid indices and the matrix is finite for a
         // validated view and scene, so a refusal here would be a bug upstream.
         let p = mesh.positions();
-        let drawn = if let Some(pieces) = convex_pieces {
-            draw_stand_in(buffer, p, triangles, pieces, &m, frustum.beyond_near(&o.aabb))
+        let drawn = if let Some(boxes) = boxes {
+            draw_stand_in(buffer, p, triangles, boxes, &m, frustum.beyond_near(&o.aabb))
         } else {
             // World first, as the renderer transforms (`geom::object_to_clip`):
             // an exactly sampled original covers the renderer's samples, no more.
@@ -108,17 +108,17 @@ pub(crate) fn draw_occluders(
     (submitted, cut_count)
 }
 
-/// Queues a stand-in's triangles: each convex piece with at most 8
-/// corners (a box) as its silhouette when the stand-in lies wholly beyond
+/// Queues a stand-in's triangles: each box among them (`boxes`, triangle
+/// ranges in order) as its silhouette when the stand-in lies wholly beyond
 /// the near plane ([`OcclusionBuffer::render_convex_stand_in`]: a box's 12
 /// triangles become a fan of at most 6), the rest two-sided by the inner
 /// rule, in as few submissions as the order allows. (`beyond_near` false
-/// skips the pieces: every corner would be checked and refused.)
+/// skips the boxes: every corner would be checked and refused.)
 pub(super) fn draw_stand_in(
     buffer: &mut impl OcclusionBuffer,
     positions: &[Vec3],
     triangles: &[[u32; 3]],
-    convex_pieces: &[Range<u32>],
+    boxes: &[Range<u32>],
     model_to_clip: &Mat4,
     beyond_near: bool,
 ) -> Result<(), crate::occlusion::OcclusionError> {
@@ -130,15 +130,9 @@ pub(super) fn draw_stand_in(
     };
     // Triangles not yet queued start here.
     let mut next = 0;
-    for piece in convex_pieces.iter().filter(|_| beyond_near) {
+    for piece in boxes.iter().filter(|_| beyond_near) {
         let piece = piece.start as usize..piece.end as usize;
-        let (lo, hi) = triangles[piece.clone()]
-            .iter()
-            .flatten()
-            .fold((u32::MAX, 0), |(lo, hi), &i| (lo.min(i), hi.max(i)));
-        if piece.start < next || hi.wrapping_sub(lo) >= 8 {
-            continue; // not a box: drawn with its neighbours
-        }
+        debug_assert!(piece.start >= next, "box pieces in order, apart");
         two_sided(buffer, next..piece.start)?;
         buffer.render_convex_stand_in(positions, &triangles[piece.clone()], model_to_clip)?;
         next = piece.end;

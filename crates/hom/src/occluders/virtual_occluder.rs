@@ -147,6 +147,9 @@ pub struct VirtualOccluder {
     /// Triangle ranges of `mesh` that each bound a convex solid (a box or a
     /// hull; kept open parts are not among them).
     convex_pieces: Vec<Range<u32>>,
+    /// How many of `convex_pieces`, from the first, are boxes (8 corners,
+    /// 12 triangles each): the pieces drawn as their silhouettes.
+    boxes: usize,
     floor: Option<f32>,
     inside_share: f32,
     coverage: f32,
@@ -162,10 +165,15 @@ impl VirtualOccluder {
             buffer,
             self.mesh.positions(),
             self.mesh.triangles(),
-            &self.convex_pieces,
+            self.box_pieces(),
             model_to_clip,
             true,
         )
+    }
+
+    /// The triangle ranges of [`VirtualOccluder::mesh`] that are boxes, in order.
+    pub(crate) fn box_pieces(&self) -> &[Range<u32>] {
+        &self.convex_pieces[..self.boxes]
     }
 
     /// The stand-in, in the original's (object) space.
@@ -378,6 +386,7 @@ impl VirtualOccluder {
         Ok(VirtualOccluder {
             mesh: stand_in,
             convex_pieces,
+            boxes: boxes.len(),
             coverage,
             floor: (parts.capped && !boxes.is_empty()).then_some(parts.floor),
             inside_share: if total == 0 { 0.0 } else { covered as f32 / total as f32 },
