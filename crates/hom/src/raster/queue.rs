@@ -395,6 +395,51 @@ mod tests {
         }
     }
 
+    /// A convex stand-in whose corners are scattered among other vertices
+    /// (the general path) sets up as one whose corners are a run (the fast
+    /// path): as its silhouette, and as its triangles through the near plane.
+    #[test]
+    fn convex_corners_scattered_or_in_a_run_set_up_alike() {
+        let cube = hom_testkit::cube();
+        // Corner k at 3k + 1 among stray vertices, the last one more than 64 further.
+        let at = |k: u32| 3 * k + 1 + if k == 7 { 150 } else { 0 };
+        let mut scattered = vec![Vec3::splat(1e6); 200];
+        for (k, &p) in cube.positions().iter().enumerate() {
+            scattered[at(k as u32) as usize] = p;
+        }
+        let tris: Vec<[u32; 3]> = cube.triangles().iter().map(|t| t.map(at)).collect();
+        let vp = Viewport::new(64, 64);
+        let key = |t: &Tri| (t.a, t.b, t.c, t.zref);
+        let set_up = |q: &mut TriangleQueue| {
+            let mut out = Vec::new();
+            q.set_up(&vp, false, &mut out);
+            out.iter().map(key).collect::<Vec<_>>()
+        };
+        for (z, silhouette) in [(0.5, true), (-0.1, false)] {
+            let m = Mat4::from_cols(
+                Vec4::X,
+                Vec4::Y,
+                Vec4::new(0.0, 0.0, 0.4, 1.0),
+                Vec4::new(0.1, 0.0, z, 4.0),
+            );
+            let (mut run, mut apart, mut triangles) = (
+                TriangleQueue::default(),
+                TriangleQueue::default(),
+                TriangleQueue::default(),
+            );
+            run.push_convex(cube.positions(), cube.triangles(), &m).unwrap();
+            apart.push_convex(&scattered, &tris, &m).unwrap();
+            triangles
+                .push_model_with(cube.positions(), cube.triangles(), &m, FaceCull::None, true)
+                .unwrap();
+            let want = set_up(&mut run);
+            assert!(!want.is_empty());
+            // Through the near plane: the triangles, two-sided by the inner rule.
+            assert_eq!(want == set_up(&mut triangles), !silhouette);
+            assert_eq!(set_up(&mut apart), want);
+        }
+    }
+
     #[test]
     fn bad_indices_and_overflow_are_refused() {
         let mut q = TriangleQueue::default();
