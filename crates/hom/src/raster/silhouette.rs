@@ -48,6 +48,7 @@
 
 use super::setup::{Viewport, INNER_DEPTH_SLACK, ONE};
 use glam::{DVec2, Vec4};
+use std::ops::Range;
 
 /// How far the hull's edges move in, in pixels: 5 snapping units, of which
 /// the snapped corners can take back at most √2 / 2 and the projection one.
@@ -161,15 +162,8 @@ pub(crate) fn silhouette<'s>(corners: &[Vec4], vp: &Viewport, scratch: &'s mut S
     for (i, s) in shrunk.iter_mut().enumerate() {
         s.1 = depth_in_fan(hull, apex, i, s.0)?;
     }
-    let (first, last, tip) = match apex {
-        Apex::Inside(q) => (0, n, q),
-        Apex::Corner(c) => (1, n - 1, shrunk[c]),
-    };
-    let from = match apex {
-        Apex::Inside(_) => 0,
-        Apex::Corner(c) => c,
-    };
-    for k in first..last {
+    let (tip, from, triangles) = apex.fan(shrunk);
+    for k in triangles {
         fan.push(behind(
             [tip, shrunk[wrap(from + k, n)], shrunk[wrap(from + k + 1, n)]],
             vp,
@@ -225,18 +219,23 @@ enum Apex {
     Corner(usize),
 }
 
+impl Apex {
+    /// The fan from this apex over `ring` (the hull or its shrunk outline,
+    /// corner for corner): its tip, the corner it counts from, and its
+    /// triangles `k`, each `tip, ring[from + k], ring[from + k + 1]`.
+    fn fan(self, ring: &[(DVec2, f64)]) -> ((DVec2, f64), usize, Range<usize>) {
+        match self {
+            Apex::Inside(q) => (q, 0, 0..ring.len()),
+            Apex::Corner(c) => (ring[c], c, 1..ring.len() - 1),
+        }
+    }
+}
+
 /// The depth at `p`, near hull corner `i`, of the hull's fan from `apex`;
 /// `None` when `p` is in none of its triangles (it left the hull).
 fn depth_in_fan(hull: &[(DVec2, f64)], apex: Apex, i: usize, p: DVec2) -> Option<f64> {
     let n = hull.len();
-    let (tip, edges) = match apex {
-        Apex::Inside(q) => (q, 0..n),
-        Apex::Corner(c) => (hull[c], 1..n - 1),
-    };
-    let from = match apex {
-        Apex::Inside(_) => 0,
-        Apex::Corner(c) => c,
-    };
+    let (tip, from, edges) = apex.fan(hull);
     // Triangle k's smallest barycentric weight at p, and its depth there.
     let weights = |k: usize| {
         let (b, c) = (hull[wrap(from + k, n)], hull[wrap(from + k + 1, n)]);
