@@ -238,18 +238,28 @@ impl HomBuffer {
         }
     }
 
-    fn draw(&mut self) {
+    /// Sets the queue up and draws it in one pass
+    /// ([`CoverageRasterizer::set_up_and_rasterize`]).
+    fn draw_queue(&mut self) {
         self.empty_if_cleared();
         self.cleared = false;
-        let tris = &self.front.tris;
         let gather = match (&mut self.depth, self.map.depth) {
             (Depth::Buffer(b), DepthMode::Rasterized(..)) => Some(b),
             _ => None,
         };
-        self.raster
-            .rasterize(&mut self.coverage, tris, gather, Some(&mut self.pyramid));
+        let s = self.raster.set_up_and_rasterize(
+            &self.front.queue,
+            self.front.queue_setup(),
+            &mut self.coverage,
+            gather,
+            Some(&mut self.pyramid),
+        );
+        let stats = &mut self.front.stats;
+        stats.triangles_drawn += s.triangles as u64;
+        stats.setup_ms += s.set_up_ms;
+        stats.raster_ms += s.total_ms - s.set_up_ms;
         if !matches!(self.map.depth, DepthMode::Rasterized(..)) {
-            for r in occluder_rects(tris) {
+            for r in occluder_rects(self.raster.set_up_triangles()) {
                 match &mut self.depth {
                     Depth::Buffer(b) => b.insert_occluder(&r),
                     Depth::Plane(p) => p.insert_occluder(&r),
@@ -283,7 +293,7 @@ fn new_depth(map: &MapOptions, width: u32, height: u32) -> Depth {
 /// Each submission's screen rectangle (the union of its triangles' pixel
 /// boxes) with its farthest depth (the farthest of each triangle's plane over
 /// its box): the occluder rectangles of the paper's depth estimation buffer.
-fn occluder_rects(tris: &[Tri]) -> Vec<ScreenRect> {
+fn occluder_rects<'a>(tris: impl IntoIterator<Item = &'a Tri>) -> Vec<ScreenRect> {
     let mut rects: Vec<(u32, ScreenRect)> = Vec::new();
     for t in tris {
         let (w, h) = (f32::from(t.x1 - t.x0 - 1), f32::from(t.y1 - t.y0 - 1));
@@ -310,4 +320,4 @@ fn occluder_rects(tris: &[Tri]) -> Vec<ScreenRect> {
     rects.into_iter().map(|(_, r)| r).collect()
 }
 
-occlusion_buffer!(HomBuffer);
+occlusion_buffer!(HomBuffer, draw_queue);

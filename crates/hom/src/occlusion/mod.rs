@@ -101,7 +101,7 @@ pub use crate::geom::ClipConvention;
 pub use crate::raster::setup::FaceCull;
 
 use crate::geom::{project_points, Aabb, Footprint, Obb, ScreenRect, MAX_VIEWPORT_SIDE};
-use crate::raster::queue::{QueueError, TriangleQueue, MAX_QUEUED_TRIANGLES};
+use crate::raster::queue::{QueueError, QueueSetup, TriangleQueue, MAX_QUEUED_TRIANGLES};
 use crate::raster::setup::{Tri, Viewport};
 use crate::raster::RasterBackend;
 use glam::{Mat4, Vec2, Vec3, Vec4};
@@ -470,27 +470,24 @@ impl Front {
         Ok(())
     }
 
-    /// Sets the queued triangles up into `self.tris` (timed) and empties the
-    /// queue; false when nothing was queued (every test asks: keep it cheap).
-    #[inline]
-    fn set_up(&mut self) -> bool {
-        !self.queue.is_empty() && self.set_up_queued()
-    }
-
+    /// Sets the queued triangles up into `self.tris` (timed); the buffer's
+    /// flush empties the queue after drawing.
     #[inline(never)]
-    fn set_up_queued(&mut self) -> bool {
+    fn set_up(&mut self) {
         let start = Instant::now();
-        let inner = self.options.sampling == Sampling::Conservative;
-        self.queue.set_up_with(
-            self.backend,
-            &Viewport::new(self.width, self.height),
-            inner,
-            &mut self.tris,
-        );
-        self.queue.clear();
+        self.queue.set_up_with(&self.queue_setup(), &mut self.tris);
         self.stats.triangles_drawn += self.tris.len() as u64;
         self.stats.setup_ms += ms(start);
-        true
+    }
+
+    /// How the queue is set up: for the viewport, with the buffer's
+    /// backend, by the inner rule in conservative sampling.
+    fn queue_setup(&self) -> QueueSetup {
+        QueueSetup {
+            backend: self.backend,
+            viewport: Viewport::new(self.width, self.height),
+            inner: self.options.sampling == Sampling::Conservative,
+        }
     }
 
     /// Counts a test's answer.
@@ -550,8 +547,24 @@ fn ms(start: Instant) -> f64 {
 /// inherent `draw(&mut self)` (draws `front.tris`), `reset(&mut self)`
 /// (marks the representation cleared), `settle(&mut self)` (empties it if
 /// it was cleared and not drawn since) and `is_behind(&ScreenRect) -> bool`.
+///
+/// `occlusion_buffer!(Buffer, draw_queue)` instead has the buffer draw the
+/// queue itself with `draw_queue(&mut self)` (set up and drawn in one pass,
+/// counting both in `front.stats`); the macro empties the queue after.
 macro_rules! occlusion_buffer {
     ($buffer:ty) => {
+        impl $buffer {
+            /// Sets the queued triangles up, then draws them (timed).
+            fn set_up_then_draw(&mut self) {
+                self.front.set_up();
+                let start = std::time::Instant::now();
+                self.draw();
+                self.front.stats.raster_ms += start.elapsed().as_secs_f64() * 1e3;
+            }
+        }
+        $crate::occlusion::occlusion_buffer!($buffer, set_up_then_draw);
+    };
+    ($buffer:ty, $draw_queue:ident) => {
         impl $crate::occlusion::OcclusionBuffer for $buffer {
             fn width(&self) -> u32 {
                 self.front.width
@@ -618,10 +631,9 @@ macro_rules! occlusion_buffer {
 
             #[inline]
             fn flush(&mut self) {
-                if self.front.set_up() {
-                    let start = std::time::Instant::now();
-                    self.draw();
-                    self.front.stats.raster_ms += start.elapsed().as_secs_f64() * 1e3;
+                if !self.front.queue.is_empty() {
+                    self.$draw_queue();
+                    self.front.queue.clear();
                 }
                 self.settle();
             }

@@ -13,14 +13,21 @@
 //! defines the result, and the vector kernels of
 //! [`super::simd`] produce bit-identical coverage and depth cells.
 
+#[cfg(test)]
 use super::costliest_first;
+use super::queue::{QueueSetup, TriangleQueue};
 use super::scanline::{ScanEdges, Stepper};
 use super::setup::Tri;
 use super::simd::{prefetch, row_masks, RasterBackend, MASK_MAX};
+use super::sort_costliest_first;
 use crate::depth::DepthEstimationBuffer;
-use crate::map::Pyramid;
+use crate::map::{BaseCounter, Pyramid};
+#[cfg(test)]
 use rayon::iter::ParallelIterator;
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError, RwLock};
+use std::time::Instant;
 
 /// One bit per output sample: bit `x % 64` of word `y * words_per_row + x / 64`.
 #[derive(Clone, Debug, Default)]
@@ -347,11 +354,23 @@ const PREFETCH_AHEAD: usize = 8;
 const MASK_ROWS: usize = 32;
 
 /// Rasterizes set-up triangles' coverage (and depth cells); keeps its
-/// scratch between frames.
-#[derive(Clone, Debug)]
+/// scratch between frames (a clone starts with none).
+#[derive(Debug)]
 pub struct CoverageRasterizer {
+    /// [`CoverageRasterizer::rasterize`]'s triangles per band.
+    #[cfg(test)]
     bins: Vec<Vec<u32>>,
+    /// The fused draw's chunks, kept between frames with their capacity.
+    chunks: Vec<RwLock<SetUpChunk>>,
+    /// How many of `chunks` the last fused draw set up.
+    set_up: usize,
     backend: RasterBackend,
+}
+
+impl Clone for CoverageRasterizer {
+    fn clone(&self) -> CoverageRasterizer {
+        CoverageRasterizer::with_backend(self.backend)
+    }
 }
 
 impl Default for CoverageRasterizer {
@@ -372,14 +391,48 @@ impl CoverageRasterizer {
             "raster backend {backend:?} is not supported by this CPU"
         );
         CoverageRasterizer {
+            #[cfg(test)]
             bins: Vec::new(),
+            chunks: Vec::new(),
+            set_up: 0,
             backend,
         }
     }
 
-    /// Covers, in `coverage` (which keeps what it holds), every sample the
-    /// triangles `tris` cover; they were set up for its viewport, and are
-    /// drawn in order.
+    /// Draws triangles already set up for `coverage`'s viewport, in order,
+    /// as [`CoverageRasterizer::set_up_and_rasterize`] draws a queue's: the
+    /// tests' way to draw chosen triangles.
+    #[cfg(test)]
+    pub fn rasterize(
+        &mut self,
+        coverage: &mut CoverageBuffer,
+        tris: &[Tri],
+        depth: Option<&mut DepthEstimationBuffer>,
+        mut pyramid: Option<&mut Pyramid>,
+    ) {
+        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut());
+        self.bins.resize_with(bands.len(), Vec::new);
+        self.bins.truncate(bands.len());
+        for bin in &mut self.bins {
+            bin.clear();
+        }
+        for (i, t) in tris.iter().enumerate() {
+            for band in draw.bands_of(t) {
+                self.bins[band].push(i as u32);
+            }
+        }
+        let bins = &self.bins;
+        costliest_first(bands, |band| bins[band].len()).for_each(|(band, rows)| {
+            let tris: Vec<&Tri> = bins[band].iter().map(|&i| &tris[i as usize]).collect();
+            draw.band(band, rows, &tris);
+        });
+        draw.finish(coverage, pyramid);
+    }
+
+    /// Sets up the triangles queued in `queue` by `setup` (as
+    /// [`TriangleQueue::set_up_with`], for `coverage`'s viewport) and covers,
+    /// in `coverage` (which keeps what it holds), every sample they cover,
+    /// drawing them in order.
     ///
     /// With `depth` (laid over the same viewport), also raises each cell to
     /// at least the depth the renderer computes at every sample *first*
@@ -402,23 +455,197 @@ impl CoverageRasterizer {
     /// pyramid's blocks (else after all, as [`Pyramid::build_from_coverage`]).
     /// Counted after the last band, the city's base took 32 µs a frame on
     /// one thread while the rest of the cull ran on two.
-    pub fn rasterize(
+    ///
+    /// One parallel region does both: the threads set up chunks of the
+    /// queue, each binning its own triangles to bands, wait for the last
+    /// chunk, then draw bands costliest first. Rayon wakes a sleeping thread
+    /// 15–30 µs after a region starts, and a setup region then a raster
+    /// region paid that twice a frame, besides binning serially and copying
+    /// the set-up triangles into one list.
+    pub fn set_up_and_rasterize(
         &mut self,
+        queue: &TriangleQueue,
+        setup: QueueSetup,
         coverage: &mut CoverageBuffer,
-        tris: &[Tri],
         depth: Option<&mut DepthEstimationBuffer>,
         mut pyramid: Option<&mut Pyramid>,
-    ) {
+    ) -> FusedStats {
+        let start = Instant::now();
+        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut());
+        let (chunks, band_count) = (queue.chunks(), bands.len());
+        self.chunks.resize_with(chunks.max(self.chunks.len()), Default::default);
+        let region = Region {
+            chunks: &self.chunks[..chunks],
+            next_chunk: AtomicUsize::new(0),
+            chunks_done: AtomicUsize::new(0),
+            next_band: AtomicUsize::new(0),
+            bands: bands.into_iter().map(|(_, rows)| Mutex::new(Some(rows))).collect(),
+        };
+        let set_up = |k: usize, out: &mut SetUpChunk| {
+            out.tris.clear();
+            queue.set_up_chunk(k, &setup, &mut out.tris);
+            out.bins.resize_with(band_count, Vec::new);
+            for bin in &mut out.bins {
+                bin.clear();
+            }
+            for (i, t) in out.tris.iter().enumerate() {
+                for band in draw.bands_of(t) {
+                    out.bins[band].push(i as u32);
+                }
+            }
+        };
+        let helpers = rayon::current_num_threads()
+            .saturating_sub(1)
+            .min(chunks.max(band_count));
+        let mut set_up_ms = 0.0;
+        rayon::scope(|s| {
+            for _ in 0..helpers {
+                s.spawn(|_| {
+                    region.run(&set_up, &draw);
+                });
+            }
+            set_up_ms = region.run(&set_up, &draw);
+        });
+        let triangles = self.chunks[..chunks]
+            .iter()
+            .map(|c| c.read().map_or(0, |c| c.tris.len()))
+            .sum();
+        draw.finish(coverage, pyramid);
+        self.set_up = chunks;
+        FusedStats {
+            triangles,
+            set_up_ms: set_up_ms.min(start.elapsed().as_secs_f64() * 1e3),
+            total_ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// The triangles the last [`CoverageRasterizer::set_up_and_rasterize`]
+    /// set up, in order.
+    pub fn set_up_triangles(&mut self) -> impl Iterator<Item = &Tri> {
+        self.chunks[..self.set_up]
+            .iter_mut()
+            .flat_map(|c| &c.get_mut().unwrap_or_else(PoisonError::into_inner).tris)
+    }
+}
+
+/// What [`CoverageRasterizer::set_up_and_rasterize`] did.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FusedStats {
+    /// Triangles set up (and drawn).
+    pub triangles: usize,
+    /// Milliseconds until the calling thread saw the last chunk set up.
+    pub set_up_ms: f64,
+    /// Milliseconds in all.
+    pub total_ms: f64,
+}
+
+/// One chunk of the queue set up: its triangles and, per band, which of them reach it.
+#[derive(Debug, Default)]
+struct SetUpChunk {
+    tris: Vec<Tri>,
+    bins: Vec<Vec<u32>>,
+}
+
+/// The work of one fused draw, shared by its threads: chunks to set up,
+/// then bands to draw (each taken once).
+struct Region<'a> {
+    chunks: &'a [RwLock<SetUpChunk>],
+    next_chunk: AtomicUsize,
+    chunks_done: AtomicUsize,
+    next_band: AtomicUsize,
+    bands: Vec<Mutex<Option<BandRows<'a>>>>,
+}
+
+impl Region<'_> {
+    /// Sets up chunks until none is left, waits for the others' last ones,
+    /// then draws bands until none is left; returns the milliseconds until
+    /// the wait ended. Never waits on work no thread has taken: a chunk is
+    /// taken by a thread inside this function, which finishes it without
+    /// waiting, so a thread that arrives late (or never) blocks no one.
+    fn run(&self, set_up: &(impl Fn(usize, &mut SetUpChunk) + Sync), draw: &BandDraw) -> f64 {
+        let start = Instant::now();
+        loop {
+            let k = self.next_chunk.fetch_add(1, Ordering::Relaxed);
+            let Some(chunk) = self.chunks.get(k) else { break };
+            set_up(k, &mut chunk.write().unwrap_or_else(PoisonError::into_inner));
+            self.chunks_done.fetch_add(1, Ordering::Release);
+        }
+        let mut spins = 0u32;
+        while self.chunks_done.load(Ordering::Acquire) < self.chunks.len() {
+            if spins < 1 << 12 {
+                std::hint::spin_loop();
+                spins += 1;
+            } else {
+                std::thread::yield_now();
+            }
+        }
+        let set_up_ms = start.elapsed().as_secs_f64() * 1e3;
+        let chunks: Vec<_> = self
+            .chunks
+            .iter()
+            .map(|c| c.read().unwrap_or_else(PoisonError::into_inner))
+            .collect();
+        // Every thread finds the same order, and takes the next band in it.
+        let mut order: Vec<(usize, usize)> = (0..self.bands.len())
+            .map(|band| (band, chunks.iter().map(|c| c.bins[band].len()).sum()))
+            .collect();
+        let costs: Vec<usize> = order.iter().map(|&(_, cost)| cost).collect();
+        sort_costliest_first(&mut order, |band| costs[band]);
+        let mut tris: Vec<&Tri> = Vec::new();
+        loop {
+            let j = self.next_band.fetch_add(1, Ordering::Relaxed);
+            let Some(&(band, cost)) = order.get(j) else { break };
+            let Some(rows) = self.bands[band].lock().unwrap_or_else(PoisonError::into_inner).take() else {
+                continue;
+            };
+            tris.clear();
+            tris.reserve(cost);
+            for c in &chunks {
+                tris.extend(c.bins[band].iter().map(|&i| &c.tris[i as usize]));
+            }
+            draw.band(band, rows, &tris);
+        }
+        set_up_ms
+    }
+}
+
+/// One band's rows: its coverage words, its depth cells (none when not
+/// gathering depth) and its rows of the pyramid's base (none when counted after).
+type BandRows<'a> = (&'a mut [u64], &'a mut [f32], &'a mut [u32]);
+
+/// What every band of one draw shares.
+struct BandDraw {
+    backend: RasterBackend,
+    /// Coverage words per row.
+    wpr: usize,
+    /// The bits of the last word of a row that lie inside the viewport.
+    last_word: u64,
+    grid: CellGrid,
+    /// Depth cells across (0 when not gathering depth).
+    cols: usize,
+    cell_h: u32,
+    band_rows: u32,
+    /// The pyramid's base is counted band by band.
+    in_bands: Option<BaseCounter>,
+}
+
+impl BandDraw {
+    /// The draw's bands of rows, each with its coverage, depth cells and
+    /// pyramid base rows: whole rows of depth cells when gathering depth, so
+    /// every band writes only its own cells; at least `BAND_ROWS` rows.
+    fn split<'a>(
+        backend: RasterBackend,
+        coverage: &'a mut CoverageBuffer,
+        depth: Option<&'a mut DepthEstimationBuffer>,
+        pyramid: Option<&'a mut Pyramid>,
+    ) -> (BandDraw, Vec<(usize, BandRows<'a>)>) {
         let height = coverage.height;
-        // Bands of rows: whole rows of depth cells when gathering depth, so
-        // every band writes only its own cells; at least `BAND_ROWS` rows.
         let (cols, cell_w, cell_h) = match depth.as_deref() {
             Some(d) => (d.size().0 as usize, d.cell_size().0, d.cell_size().1),
             None => (0, 1, BAND_ROWS),
         };
-        let cell_of = CellOf::new(cell_w);
         let grid = CellGrid {
-            col_of: cell_of,
+            col_of: CellOf::new(cell_w),
             row_of: CellOf::new(cell_h),
             width: coverage.width,
             cols: cols as u32,
@@ -426,39 +653,24 @@ impl CoverageRasterizer {
         let cell_rows_per_band = (BAND_ROWS / cell_h).max(1);
         let band_rows = cell_h * cell_rows_per_band;
         let bands = height.div_ceil(band_rows) as usize;
-        self.bins.resize_with(bands, Vec::new);
-        self.bins.truncate(bands);
-        for bin in &mut self.bins {
-            bin.clear();
-        }
-        for (i, t) in tris.iter().enumerate() {
-            for band in u32::from(t.y0) / band_rows..=(u32::from(t.y1) - 1) / band_rows {
-                self.bins[band as usize].push(i as u32);
-            }
-        }
-
-        let (bins, backend) = (&self.bins, self.backend);
         let wpr = coverage.words_per_row;
-        // The bits of the last word of a row that lie inside the viewport.
         let last_word = match coverage.width % 64 {
             0 => u64::MAX,
             r => (1u64 << r) - 1,
         };
-        // The rows of depth cells of each band (none when not gathering depth).
         let cell_rows: Vec<&mut [f32]> = match depth {
             Some(d) => d.cells_mut().chunks_mut(cols * cell_rows_per_band as usize).collect(),
             None => (0..bands).map(|_| <&mut [f32]>::default()).collect(),
         };
         debug_assert_eq!(cell_rows.len(), bands, "depth cells and bands share rows");
-        // The rows of the pyramid's base each band counts (none when not counting in bands).
         let counter = pyramid.as_deref().map(Pyramid::base_counter);
         let in_bands = counter.filter(|c| band_rows.is_multiple_of(c.block()));
-        let base_rows: Vec<&mut [u32]> = match (in_bands, pyramid.as_deref_mut()) {
+        let base_rows: Vec<&mut [u32]> = match (in_bands, pyramid) {
             (Some(c), Some(p)) => p.base_counts_mut().chunks_mut(c.pixels_for_rows(band_rows)).collect(),
             _ => (0..bands).map(|_| <&mut [u32]>::default()).collect(),
         };
         debug_assert_eq!(base_rows.len(), bands, "the pyramid's base and bands share rows");
-        let bands: Vec<_> = coverage
+        let rows = coverage
             .bits
             .chunks_mut(wpr * band_rows as usize)
             .zip(cell_rows)
@@ -466,168 +678,202 @@ impl CoverageRasterizer {
             .enumerate()
             .map(|(band, ((words, cells), base))| (band, (words, cells, base)))
             .collect();
-        costliest_first(bands, |band| bins[band].len()).for_each(|(band, (words, cells, base))| {
-            let bin = &bins[band];
-            let y0 = band as u32 * band_rows;
-            let y1 = y0 + (words.len() / wpr) as u32;
-            let gather = !cells.is_empty();
-            // Cells with nothing covered hold INFINITY; while drawing they hold
-            // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
-            for c in cells.iter_mut() {
-                if *c == f32::INFINITY {
-                    *c = f32::NEG_INFINITY;
-                }
+        let draw = BandDraw {
+            backend,
+            wpr,
+            last_word,
+            grid,
+            cols,
+            cell_h,
+            band_rows,
+            in_bands,
+        };
+        (draw, rows)
+    }
+
+    /// The bands `t` reaches.
+    #[inline]
+    fn bands_of(&self, t: &Tri) -> std::ops::RangeInclusive<usize> {
+        let first = u32::from(t.y0) / self.band_rows;
+        let last = (u32::from(t.y1) - 1) / self.band_rows;
+        first as usize..=last as usize
+    }
+
+    /// After the bands: the pyramid's base counted where the bands did not.
+    fn finish(&self, coverage: &CoverageBuffer, pyramid: Option<&mut Pyramid>) {
+        match (pyramid, self.in_bands) {
+            (Some(p), Some(_)) => p.finish_base(),
+            (Some(p), None) => p.build_from_coverage(&coverage.bits, self.wpr),
+            (None, _) => {}
+        }
+    }
+
+    /// Draws `tris` (those reaching band `band`, in order) into its rows.
+    fn band(&self, band: usize, (words, cells, base): BandRows<'_>, tris: &[&Tri]) {
+        let BandDraw {
+            backend,
+            wpr,
+            last_word,
+            grid,
+            cols,
+            cell_h,
+            band_rows,
+            in_bands,
+        } = *self;
+        let cell_of = grid.col_of;
+        let y0 = band as u32 * band_rows;
+        let y1 = y0 + (words.len() / wpr) as u32;
+        let gather = !cells.is_empty();
+        // Cells with nothing covered hold INFINITY; while drawing they hold
+        // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
+        for c in cells.iter_mut() {
+            if *c == f32::INFINITY {
+                *c = f32::NEG_INFINITY;
             }
-            // This triangle's first-covered samples in the current run, OR-ed over its rows.
-            let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
-            // Per word, the first and last rows of the run where it took new samples.
-            let mut fresh_rows = if gather {
-                vec![(u32::MAX, 0u32); wpr]
-            } else {
-                Vec::new()
-            };
-            // Per word column (64 samples): whether every row of the band covers
-            // it wholly, and (made when asked, after the column was drawn in)
-            // the samples every row covers. A triangle whose box lies in full
-            // columns, or whose own columns in the band are covered by every
-            // row, covers no sample first, so it changes neither coverage nor
-            // depth cells and is skipped. (On layered occluders this is most of them.)
-            let rows = words.len() / wpr;
-            let column_full = |words: &[u64], c: usize| {
-                let inside = if c + 1 == wpr { last_word } else { u64::MAX };
-                (0..rows).all(|r| words[r * wpr + c] & inside == inside)
-            };
-            let covered_by_all = |words: &[u64], c: usize| {
-                let outside = if c + 1 == wpr { !last_word } else { 0 };
-                (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
-            };
-            let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
-            let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
-            // A triangle's rows, a chunk at a time: spans or masks (one scratch for the band).
-            let (mut spans, mut masks) = ([(0u32, 0u32); MASK_ROWS], [0u64; MASK_ROWS]);
-            for (k, &i) in bin.iter().enumerate() {
-                // Bins skip through the triangles: fetch a few ahead.
-                if let Some(&next) = bin.get(k + PREFETCH_AHEAD) {
-                    prefetch(&tris[next as usize]);
-                }
-                let t = &tris[i as usize];
-                let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
-                let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
-                if full[wa..=wb].iter().all(|&f| f) {
-                    if gather {
-                        grid.lower_whole(cells, t, (y0, y1), (ta, tb));
-                    }
-                    continue;
-                }
-                let (xa, xb) = t.columns_in_rows(ta, tb);
-                if xa >= xb {
-                    continue;
-                }
-                let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
-                let covered = (wa..=wb).all(|c| {
-                    let lo = (xa as usize).max(c * 64) - c * 64;
-                    let hi = (xb as usize).min(c * 64 + 64) - c * 64;
-                    let within = (u64::MAX >> (64 - (hi - lo))) << lo;
-                    *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
-                });
-                if covered {
-                    if gather {
-                        grid.lower_whole(cells, t, (y0, y1), (ta, tb));
-                    }
-                    continue;
-                }
-                let x0 = u32::from(t.x0);
-                let wide = backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX;
-                // Rows come from exact spans stepped row to row (`Tri::row_span`'s,
-                // without its divisions) or from a vector kernel's bit masks.
-                let (ta, tb, mut rows) = if wide {
-                    let edges = ScanEdges::new(t);
-                    let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
-                    if ta >= tb {
-                        continue; // no covered row in this band: nothing to set up or mark full
-                    }
-                    (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta)))
-                } else {
-                    (ta, tb, Rows::Masks)
-                };
-                let mut py0 = ta;
-                while py0 < tb {
-                    // A run: up to `RUN_ROWS` rows within one row of depth cells (the
-                    // whole band when not gathering).
-                    let run_end = if gather {
-                        tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
-                            .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
-                    } else {
-                        tb
-                    };
-                    // Some row of the run covered a sample first (then its first row).
-                    let mut fa = u32::MAX;
-                    while py0 < run_end {
-                        let n = ((run_end - py0) as usize).min(MASK_ROWS);
-                        match &mut rows {
-                            Rows::Spans(stepper) => {
-                                stepper.rows(&mut spans[..n]);
-                                for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
-                                    let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                    if lo >= hi {
-                                        continue;
-                                    } else if !gather {
-                                        set_span(row, lo, hi);
-                                    } else if set_span_fresh(row, &mut fresh, &mut fresh_rows, py, lo, hi) {
-                                        fa = fa.min(py);
-                                    }
-                                }
-                            }
-                            Rows::Masks => {
-                                row_masks(backend, t, py0, &mut masks[..n]);
-                                for (py, &m) in (py0..).zip(&masks[..n]) {
-                                    let row = &mut words[(py - y0) as usize * wpr..][..wpr];
-                                    if m == 0 {
-                                        continue;
-                                    } else if !gather {
-                                        or_mask(row, x0, m);
-                                    } else if or_mask_fresh(row, &mut fresh, &mut fresh_rows, py, x0, m) {
-                                        fa = fa.min(py);
-                                    }
-                                }
-                            }
-                        }
-                        py0 += n as u32;
-                    }
-                    if fa != u32::MAX {
-                        let cells = &mut cells[((fa - y0) / cell_h) as usize * cols..][..cols];
-                        let words_of_tri = usize::from(t.x0) / 64..=(usize::from(t.x1) - 1) / 64;
-                        raise_fresh_cells(
-                            cells,
-                            cell_of,
-                            &mut fresh[words_of_tri.clone()],
-                            &mut fresh_rows[words_of_tri],
-                            x0 - x0 % 64,
-                            t,
-                        );
-                    }
-                }
+        }
+        // This triangle's first-covered samples in the current run, OR-ed over its rows.
+        let mut fresh = if gather { vec![0u64; wpr] } else { Vec::new() };
+        // Per word, the first and last rows of the run where it took new samples.
+        let mut fresh_rows = if gather {
+            vec![(u32::MAX, 0u32); wpr]
+        } else {
+            Vec::new()
+        };
+        // Per word column (64 samples): whether every row of the band covers
+        // it wholly, and (made when asked, after the column was drawn in)
+        // the samples every row covers. A triangle whose box lies in full
+        // columns, or whose own columns in the band are covered by every
+        // row, covers no sample first, so it changes neither coverage nor
+        // depth cells and is skipped. (On layered occluders this is most of them.)
+        let rows = words.len() / wpr;
+        let column_full = |words: &[u64], c: usize| {
+            let inside = if c + 1 == wpr { last_word } else { u64::MAX };
+            (0..rows).all(|r| words[r * wpr + c] & inside == inside)
+        };
+        let covered_by_all = |words: &[u64], c: usize| {
+            let outside = if c + 1 == wpr { !last_word } else { 0 };
+            (0..rows).fold(u64::MAX, |m, r| m & words[r * wpr + c]) | outside
+        };
+        let mut full: Vec<bool> = (0..wpr).map(|c| column_full(words, c)).collect();
+        let mut all_rows: Vec<Option<u64>> = vec![None; wpr];
+        // A triangle's rows, a chunk at a time: spans or masks (one scratch for the band).
+        let (mut spans, mut masks) = ([(0u32, 0u32); MASK_ROWS], [0u64; MASK_ROWS]);
+        for (k, &t) in tris.iter().enumerate() {
+            // Bins skip through the triangles: fetch a few ahead.
+            if let Some(&next) = tris.get(k + PREFETCH_AHEAD) {
+                prefetch(next);
+            }
+            let (ta, tb) = (u32::from(t.y0).max(y0), u32::from(t.y1).min(y1));
+            let (wa, wb) = (usize::from(t.x0) / 64, (usize::from(t.x1) - 1) / 64);
+            if full[wa..=wb].iter().all(|&f| f) {
                 if gather {
                     grid.lower_whole(cells, t, (y0, y1), (ta, tb));
                 }
-                for c in wa..=wb {
-                    full[c] = full[c] || column_full(words, c);
-                    all_rows[c] = None;
+                continue;
+            }
+            let (xa, xb) = t.columns_in_rows(ta, tb);
+            if xa >= xb {
+                continue;
+            }
+            let (wa, wb) = (xa as usize / 64, (xb as usize - 1) / 64);
+            let covered = (wa..=wb).all(|c| {
+                let lo = (xa as usize).max(c * 64) - c * 64;
+                let hi = (xb as usize).min(c * 64 + 64) - c * 64;
+                let within = (u64::MAX >> (64 - (hi - lo))) << lo;
+                *all_rows[c].get_or_insert_with(|| covered_by_all(words, c)) & within == within
+            });
+            if covered {
+                if gather {
+                    grid.lower_whole(cells, t, (y0, y1), (ta, tb));
+                }
+                continue;
+            }
+            let x0 = u32::from(t.x0);
+            let wide = backend == RasterBackend::Scalar || u32::from(t.x1 - t.x0) > MASK_MAX;
+            // Rows come from exact spans stepped row to row (`Tri::row_span`'s,
+            // without its divisions) or from a vector kernel's bit masks.
+            let (ta, tb, mut rows) = if wide {
+                let edges = ScanEdges::new(t);
+                let (ta, tb) = (ta.max(edges.rows.0), tb.min(edges.rows.1));
+                if ta >= tb {
+                    continue; // no covered row in this band: nothing to set up or mark full
+                }
+                (ta, tb, Rows::Spans(Stepper::new(t, &edges, ta)))
+            } else {
+                (ta, tb, Rows::Masks)
+            };
+            let mut py0 = ta;
+            while py0 < tb {
+                // A run: up to `RUN_ROWS` rows within one row of depth cells (the
+                // whole band when not gathering).
+                let run_end = if gather {
+                    tb.min(y0 + ((py0 - y0) / cell_h + 1) * cell_h)
+                        .min((py0 / RUN_ROWS + 1) * RUN_ROWS)
+                } else {
+                    tb
+                };
+                // Some row of the run covered a sample first (then its first row).
+                let mut fa = u32::MAX;
+                while py0 < run_end {
+                    let n = ((run_end - py0) as usize).min(MASK_ROWS);
+                    match &mut rows {
+                        Rows::Spans(stepper) => {
+                            stepper.rows(&mut spans[..n]);
+                            for (py, &(lo, hi)) in (py0..).zip(&spans[..n]) {
+                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                if lo >= hi {
+                                    continue;
+                                } else if !gather {
+                                    set_span(row, lo, hi);
+                                } else if set_span_fresh(row, &mut fresh, &mut fresh_rows, py, lo, hi) {
+                                    fa = fa.min(py);
+                                }
+                            }
+                        }
+                        Rows::Masks => {
+                            row_masks(backend, t, py0, &mut masks[..n]);
+                            for (py, &m) in (py0..).zip(&masks[..n]) {
+                                let row = &mut words[(py - y0) as usize * wpr..][..wpr];
+                                if m == 0 {
+                                    continue;
+                                } else if !gather {
+                                    or_mask(row, x0, m);
+                                } else if or_mask_fresh(row, &mut fresh, &mut fresh_rows, py, x0, m) {
+                                    fa = fa.min(py);
+                                }
+                            }
+                        }
+                    }
+                    py0 += n as u32;
+                }
+                if fa != u32::MAX {
+                    let cells = &mut cells[((fa - y0) / cell_h) as usize * cols..][..cols];
+                    let words_of_tri = usize::from(t.x0) / 64..=(usize::from(t.x1) - 1) / 64;
+                    raise_fresh_cells(
+                        cells,
+                        cell_of,
+                        &mut fresh[words_of_tri.clone()],
+                        &mut fresh_rows[words_of_tri],
+                        x0 - x0 % 64,
+                        t,
+                    );
                 }
             }
-            for c in cells.iter_mut() {
-                if *c == f32::NEG_INFINITY {
-                    *c = f32::INFINITY; // nothing covered: nothing is behind this cell
-                }
+            if gather {
+                grid.lower_whole(cells, t, (y0, y1), (ta, tb));
             }
-            if let Some(c) = in_bands {
-                c.count(base, words, wpr, y1 - y0);
+            for c in wa..=wb {
+                full[c] = full[c] || column_full(words, c);
+                all_rows[c] = None;
             }
-        });
-        match (pyramid, in_bands) {
-            (Some(p), Some(_)) => p.finish_base(),
-            (Some(p), None) => p.build_from_coverage(&coverage.bits, wpr),
-            (None, _) => {}
+        }
+        for c in cells.iter_mut() {
+            if *c == f32::NEG_INFINITY {
+                *c = f32::INFINITY; // nothing covered: nothing is behind this cell
+            }
+        }
+        if let Some(c) = in_bands {
+            c.count(base, words, wpr, y1 - y0);
         }
     }
 }
@@ -636,7 +882,6 @@ impl CoverageRasterizer {
 mod tests {
     use super::*;
     use crate::geom::Camera;
-    use crate::raster::queue::TriangleQueue;
     use crate::raster::setup::{FaceCull, Viewport};
     use crate::scene::{Mesh, Scene, SceneBuilder};
     use glam::{Mat4, Quat, Vec3};
@@ -779,6 +1024,71 @@ mod tests {
             want.build_from_coverage(cov.bits(), cov.words_per_row());
             for (k, (got, want)) in pyramid.levels().iter().zip(want.levels()).enumerate() {
                 prop_assert!(got.counts == want.counts, "level {}", k);
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+        /// Setting a queue up and drawing it in one parallel region draws
+        /// what setting it up, then drawing the triangles, draws: coverage,
+        /// depth cells and pyramid, bit for bit, on 1–3 threads, over several
+        /// setup chunks (convex stand-ins among them) and over a first draw.
+        #[test]
+        fn set_up_and_rasterize_is_set_up_then_rasterize(
+            seed in any::<u64>(), n in 1usize..90, size in (1u32..300, 1u32..300),
+            block in 1u32..20, cells in proptest::option::of((1u32..70, 1u32..70)),
+            threads in 1usize..4, inner in any::<bool>(),
+        ) {
+            let scene = random_scene(seed, n);
+            let (w, h) = size;
+            let eye = Vec3::new(0.0, 1.5, -14.0);
+            let camera = Camera::new(eye, Vec3::ZERO, Vec3::Y, 1.2, 0.1, 1000.0, w, h);
+            prop_assume!(camera.validate().is_ok());
+            // Two queues (two draws): every third object a convex stand-in.
+            let mut queues = [TriangleQueue::default(), TriangleQueue::default()];
+            for (k, o) in scene.objects().iter().enumerate() {
+                let (m, mvp) = (scene.mesh_of(o), camera.view_proj() * o.transform);
+                let q = &mut queues[usize::from(k >= scene.objects().len() / 3)];
+                if k % 3 == 0 {
+                    q.push_convex(m.positions(), m.triangles(), &mvp).unwrap();
+                } else {
+                    q.push_model(m.positions(), m.triangles(), &mvp, FaceCull::None).unwrap();
+                }
+            }
+            let setup = QueueSetup { backend: RasterBackend::active(), viewport: Viewport::new(w, h), inner };
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            let draw = |fused: bool| {
+                let mut cov = CoverageBuffer::default();
+                cov.reset(w, h);
+                let mut deb = cells.map(|(c, r)| DepthEstimationBuffer::new(w, h, c, r));
+                let mut pyramid = Pyramid::new(w, h, block, 1);
+                let mut raster = CoverageRasterizer::default();
+                let mut drawn = 0;
+                pool.install(|| {
+                    for q in &queues {
+                        if fused {
+                            let s = raster.set_up_and_rasterize(q, setup, &mut cov, deb.as_mut(), Some(&mut pyramid));
+                            drawn += s.triangles;
+                            assert!(raster.set_up_triangles().count() == s.triangles);
+                        } else {
+                            let mut tris = Vec::new();
+                            q.set_up_with(&setup, &mut tris);
+                            raster.rasterize(&mut cov, &tris, deb.as_mut(), Some(&mut pyramid));
+                            drawn += tris.len();
+                        }
+                    }
+                });
+                let cells = deb.map_or(Vec::new(), |d| d.cells().iter().map(|c| c.to_bits()).collect::<Vec<_>>());
+                (cov, cells, pyramid, drawn)
+            };
+            let (want, want_cells, want_pyramid, want_drawn) = draw(false);
+            let (got, got_cells, got_pyramid, got_drawn) = draw(true);
+            prop_assert_eq!(got_drawn, want_drawn);
+            prop_assert!(got.bits() == want.bits(), "coverage differs");
+            prop_assert!(got_cells == want_cells, "depth cells differ");
+            for (k, (g, w)) in got_pyramid.levels().iter().zip(want_pyramid.levels()).enumerate() {
+                prop_assert!(g.counts == w.counts, "pyramid level {}", k);
             }
         }
     }

@@ -59,8 +59,14 @@ fn costliest_first<T: Send>(
     mut bands: Vec<(usize, T)>,
     cost: impl Fn(usize) -> usize,
 ) -> impl IndexedParallelIterator<Item = (usize, T)> {
-    bands.sort_by_key(|&(band, _)| std::cmp::Reverse(cost(band)));
+    sort_costliest_first(&mut bands, cost);
     bands.into_par_iter().with_max_len(1)
+}
+
+/// Sorts bands (`(band, _)`) costliest first by `cost(band)`, ties in band
+/// order: [`costliest_first`]'s order, for a caller that hands bands out itself.
+fn sort_costliest_first<T>(bands: &mut [(usize, T)], cost: impl Fn(usize) -> usize) {
+    bands.sort_by_key(|&(band, _)| std::cmp::Reverse(cost(band)));
 }
 
 pub use coverage::CoverageBuffer;

@@ -43,6 +43,19 @@ struct Batch {
     corners: Option<(u32, u32)>,
 }
 
+/// How a queue is set up.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct QueueSetup {
+    /// The vector backend of runs of four triangles that need no clipping
+    /// (the same triangles as the scalar setup, bit for bit).
+    pub backend: RasterBackend,
+    /// The viewport set up for.
+    pub viewport: Viewport,
+    /// The inner rule for every triangle (conservative sampling), else
+    /// for the batches that ask for it.
+    pub inner: bool,
+}
+
 /// Clip-space triangles in submission order, with their face culling; see the module docs.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct TriangleQueue {
@@ -209,83 +222,103 @@ impl TriangleQueue {
     /// [`RasterBackend::active`].
     #[cfg(test)]
     pub fn set_up(&mut self, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
-        self.set_up_with(RasterBackend::active(), vp, inner, out);
+        let setup = QueueSetup {
+            backend: RasterBackend::active(),
+            viewport: *vp,
+            inner,
+        };
+        self.set_up_with(&setup, out);
     }
 
-    /// [`TriangleQueue::set_up`] with `backend`'s vector setup for runs of
-    /// four triangles that need no clipping (the same triangles, bit for bit).
-    pub fn set_up_with(&mut self, backend: RasterBackend, vp: &Viewport, inner: bool, out: &mut Vec<Tri>) {
+    /// [`TriangleQueue::set_up`] as `setup` says.
+    pub fn set_up_with(&self, setup: &QueueSetup, out: &mut Vec<Tri>) {
         out.clear();
-        let (verts, batches) = (&self.verts, &self.batches);
-        let chunks: Vec<Vec<Tri>> = self
-            .tris
-            .par_chunks(SETUP_CHUNK)
-            .enumerate()
-            .map(|(k, chunk)| {
-                let first = k * SETUP_CHUNK;
-                // The batch holding the chunk's first triangle, then onwards.
-                let mut b = batches.partition_point(|b| b.first <= first) - 1;
-                let mut out = Vec::with_capacity(chunk.len());
-                let (mut scratch, mut tried) = (Scratch::default(), None);
-                // Silhouette triangles of consecutive convex stand-ins, with their
-                // batches, set up four at a time before anything queued after them.
-                let mut fans: Vec<([Vec4; 3], u32)> = Vec::new();
-                // By the exact rule in either sampling: a fan already keeps the inner
-                // rule's guarantees (inside the unsnapped outline with a margin, behind
-                // the solid), and the inner rule on its chords would open cracks.
-                let fan_rule = SetupRule {
-                    cull: FaceCull::None,
-                    inner: false,
-                };
-                let mut i = 0;
-                while i < chunk.len() {
-                    while b + 1 < batches.len() && batches[b + 1].first <= first + i {
-                        b += 1;
-                    }
-                    let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
-                    if let (Some((v, n)), true) = (batches[b].corners, tried != Some(b)) {
-                        // A convex stand-in: its silhouette, set up by the chunk it starts
-                        // in (a chunk it continues into asks again, for the answer only).
-                        tried = Some(b);
-                        let corners = &verts[v as usize..][..n as usize];
-                        if let Some(fan) = silhouette(corners, vp, &mut scratch) {
-                            if batches[b].first == first + i {
-                                fans.extend(fan.iter().map(|&t| (t, b as u32)));
-                            }
-                            i = (batch_end - first).min(chunk.len());
-                            continue;
-                        }
-                    }
-                    set_up_fans(backend, &mut fans, vp, fan_rule, &mut out);
-                    let rule = SetupRule {
-                        cull: batches[b].cull,
-                        inner: inner || batches[b].inner,
-                    };
-                    // Four of one batch at once; where one of them is clipped,
-                    // all four by the scalar setup (not tried again from the next).
-                    let group = i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end;
-                    let n = if group { SETUP_LANES } else { 1 };
-                    if group {
-                        let corners: [[Vec4; 3]; SETUP_LANES] =
-                            std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
-                        if setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], &mut out) {
-                            i += n;
-                            continue;
-                        }
-                    }
-                    for t in &chunk[i..i + n] {
-                        let [p, q, r] = t.map(|v| Vertex::new(verts[v as usize], vp));
-                        setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], &mut out);
-                    }
-                    i += n;
-                }
-                set_up_fans(backend, &mut fans, vp, fan_rule, &mut out);
+        let chunks: Vec<Vec<Tri>> = (0..self.chunks())
+            .into_par_iter()
+            .map(|k| {
+                let mut out = Vec::new();
+                self.set_up_chunk(k, setup, &mut out);
                 out
             })
             .collect();
         for c in chunks {
             out.extend(c);
         }
+    }
+
+    /// How many chunks [`TriangleQueue::set_up_chunk`] sets the queue up in.
+    pub fn chunks(&self) -> usize {
+        self.tris.len().div_ceil(SETUP_CHUNK)
+    }
+
+    /// Appends to `out` what chunk `k` (of [`TriangleQueue::chunks`]) sets
+    /// up: the chunks' outputs in order are [`TriangleQueue::set_up_with`]'s.
+    pub fn set_up_chunk(&self, k: usize, setup: &QueueSetup, out: &mut Vec<Tri>) {
+        let QueueSetup {
+            backend,
+            viewport: ref vp,
+            inner,
+        } = *setup;
+        let (verts, batches) = (&self.verts, &self.batches);
+        let first = k * SETUP_CHUNK;
+        let chunk = &self.tris[first..self.tris.len().min(first + SETUP_CHUNK)];
+        // The batch holding the chunk's first triangle, then onwards.
+        let mut b = batches.partition_point(|b| b.first <= first) - 1;
+        out.reserve(chunk.len());
+        let (mut scratch, mut tried) = (Scratch::default(), None);
+        // Silhouette triangles of consecutive convex stand-ins, with their
+        // batches, set up four at a time before anything queued after them.
+        let mut fans: Vec<([Vec4; 3], u32)> = Vec::new();
+        // By the exact rule in either sampling: a fan already keeps the inner
+        // rule's guarantees (inside the unsnapped outline with a margin, behind
+        // the solid), and the inner rule on its chords would open cracks.
+        let fan_rule = SetupRule {
+            cull: FaceCull::None,
+            inner: false,
+        };
+        let mut i = 0;
+        while i < chunk.len() {
+            while b + 1 < batches.len() && batches[b + 1].first <= first + i {
+                b += 1;
+            }
+            let batch_end = batches.get(b + 1).map_or(usize::MAX, |n| n.first);
+            if let (Some((v, n)), true) = (batches[b].corners, tried != Some(b)) {
+                // A convex stand-in: its silhouette, set up by the chunk it starts
+                // in (a chunk it continues into asks again, for the answer only).
+                tried = Some(b);
+                let corners = &verts[v as usize..][..n as usize];
+                if let Some(fan) = silhouette(corners, vp, &mut scratch) {
+                    if batches[b].first == first + i {
+                        fans.extend(fan.iter().map(|&t| (t, b as u32)));
+                    }
+                    i = (batch_end - first).min(chunk.len());
+                    continue;
+                }
+            }
+            set_up_fans(backend, &mut fans, vp, fan_rule, out);
+            let rule = SetupRule {
+                cull: batches[b].cull,
+                inner: inner || batches[b].inner,
+            };
+            // Four of one batch at once; where one of them is clipped,
+            // all four by the scalar setup (not tried again from the next).
+            let group = i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end;
+            let n = if group { SETUP_LANES } else { 1 };
+            if group {
+                let corners: [[Vec4; 3]; SETUP_LANES] =
+                    std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
+                if setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], out) {
+                    i += n;
+                    continue;
+                }
+            }
+            for t in &chunk[i..i + n] {
+                let [p, q, r] = t.map(|v| Vertex::new(verts[v as usize], vp));
+                setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], out);
+            }
+            i += n;
+        }
+        set_up_fans(backend, &mut fans, vp, fan_rule, out);
     }
 }
 

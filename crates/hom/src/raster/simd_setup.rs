@@ -356,7 +356,7 @@ mod x86 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::raster::queue::TriangleQueue;
+    use crate::raster::queue::{QueueSetup, TriangleQueue};
     use crate::raster::setup::FaceCull;
     use glam::Vec4;
     use hom_testkit::Rng;
@@ -415,7 +415,12 @@ mod tests {
             let vp = Viewport::new(w, h);
             let setup = |q: &mut TriangleQueue, backend| {
                 let mut out = Vec::new();
-                q.set_up_with(backend, &vp, inner, &mut out);
+                let setup = QueueSetup {
+                    backend,
+                    viewport: vp,
+                    inner,
+                };
+                q.set_up_with(&setup, &mut out);
                 out.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>()
             };
             let want = setup(&mut q, RasterBackend::Scalar);
