@@ -142,7 +142,7 @@ pub struct BufferOptions {
     /// Which samples a triangle covers.
     pub sampling: Sampling,
     /// The vector kernels to draw with; `None` picks [`RasterBackend::active`]
-    /// (the widest the CPU has, or `HOM_RASTER_BACKEND` / `HOM_FORCE_SCALAR`).
+    /// (AVX2 where the CPU has it, else the widest it has; or `HOM_RASTER_BACKEND` / `HOM_FORCE_SCALAR`).
     /// Every backend gives the same answers.
     pub backend: Option<RasterBackend>,
 }

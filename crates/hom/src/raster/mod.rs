@@ -9,8 +9,9 @@
 
 //!
 //! The occluder rasterizer fills rows with a [`RasterBackend`] chosen once at
-//! run time: the widest vector kernel the CPU has (AVX-512, AVX2, SSE4.1),
-//! else the scalar path, which defines the result; all backends cover
+//! run time: AVX2 where the CPU has it (faster than AVX-512 on the AVX-512
+//! host measured; [`RasterBackend::detect`]), else the widest vector kernel
+//! it has (SSE4.1), else the scalar path, which defines the result; all backends cover
 //! bit-identical samples. In the environment, `HOM_RASTER_BACKEND=scalar|sse41|avx2|avx512`
 //! picks one ([`BACKEND_ENV`]) and `HOM_FORCE_SCALAR=1` forces the scalar path
 //! ([`FORCE_SCALAR_ENV`], which wins); in code,
