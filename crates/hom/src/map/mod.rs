@@ -9,5 +9,5 @@ pub(crate) use hole::{find_worst_hole, worst_hole_of_coverage, Hole};
 pub use overlap::OverlapStats;
 #[doc(hidden)]
 pub use overlap::{rect_covered, Thresholds};
-pub(crate) use pyramid::BaseCounter;
+pub(crate) use pyramid::BandBuild;
 pub use pyramid::{Level, Pyramid};

@@ -21,7 +21,7 @@ use super::setup::Tri;
 use super::simd::{prefetch, row_masks, RasterBackend, MASK_MAX};
 use super::sort_costliest_first;
 use crate::depth::DepthEstimationBuffer;
-use crate::map::{BaseCounter, Pyramid};
+use crate::map::{BandBuild, Pyramid};
 #[cfg(test)]
 use rayon::iter::ParallelIterator;
 use std::ops::Range;
@@ -610,8 +610,9 @@ impl Region<'_> {
 }
 
 /// One band's rows: its coverage words, its depth cells (none when not
-/// gathering depth) and its rows of the pyramid's base (none when counted after).
-type BandRows<'a> = (&'a mut [u64], &'a mut [f32], &'a mut [u32]);
+/// gathering depth) and its rows of the pyramid's lower levels (none when
+/// the pyramid is built after).
+type BandRows<'a> = (&'a mut [u64], &'a mut [f32], Vec<&'a mut [u32]>);
 
 /// What every band of one draw shares.
 struct BandDraw {
@@ -625,13 +626,13 @@ struct BandDraw {
     cols: usize,
     cell_h: u32,
     band_rows: u32,
-    /// The pyramid's base is counted band by band.
-    in_bands: Option<BaseCounter>,
+    /// The pyramid's lower levels are built band by band.
+    pyramid_bands: Option<BandBuild>,
 }
 
 impl BandDraw {
     /// The draw's bands of rows, each with its coverage, depth cells and
-    /// pyramid base rows: whole rows of depth cells when gathering depth, so
+    /// rows of the pyramid's lower levels: whole rows of depth cells when gathering depth, so
     /// every band writes only its own cells; at least `BAND_ROWS` rows.
     fn split<'a>(
         backend: RasterBackend,
@@ -663,20 +664,18 @@ impl BandDraw {
             None => (0..bands).map(|_| <&mut [f32]>::default()).collect(),
         };
         debug_assert_eq!(cell_rows.len(), bands, "depth cells and bands share rows");
-        let counter = pyramid.as_deref().map(Pyramid::base_counter);
-        let in_bands = counter.filter(|c| band_rows.is_multiple_of(c.block()));
-        let base_rows: Vec<&mut [u32]> = match (in_bands, pyramid) {
-            (Some(c), Some(p)) => p.base_counts_mut().chunks_mut(c.pixels_for_rows(band_rows)).collect(),
-            _ => (0..bands).map(|_| <&mut [u32]>::default()).collect(),
+        let (pyramid_bands, levels) = match pyramid.and_then(|p| p.split_bands(band_rows)) {
+            Some((build, levels)) => (Some(build), levels),
+            None => (None, (0..bands).map(|_| Vec::new()).collect()),
         };
-        debug_assert_eq!(base_rows.len(), bands, "the pyramid's base and bands share rows");
+        debug_assert_eq!(levels.len(), bands, "the pyramid's levels and bands share rows");
         let rows = coverage
             .bits
             .chunks_mut(wpr * band_rows as usize)
             .zip(cell_rows)
-            .zip(base_rows)
+            .zip(levels)
             .enumerate()
-            .map(|(band, ((words, cells), base))| (band, (words, cells, base)))
+            .map(|(band, ((words, cells), levels))| (band, (words, cells, levels)))
             .collect();
         let draw = BandDraw {
             backend,
@@ -686,7 +685,7 @@ impl BandDraw {
             cols,
             cell_h,
             band_rows,
-            in_bands,
+            pyramid_bands,
         };
         (draw, rows)
     }
@@ -699,17 +698,18 @@ impl BandDraw {
         first as usize..=last as usize
     }
 
-    /// After the bands: the pyramid's base counted where the bands did not.
+    /// After the bands: the pyramid's levels above the bands' (or all of
+    /// it, where the bands' rows were not whole rows of its pixels).
     fn finish(&self, coverage: &CoverageBuffer, pyramid: Option<&mut Pyramid>) {
-        match (pyramid, self.in_bands) {
-            (Some(p), Some(_)) => p.finish_base(),
+        match (pyramid, &self.pyramid_bands) {
+            (Some(p), Some(build)) => p.finish_bands(build),
             (Some(p), None) => p.build_from_coverage(&coverage.bits, self.wpr),
             (None, _) => {}
         }
     }
 
     /// Draws `tris` (those reaching band `band`, in order) into its rows.
-    fn band(&self, band: usize, (words, cells, base): BandRows<'_>, tris: &[&Tri]) {
+    fn band(&self, band: usize, (words, cells, mut levels): BandRows<'_>, tris: &[&Tri]) {
         let BandDraw {
             backend,
             wpr,
@@ -718,7 +718,7 @@ impl BandDraw {
             cols,
             cell_h,
             band_rows,
-            in_bands,
+            pyramid_bands,
         } = *self;
         let cell_of = grid.col_of;
         let y0 = band as u32 * band_rows;
@@ -883,8 +883,8 @@ impl BandDraw {
                 *c = f32::INFINITY; // nothing covered: nothing is behind this cell
             }
         }
-        if let Some(c) = in_bands {
-            c.count(base, words, wpr, y1 - y0);
+        if let Some(p) = pyramid_bands {
+            p.build(band, &mut levels, words, wpr, y1 - y0);
         }
     }
 }
