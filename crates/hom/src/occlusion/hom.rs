@@ -209,10 +209,13 @@ impl HomBuffer {
         self.overlap = OverlapStats::default();
     }
 
-    /// Makes the representation empty if it was cleared (the pyramid is left to the caller).
-    fn empty_if_cleared(&mut self) {
+    /// Makes the representation empty if it was cleared (the pyramid is left
+    /// to the caller; with `by_bands`, the coverage and rasterized depth cells
+    /// to the raster's bands, which empty their own rows first); returns
+    /// whether it was cleared.
+    fn empty_if_cleared(&mut self, by_bands: bool) -> bool {
         if !self.cleared {
-            return;
+            return false;
         }
         let (w, h) = (self.front.width, self.front.height);
         if self.pyramid.viewport() != (w, h) {
@@ -220,18 +223,25 @@ impl HomBuffer {
             self.thresholds = thresholds(&self.map, &self.pyramid);
             self.depth = new_depth(&self.map, w, h);
         }
-        self.coverage.reset(w, h);
+        let bands_empty_depth = by_bands && matches!(self.map.depth, DepthMode::Rasterized(..));
+        if by_bands {
+            self.coverage.set_size(w, h);
+        } else {
+            self.coverage.reset(w, h);
+        }
         match &mut self.depth {
+            Depth::Buffer(_) if bands_empty_depth => {}
             Depth::Buffer(b) => b.clear(),
             Depth::Plane(p) => *p = SingleZPlane::default(),
         }
+        true
     }
 
     /// After a flush: a buffer cleared and never drawn since gets its empty pyramid.
     #[inline]
     fn settle(&mut self) {
         if self.cleared {
-            self.empty_if_cleared();
+            self.empty_if_cleared(false);
             self.pyramid
                 .build_from_coverage(self.coverage.bits(), self.coverage.words_per_row());
             self.cleared = false;
@@ -241,7 +251,7 @@ impl HomBuffer {
     /// Sets the queue up and draws it in one pass
     /// ([`CoverageRasterizer::set_up_and_rasterize`]).
     fn draw_queue(&mut self) {
-        self.empty_if_cleared();
+        let empty_first = self.empty_if_cleared(true);
         self.cleared = false;
         let gather = match (&mut self.depth, self.map.depth) {
             (Depth::Buffer(b), DepthMode::Rasterized(..)) => Some(b),
@@ -253,6 +263,7 @@ impl HomBuffer {
             &mut self.coverage,
             gather,
             Some(&mut self.pyramid),
+            empty_first,
         );
         let stats = &mut self.front.stats;
         stats.triangles_drawn += s.triangles as u64;

@@ -39,6 +39,15 @@ pub struct CoverageBuffer {
 }
 
 impl CoverageBuffer {
+    /// Sizes the buffer to `width` × `height`, keeping what it holds where
+    /// the size is unchanged: for a draw that empties every row itself
+    /// ([`CoverageRasterizer::set_up_and_rasterize`] with `empty_first`).
+    pub(crate) fn set_size(&mut self, width: u32, height: u32) {
+        if (width, height) != (self.width, self.height) {
+            self.reset(width, height);
+        }
+    }
+
     /// Clears to "nothing covered" at `width` × `height`.
     pub fn reset(&mut self, width: u32, height: u32) {
         self.width = width;
@@ -410,7 +419,7 @@ impl CoverageRasterizer {
         depth: Option<&mut DepthEstimationBuffer>,
         mut pyramid: Option<&mut Pyramid>,
     ) {
-        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut());
+        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut(), false);
         self.bins.resize_with(bands.len(), Vec::new);
         self.bins.truncate(bands.len());
         for bin in &mut self.bins {
@@ -431,8 +440,8 @@ impl CoverageRasterizer {
 
     /// Sets up the triangles queued in `queue` by `setup` (as
     /// [`TriangleQueue::set_up_with`], for `coverage`'s viewport) and covers,
-    /// in `coverage` (which keeps what it holds), every sample they cover,
-    /// drawing them in order.
+    /// in `coverage` (which keeps what it holds, unless `empty_first`),
+    /// every sample they cover, drawing them in order.
     ///
     /// With `depth` (laid over the same viewport), also raises each cell to
     /// at least the depth the renderer computes at every sample *first*
@@ -462,6 +471,11 @@ impl CoverageRasterizer {
     /// 15–30 µs after a region starts, and a setup region then a raster
     /// region paid that twice a frame, besides binning serially and copying
     /// the set-up triangles into one list.
+    ///
+    /// With `empty_first`, each band first empties its rows of `coverage` and
+    /// of `depth` (nothing covered) on its own thread, so that they need not
+    /// be emptied before: the 144 KB of a 1024² frame are written once, by
+    /// the thread that draws them, instead of by the caller alone.
     pub fn set_up_and_rasterize(
         &mut self,
         queue: &TriangleQueue,
@@ -469,9 +483,10 @@ impl CoverageRasterizer {
         coverage: &mut CoverageBuffer,
         depth: Option<&mut DepthEstimationBuffer>,
         mut pyramid: Option<&mut Pyramid>,
+        empty_first: bool,
     ) -> FusedStats {
         let start = Instant::now();
-        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut());
+        let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut(), empty_first);
         let (chunks, band_count) = (queue.chunks(), bands.len());
         self.chunks.resize_with(chunks.max(self.chunks.len()), Default::default);
         let region = Region {
@@ -628,6 +643,8 @@ struct BandDraw {
     band_rows: u32,
     /// The pyramid's lower levels are built band by band.
     pyramid_bands: Option<BandBuild>,
+    /// Each band empties its rows first.
+    empty_first: bool,
 }
 
 impl BandDraw {
@@ -639,6 +656,7 @@ impl BandDraw {
         coverage: &'a mut CoverageBuffer,
         depth: Option<&'a mut DepthEstimationBuffer>,
         pyramid: Option<&'a mut Pyramid>,
+        empty_first: bool,
     ) -> (BandDraw, Vec<(usize, BandRows<'a>)>) {
         let height = coverage.height;
         let (cols, cell_w, cell_h) = match depth.as_deref() {
@@ -686,6 +704,7 @@ impl BandDraw {
             cell_h,
             band_rows,
             pyramid_bands,
+            empty_first,
         };
         (draw, rows)
     }
@@ -719,6 +738,7 @@ impl BandDraw {
             cell_h,
             band_rows,
             pyramid_bands,
+            empty_first,
         } = *self;
         let cell_of = grid.col_of;
         let y0 = band as u32 * band_rows;
@@ -726,6 +746,10 @@ impl BandDraw {
         let gather = !cells.is_empty();
         // Cells with nothing covered hold INFINITY; while drawing they hold
         // NEG_INFINITY so that `max` raises them (exact: a covered cell is finite).
+        if empty_first {
+            words.fill(0);
+            cells.fill(f32::NEG_INFINITY);
+        }
         for c in cells.iter_mut() {
             if *c == f32::INFINITY {
                 *c = f32::NEG_INFINITY;
@@ -1044,7 +1068,8 @@ mod tests {
         /// Setting a queue up and drawing it in one parallel region draws
         /// what setting it up, then drawing the triangles, draws: coverage,
         /// depth cells and pyramid, bit for bit, on 1–3 threads, over several
-        /// setup chunks (convex stand-ins among them) and over a first draw.
+        /// setup chunks (convex stand-ins among them), into buffers the first
+        /// draw empties band by band, and over that first draw.
         #[test]
         fn set_up_and_rasterize_is_set_up_then_rasterize(
             seed in any::<u64>(), n in 1usize..90, size in (1u32..300, 1u32..300),
@@ -1076,10 +1101,17 @@ mod tests {
                 let mut pyramid = Pyramid::new(w, h, block, 1);
                 let mut raster = CoverageRasterizer::default();
                 let mut drawn = 0;
+                if fused {
+                    // Left over from an earlier frame: the first draw empties it first.
+                    cov.bits.fill(u64::MAX);
+                    if let Some(d) = deb.as_mut() {
+                        d.cells_mut().fill(0.5);
+                    }
+                }
                 pool.install(|| {
-                    for q in &queues {
+                    for (k, q) in queues.iter().enumerate() {
                         if fused {
-                            let s = raster.set_up_and_rasterize(q, setup, &mut cov, deb.as_mut(), Some(&mut pyramid));
+                            let s = raster.set_up_and_rasterize(q, setup, &mut cov, deb.as_mut(), Some(&mut pyramid), k == 0);
                             drawn += s.triangles;
                             assert!(raster.set_up_triangles().count() == s.triangles);
                         } else {
