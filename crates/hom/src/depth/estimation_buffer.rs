@@ -11,7 +11,7 @@
 //!   covered by an occluder lies in that occluder's rectangle, so its cell
 //!   holds at least the box's farthest depth, which bounds the occluder's depth
 //!   at the sample.
-//! - [`DepthEstimationBuffer::cells_mut`] with [`crate::raster::OccluderRasterizer`]:
+//! - [`DepthEstimationBuffer::cells_mut`] with [`crate::raster::CoverageRasterizer`]:
 //!   while rasterizing coverage, each cell keeps at least the farthest depth
 //!   the renderer's own depth formula gives at any sample first covered in
 //!   it (a bound made once per run of rows from the samples themselves), and

@@ -129,8 +129,9 @@ impl TriangleQueue {
         self.push_model_with(positions, indices, model_to_clip, cull, false)
     }
 
-    /// [`TriangleQueue::push_model`], set up by the inner rule when `inner`
-    /// whatever the rule asked at setup.
+    /// Queues `indices` over `positions` transformed by `model_to_clip`
+    /// (which must already produce hom's clip convention), set up by the
+    /// inner rule when `inner` whatever the rule asked at setup.
     pub fn push_model_with(
         &mut self,
         positions: &[Vec3],
@@ -230,7 +231,8 @@ impl TriangleQueue {
         self.set_up_with(&setup, out);
     }
 
-    /// [`TriangleQueue::set_up`] as `setup` says.
+    /// Sets up every queued triangle as `setup` says into `out` (cleared
+    /// first): the [`TriangleQueue::set_up_chunk`]s in order, set up in parallel.
     pub fn set_up_with(&self, setup: &QueueSetup, out: &mut Vec<Tri>) {
         out.clear();
         let chunks: Vec<Vec<Tri>> = (0..self.chunks())

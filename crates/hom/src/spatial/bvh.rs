@@ -76,7 +76,7 @@ impl BvhNode {
 pub struct Bvh {
     nodes: Vec<BvhNode>,
     items: Vec<u32>,
-    /// Kept so [`Bvh::assert_well_formed`] can check leaf sizes.
+    /// Kept so that `Bvh::assert_well_formed` (tests) can check leaf sizes.
     #[cfg_attr(not(test), allow(dead_code))] // read by `assert_well_formed` and the tests
     max_leaf_size: u32,
     #[cfg_attr(not(test), allow(dead_code))] // read by `assert_well_formed` and the tests
@@ -383,7 +383,7 @@ impl Bvh {
         self.refit_noting(boxes, |_| {});
     }
 
-    /// [`Bvh::refit`], calling `changed(index)` for every node whose bounds
+    /// Refits as `Bvh::refit` (tests) does, calling `changed(index)` for every node whose bounds
     /// changed (children before their parents): what per-node state kept
     /// across frames must forget.
     ///
@@ -564,7 +564,7 @@ impl Bvh {
         self.walk_front_to_back(eye, root, &mut (), |_, i, n, s| visit(i, n, s), |_, _, _| {});
     }
 
-    /// [`Bvh::traverse_front_to_back`] that also calls `leave(context, index,
+    /// `Bvh::traverse_front_to_back` (tests) that also calls `leave(context, index,
     /// node)` on every inner node it opened (`enter` returned `Some`), once
     /// both of its subtrees are done: a post-order step for state that
     /// children pull up into their parent. Both callbacks get `context`.
