@@ -420,16 +420,7 @@ impl CoverageRasterizer {
         mut pyramid: Option<&mut Pyramid>,
     ) {
         let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut(), false);
-        self.bins.resize_with(bands.len(), Vec::new);
-        self.bins.truncate(bands.len());
-        for bin in &mut self.bins {
-            bin.clear();
-        }
-        for (i, t) in tris.iter().enumerate() {
-            for band in draw.bands_of(t) {
-                self.bins[band].push(i as u32);
-            }
-        }
+        draw.bin(tris, &mut self.bins);
         let bins = &self.bins;
         costliest_first(bands, |band| bins[band].len()).for_each(|(band, rows)| {
             let tris: Vec<&Tri> = bins[band].iter().map(|&i| &tris[i as usize]).collect();
@@ -459,8 +450,9 @@ impl CoverageRasterizer {
     /// result is that of raising all, then lowering all.
     ///
     /// With `pyramid` (over the same viewport), also builds it from the
-    /// coverage: each band counts its rows of the base as soon as it is
-    /// drawn, on its own thread, where a band's rows are whole rows of the
+    /// coverage: each band counts its rows of the base and reduces its rows
+    /// of the levels above while they lie within it, as soon as it is drawn,
+    /// on its own thread, where a band's rows are whole rows of the
     /// pyramid's blocks (else after all, as [`Pyramid::build_from_coverage`]).
     /// Counted after the last band, the city's base took 32 µs a frame on
     /// one thread while the rest of the cull ran on two.
@@ -487,7 +479,7 @@ impl CoverageRasterizer {
     ) -> FusedStats {
         let start = Instant::now();
         let (draw, bands) = BandDraw::split(self.backend, coverage, depth, pyramid.as_deref_mut(), empty_first);
-        let (chunks, band_count) = (queue.chunks(), bands.len());
+        let chunks = queue.chunks();
         self.chunks.resize_with(chunks.max(self.chunks.len()), Default::default);
         let region = Region {
             chunks: &self.chunks[..chunks],
@@ -499,19 +491,11 @@ impl CoverageRasterizer {
         let set_up = |k: usize, out: &mut SetUpChunk| {
             out.tris.clear();
             queue.set_up_chunk(k, &setup, &mut out.tris);
-            out.bins.resize_with(band_count, Vec::new);
-            for bin in &mut out.bins {
-                bin.clear();
-            }
-            for (i, t) in out.tris.iter().enumerate() {
-                for band in draw.bands_of(t) {
-                    out.bins[band].push(i as u32);
-                }
-            }
+            draw.bin(&out.tris, &mut out.bins);
         };
         let helpers = rayon::current_num_threads()
             .saturating_sub(1)
-            .min(chunks.max(band_count));
+            .min(chunks.max(draw.bands));
         let mut set_up_ms = 0.0;
         rayon::scope(|s| {
             for _ in 0..helpers {
@@ -641,6 +625,8 @@ struct BandDraw {
     cols: usize,
     cell_h: u32,
     band_rows: u32,
+    /// Bands of the viewport.
+    bands: usize,
     /// The pyramid's lower levels are built band by band.
     pyramid_bands: Option<BandBuild>,
     /// Each band empties its rows first.
@@ -703,18 +689,28 @@ impl BandDraw {
             cols,
             cell_h,
             band_rows,
+            bands,
             pyramid_bands,
             empty_first,
         };
         (draw, rows)
     }
 
-    /// The bands `t` reaches.
-    #[inline]
-    fn bands_of(&self, t: &Tri) -> std::ops::RangeInclusive<usize> {
-        let first = u32::from(t.y0) / self.band_rows;
-        let last = (u32::from(t.y1) - 1) / self.band_rows;
-        first as usize..=last as usize
+    /// Lists in `bins`, per band, the indices of the triangles of `tris`
+    /// reaching it, in order.
+    fn bin(&self, tris: &[Tri], bins: &mut Vec<Vec<u32>>) {
+        bins.resize_with(self.bands, Vec::new);
+        bins.truncate(self.bands);
+        for bin in bins.iter_mut() {
+            bin.clear();
+        }
+        for (i, t) in tris.iter().enumerate() {
+            let first = u32::from(t.y0) / self.band_rows;
+            let last = (u32::from(t.y1) - 1) / self.band_rows;
+            for bin in &mut bins[first as usize..=last as usize] {
+                bin.push(i as u32);
+            }
+        }
     }
 
     /// After the bands: the pyramid's levels above the bands' (or all of
@@ -739,6 +735,7 @@ impl BandDraw {
             band_rows,
             pyramid_bands,
             empty_first,
+            ..
         } = *self;
         let cell_of = grid.col_of;
         let y0 = band as u32 * band_rows;
