@@ -560,14 +560,23 @@ impl Region<'_> {
     /// then draws bands until none is left; returns the milliseconds until
     /// the wait ended. Never waits on work no thread has taken: a chunk is
     /// taken by a thread inside this function, which finishes it without
-    /// waiting, so a thread that arrives late (or never) blocks no one.
+    /// waiting, so a thread that arrives late (or never) blocks no one. A
+    /// chunk whose setup panics counts as done, so the others do not wait
+    /// for it forever and the scope hands the panic on.
     fn run(&self, set_up: &(impl Fn(usize, &mut SetUpChunk) + Sync), draw: &BandDraw) -> f64 {
+        /// Counts a chunk done when dropped, also while unwinding.
+        struct Done<'a>(&'a AtomicUsize);
+        impl Drop for Done<'_> {
+            fn drop(&mut self) {
+                self.0.fetch_add(1, Ordering::Release);
+            }
+        }
         let start = Instant::now();
         loop {
             let k = self.next_chunk.fetch_add(1, Ordering::Relaxed);
             let Some(chunk) = self.chunks.get(k) else { break };
+            let _done = Done(&self.chunks_done);
             set_up(k, &mut chunk.write().unwrap_or_else(PoisonError::into_inner));
-            self.chunks_done.fetch_add(1, Ordering::Release);
         }
         let mut spins = 0u32;
         while self.chunks_done.load(Ordering::Acquire) < self.chunks.len() {
@@ -1130,6 +1139,50 @@ mod tests {
             for (k, (g, w)) in got_pyramid.levels().iter().zip(want_pyramid.levels()).enumerate() {
                 prop_assert!(g.counts == w.counts, "pyramid level {}", k);
             }
+        }
+    }
+
+    /// A chunk whose setup panics does not leave the other thread waiting
+    /// for it: the region ends and hands the panic on (on 1–3 threads).
+    #[test]
+    fn a_panicking_setup_ends_the_region() {
+        for threads in 1..=3 {
+            let (tx, rx) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let mut cov = CoverageBuffer::default();
+                cov.reset(64, 64);
+                let (draw, bands) = BandDraw::split(RasterBackend::Scalar, &mut cov, None, None, false);
+                let chunks: Vec<RwLock<SetUpChunk>> = (0..6).map(|_| RwLock::default()).collect();
+                let region = Region {
+                    chunks: &chunks,
+                    next_chunk: AtomicUsize::new(0),
+                    chunks_done: AtomicUsize::new(0),
+                    next_band: AtomicUsize::new(0),
+                    bands: bands.into_iter().map(|(_, rows)| Mutex::new(Some(rows))).collect(),
+                };
+                let set_up = |k: usize, out: &mut SetUpChunk| {
+                    assert!(k != 2, "chunk 2 fails");
+                    draw.bin(&out.tris, &mut out.bins);
+                };
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    pool.install(|| {
+                        rayon::scope(|s| {
+                            s.spawn(|_| {
+                                region.run(&set_up, &draw);
+                            });
+                            region.run(&set_up, &draw);
+                        })
+                    })
+                }));
+                tx.send(result.is_err()).unwrap();
+            });
+            let panicked = rx.recv_timeout(std::time::Duration::from_secs(30));
+            assert_eq!(
+                panicked,
+                Ok(true),
+                "{threads} threads: the region must end with the panic"
+            );
         }
     }
 
