@@ -803,7 +803,15 @@ impl BandDraw {
                 }
                 continue;
             }
-            let (xa, xb) = t.columns_in_rows(ta, tb);
+            // A triangle wholly in the band spans its box's columns: only a
+            // cut one needs `columns_in_rows`, whose three divisions were 7.7 %
+            // of the dynamic walk's cull on one thread (its many small
+            // triangles; raster at two threads 0.83-0.85 -> 0.78-0.80 ms).
+            let (xa, xb) = if ta == u32::from(t.y0) && tb == u32::from(t.y1) {
+                (u32::from(t.x0), u32::from(t.x1))
+            } else {
+                t.columns_in_rows(ta, tb)
+            };
             if xa >= xb {
                 continue;
             }
