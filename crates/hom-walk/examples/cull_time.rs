@@ -9,7 +9,10 @@
 //! (PASSES, default 3, counts the warm-up; more passes give a profiler more
 //! cull time to sample beside the occluder bake). `CULL_THREADS=N` sets the
 //! pool's thread count (default 2), `CULL_BUDGET=L` the occluder budget;
-//! `CULL_NO_COST_MODEL=1` keeps HOM and HZB from resting.
+//! `CULL_NO_COST_MODEL=1` keeps HOM and HZB from resting. Between frames,
+//! as a renderer would, `CULL_GAP_US=N` idles N µs (the pool's threads fall
+//! asleep) and `CULL_THRASH_MB=M` writes M MiB (the caches lose the
+//! culler's data); neither is timed.
 
 use hom::cull::CullOutput;
 use hom_walk::cullers::{make, CullerSettings};
@@ -59,10 +62,22 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut stages: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut counters: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut timed = 0.0;
+    let env_usize = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
+    let gap = std::time::Duration::from_micros(env_usize("CULL_GAP_US").unwrap_or(0) as u64);
+    let mut thrash = vec![0u8; env_usize("CULL_THRASH_MB").unwrap_or(0) << 20];
     for pass in 0..passes {
-        let start = Instant::now();
         for i in 0..frames {
+            if !gap.is_zero() {
+                std::thread::sleep(gap);
+            }
+            for (k, b) in thrash.iter_mut().enumerate().step_by(64) {
+                *b = b.wrapping_add(k as u8);
+            }
+            let start = Instant::now();
             pool.install(|| c.cull(&scene, &path.camera(i).to_view(), &mut out))?;
+            if pass > 0 {
+                timed += start.elapsed().as_secs_f64() * 1e3;
+            }
             c.frame_done(Some(10.0));
             if pass > 0 {
                 for (k, v) in &out.stages {
@@ -73,10 +88,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
-        if pass > 0 {
-            timed += start.elapsed().as_secs_f64() * 1e3;
-        }
     }
+    std::hint::black_box(&thrash);
     let n = ((passes - 1) * frames) as f64;
     println!("{culler} {scene_name}: {:.3} ms per frame", timed / n);
     for (k, v) in stages {
