@@ -427,6 +427,11 @@ pub struct WalkArgs {
     /// Write plots (frame times, % culled) into this folder.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    /// An A/A check of the timing: with `--culler frustum`, time the baseline as a second
+    /// frustum culler's frames instead of reusing its own, so the speedup measures only
+    /// the measurement's bias and noise (1.00 when fair).
+    #[arg(long)]
+    pub self_baseline: bool,
     /// Quake 3 maps (.bsp, .pk3): measure against the map's own PVS (implies --oracle):
     /// oracle-visible objects the PVS hides, triangles drawn by frustum, PVS, the culler,
     /// PVS then the culler, and the oracle. Adds `pvs_` fields to the report.

@@ -52,6 +52,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         frames: a.frames,
         oracle: a.oracle || a.pvs,
         lod: lod_for(&a.lod, &w.scene)?,
+        self_baseline: a.self_baseline,
         ..WalkOptions::default()
     };
     let mut file = match &a.report {
