@@ -84,6 +84,17 @@ fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
+/// The renders a walk times each frame.
+#[derive(Clone, Copy, Debug)]
+enum Timed {
+    /// The culler's frame: its cull, then its render.
+    Culler,
+    /// The baseline's frame: frustum culling, then its render.
+    Baseline,
+    /// The oracle's visible set, rendered.
+    OracleSet,
+}
+
 /// The baseline's frame `i`: frustum culling, then rendering what it keeps
 /// into `fb`; its milliseconds.
 #[allow(clippy::too_many_arguments)]
@@ -152,71 +163,113 @@ pub fn walk(
         animation.apply(scene, time_s);
         let camera = path.camera(i);
         let view = camera.to_view();
-        // The baseline's frame (frustum culling and its render) comes after
-        // the culler's on even frames and before it on odd ones: of two
-        // renders of one view the second runs warmer (the frustum culler
-        // against itself in this order, frames 1-99: the second 0.2-2.4 %
-        // faster, in 62-74 of 99 frames on office, dynamic and machine-room),
-        // which a fixed order charged to every culler.
-        let baseline_first = i % 2 == 1;
-        let mut baseline_frame_ms = None;
-        if let (true, Some(b)) = (baseline_first, baseline.as_mut()) {
-            baseline_frame_ms = Some(baseline_frame(
-                b,
-                scene,
-                &camera,
-                &draw,
-                renderer,
-                &mut base_out,
-                &mut fb,
-                i,
-            )?);
+        // The oracle's item buffer first (untimed), then the timed renders
+        // (the culler's frame, the baseline's, the oracle's visible set) in
+        // an order that rotates frame to frame, so that none always has the
+        // warmest or the coldest place. With the baseline always after the
+        // culler's frame, the frustum culler timed against itself came out
+        // 0.2-2.4 % slower (frames 1-99; the baseline faster in 62-74 of 99
+        // frames on office, dynamic and machine-room), a bias charged to
+        // every culler; the oracle's set, always drawn right after the item
+        // buffer, always had the coldest place.
+        let counts = options
+            .oracle
+            .then(|| hom_render::oracle_pixel_counts(renderer, scene, &camera, &mut fb));
+        let oracle_visible: Option<Vec<u32>> = counts
+            .as_ref()
+            .map(|c| (0..c.len() as u32).filter(|&id| c[id as usize] > 0).collect());
+        if counts.is_some() {
+            // The item buffer draws every live object and leaves the caches
+            // cold for whichever render comes next (city: the culler's frame
+            // 22 % slower first than second or third, office's baseline 14 %):
+            // the view's frustum set once more, untimed, makes every timed
+            // render follow a render of its view (then each within 1.3 % on city
+            // and 5 % on office, whatever its place).
+            let frustum = Frustum::from_view_proj(&camera.view_proj()).expect("validated camera");
+            let in_view: Vec<u32> = scene
+                .live_objects()
+                .filter(|(_, o)| frustum.test_aabb(&o.aabb) != Containment::Outside)
+                .map(|(id, _)| id)
+                .collect();
+            renderer.render(scene, &in_view, &camera, &draw, &mut fb);
         }
-        // On the renderer's threads: one pool, no two pools fighting for the cores.
-        renderer
-            .install(|| culler.cull(scene, &view, &mut out))
-            .map_err(|source| WalkError::Cull { frame: i, source })?;
-        let cull_ms = out.total_ms();
-        let (render_ms, lod_frame) = match lod.as_mut() {
-            Some(run) => {
-                let (record, render_ms) = run.frame(
-                    scene,
-                    &view,
-                    &camera,
-                    culler,
-                    &out.visible,
-                    &out.occluded,
-                    renderer,
-                    &draw,
-                    &mut fb,
-                )?;
-                (render_ms, Some(record))
+        let mut order = vec![Timed::Culler];
+        if baseline.is_some() {
+            order.push(Timed::Baseline);
+        }
+        if oracle_visible.is_some() {
+            order.push(Timed::OracleSet);
+        }
+        let turn = i % order.len();
+        order.rotate_left(turn);
+        let (mut culled, mut baseline_frame_ms, mut oracle_set_render_ms, mut oracle_items) = (None, None, None, None);
+        for timed in order {
+            match timed {
+                Timed::Culler => {
+                    // On the renderer's threads: one pool, no two pools fighting for the cores.
+                    renderer
+                        .install(|| culler.cull(scene, &view, &mut out))
+                        .map_err(|source| WalkError::Cull { frame: i, source })?;
+                    let cull_ms = out.total_ms();
+                    let (render_ms, lod_frame) = match lod.as_mut() {
+                        Some(run) => {
+                            let (record, render_ms) = run.frame(
+                                scene,
+                                &view,
+                                &camera,
+                                culler,
+                                &out.visible,
+                                &out.occluded,
+                                renderer,
+                                &draw,
+                                &mut fb,
+                            )?;
+                            (render_ms, Some(record))
+                        }
+                        None => {
+                            let start = Instant::now();
+                            renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
+                            (ms_since(start), None)
+                        }
+                    };
+                    // The level-of-detail frame's owners, to compare with the full meshes' below.
+                    let lod_items = (options.oracle && lod.is_some()).then(|| fb.items().to_vec());
+                    // Selecting the cut is part of the frame's cost.
+                    let lod_ms = lod_frame.as_ref().map_or(0.0, |l| l.lod_ms);
+                    let frame_ms = cull_ms + lod_ms + render_ms;
+                    culler.frame_done(Some(frame_ms));
+                    culled = Some((cull_ms, render_ms, lod_frame, lod_items, frame_ms));
+                }
+                Timed::Baseline => {
+                    if let Some(b) = baseline.as_mut() {
+                        baseline_frame_ms = Some(baseline_frame(
+                            b,
+                            scene,
+                            &camera,
+                            &draw,
+                            renderer,
+                            &mut base_out,
+                            &mut fb,
+                            i,
+                        )?);
+                    }
+                }
+                Timed::OracleSet => {
+                    let visible = oracle_visible.as_deref().unwrap_or_default();
+                    let start = Instant::now();
+                    renderer.render(scene, visible, &camera, &draw, &mut fb);
+                    oracle_set_render_ms = Some(ms_since(start));
+                    // The oracle's visible objects drawn whole: the owners of
+                    // the full-resolution image, for the level of detail.
+                    oracle_items = lod.is_some().then(|| fb.items().to_vec());
+                }
             }
-            None => {
-                let start = Instant::now();
-                renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
-                (ms_since(start), None)
-            }
+        }
+        let Some((cull_ms, render_ms, lod_frame, lod_items, frame_ms)) = culled else {
+            unreachable!("every frame times the culler");
         };
-        // The level-of-detail frame's owners, to compare with the full meshes' below.
-        let lod_items = (options.oracle && lod.is_some()).then(|| fb.items().to_vec());
-        // Selecting the cut is part of the frame's cost.
-        let lod_ms = lod_frame.as_ref().map_or(0.0, |l| l.lod_ms);
-        let frame_ms = cull_ms + lod_ms + render_ms;
-        culler.frame_done(Some(frame_ms));
-
-        let baseline_frame_ms = match baseline.as_mut() {
-            Some(_) if baseline_first => baseline_frame_ms,
-            Some(b) => Some(baseline_frame(
-                b,
-                scene,
-                &camera,
-                &draw,
-                renderer,
-                &mut base_out,
-                &mut fb,
-                i,
-            )?),
+        let baseline_frame_ms = match baseline {
+            Some(_) => baseline_frame_ms,
             None if options.baseline => Some(frame_ms),
             None => None,
         };
@@ -228,11 +281,7 @@ pub fn walk(
         let objects_frustum_culled = (objects.len() - out.visible.len() - out.occluded.len()) as u64;
         let triangles_frustum_culled = scene.triangle_count() - triangles_drawn - triangles_occlusion_culled;
 
-        let oracle = options.oracle.then(|| {
-            let counts = hom_render::oracle_pixel_counts(renderer, scene, &camera, &mut fb);
-            let oracle_visible: Vec<u32> = (0..objects.len() as u32)
-                .filter(|&id| counts[id as usize] > 0)
-                .collect();
+        let oracle = counts.zip(oracle_visible).map(|(counts, oracle_visible)| {
             let mut kept = vec![false; objects.len()];
             for &id in &out.visible {
                 kept[id as usize] = true;
@@ -250,9 +299,6 @@ pub fn walk(
                 .filter(|(o, &c)| c == 0 && frustum.test_aabb(&o.aabb) != Containment::Outside)
                 .map(|(o, _)| o.triangles as u64)
                 .sum();
-            let start = Instant::now();
-            renderer.render(scene, &oracle_visible, &camera, &draw, &mut fb);
-            let oracle_set_render_ms = ms_since(start);
             OracleFrame {
                 efficiency: (triangles_in_frustum_invisible > 0)
                     .then(|| triangles_occlusion_culled as f64 / triangles_in_frustum_invisible as f64),
@@ -260,7 +306,7 @@ pub fn walk(
                 false_culls,
                 false_cull_pixels,
                 triangles_in_frustum_invisible,
-                oracle_set_render_ms,
+                oracle_set_render_ms: oracle_set_render_ms.unwrap_or(0.0),
             }
         });
 
@@ -268,10 +314,8 @@ pub fn walk(
         if let (Some(run), Some(o), Some(l)) = (lod.as_mut(), &oracle, lod_frame.as_mut()) {
             l.lod_oracle_triangles = Some(run.oracle_triangles(scene, &o.oracle_visible)?);
         }
-        if let (Some(items), Some(l)) = (&lod_items, lod_frame.as_mut()) {
-            // `fb` now holds the oracle's visible objects drawn whole: the owners
-            // of the full-resolution image.
-            let differ = items.iter().zip(fb.items()).filter(|(a, b)| a != b).count();
+        if let (Some(items), Some(full), Some(l)) = (&lod_items, &oracle_items, lod_frame.as_mut()) {
+            let differ = items.iter().zip(full).filter(|(a, b)| a != b).count();
             l.lod_pixels_differ_from_full = Some(differ as u64);
         }
         let mut stages_ms: BTreeMap<String, f64> = BTreeMap::new();
