@@ -85,7 +85,7 @@ fn ms_since(start: Instant) -> f64 {
 }
 
 /// The renders a walk times each frame.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Timed {
     /// The culler's frame: its cull, then its render.
     Culler,
@@ -93,6 +93,22 @@ enum Timed {
     Baseline,
     /// The oracle's visible set, rendered.
     OracleSet,
+}
+
+/// The order of frame `i`'s timed renders: the culler's frame, then the
+/// baseline's and the oracle's set where timed, rotated by `i`, so that
+/// each takes each place once in as many frames as there are renders.
+fn timed_order(i: usize, baseline: bool, oracle: bool) -> Vec<Timed> {
+    let mut order = vec![Timed::Culler];
+    if baseline {
+        order.push(Timed::Baseline);
+    }
+    if oracle {
+        order.push(Timed::OracleSet);
+    }
+    let turn = i % order.len();
+    order.rotate_left(turn);
+    order
 }
 
 /// The baseline's frame `i`: frustum culling, then rendering what it keeps
@@ -193,15 +209,7 @@ pub fn walk(
                 .collect();
             renderer.render(scene, &in_view, &camera, &draw, &mut fb);
         }
-        let mut order = vec![Timed::Culler];
-        if baseline.is_some() {
-            order.push(Timed::Baseline);
-        }
-        if oracle_visible.is_some() {
-            order.push(Timed::OracleSet);
-        }
-        let turn = i % order.len();
-        order.rotate_left(turn);
+        let order = timed_order(i, baseline.is_some(), oracle_visible.is_some());
         let (mut culled, mut baseline_frame_ms, mut oracle_set_render_ms, mut oracle_items) = (None, None, None, None);
         for timed in order {
             match timed {
@@ -465,6 +473,29 @@ mod tests {
             counters: BTreeMap::new(),
             oracle: None,
             lod: None,
+        }
+    }
+
+    /// Every timed render takes every place equally often, the culler's
+    /// frame first on frame 0 and always timed.
+    #[test]
+    fn timed_renders_take_every_place_in_turn() {
+        for (baseline, oracle) in [(false, false), (true, false), (false, true), (true, true)] {
+            let n = 1 + usize::from(baseline) + usize::from(oracle);
+            let mut places: BTreeMap<(usize, String), usize> = BTreeMap::new();
+            for i in 0..6 * n {
+                let order = timed_order(i, baseline, oracle);
+                assert_eq!(order.len(), n);
+                assert!(order.contains(&Timed::Culler));
+                assert_eq!(order.contains(&Timed::Baseline), baseline);
+                assert_eq!(order.contains(&Timed::OracleSet), oracle);
+                for (place, t) in order.iter().enumerate() {
+                    *places.entry((place, format!("{t:?}"))).or_default() += 1;
+                }
+            }
+            assert_eq!(places.len(), n * n, "{places:?}");
+            assert!(places.values().all(|&c| c == 6), "{places:?}");
+            assert_eq!(timed_order(0, baseline, oracle)[0], Timed::Culler);
         }
     }
 
