@@ -50,7 +50,7 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
     };
 
     check_glb_header(&bytes).map_err(&malformed)?;
-    check_position_accessors(&bytes).map_err(&malformed)?;
+    check_json(&bytes).map_err(&malformed)?;
     let gltf = Gltf::from_slice(&bytes).map_err(|e| match e {
         // Already says "invalid glTF: path: problem; …".
         ::gltf::Error::Validation(_) => malformed(e.to_string()),
@@ -83,10 +83,8 @@ fn check_glb_header(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// gltf-json 1.4's validator indexes `accessors[POSITION]` without a bounds
-/// check and panics on a file whose POSITION names a missing accessor (found by
-/// the mutation test), so those indices are checked here first.
-fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
+/// Rejects the JSON the `gltf` crate would panic on (both found by the mutation test).
+fn check_json(bytes: &[u8]) -> Result<(), String> {
     let glb;
     let json: &[u8] = if bytes.starts_with(b"glTF") {
         glb = ::gltf::Glb::from_slice(bytes).map_err(|e| format!("invalid GLB: {e}"))?;
@@ -95,6 +93,32 @@ fn check_position_accessors(bytes: &[u8]) -> Result<(), String> {
         bytes
     };
     let root: serde_json::Value = serde_json::from_slice(json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
+    check_position_accessors(&root)?;
+    check_buffer_uris(&root)
+}
+
+/// gltf 1.4 percent-decodes a buffer URI without a scheme (a relative path) and
+/// unwraps the result as UTF-8, so it panics on an escape such as `%e6` that
+/// decodes to no text; such a URI is refused here first, by the same decoding.
+fn check_buffer_uris(root: &serde_json::Value) -> Result<(), String> {
+    let buffers = root.get("buffers").and_then(|b| b.as_array()).into_iter().flatten();
+    for (b, buffer) in buffers.enumerate() {
+        let Some(uri) = buffer.get("uri").and_then(|u| u.as_str()) else {
+            continue;
+        };
+        if !uri.contains(':') && urlencoding::decode(uri).is_err() {
+            return Err(format!(
+                "buffers[{b}]: URI {uri:?} percent-decodes to bytes that are not UTF-8"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// gltf-json 1.4's validator indexes `accessors[POSITION]` without a bounds
+/// check and panics on a file whose POSITION names a missing accessor, so
+/// those indices are checked here first.
+fn check_position_accessors(root: &serde_json::Value) -> Result<(), String> {
     let accessors = root.get("accessors").and_then(|a| a.as_array()).map_or(0, |a| a.len());
     let meshes = root.get("meshes").and_then(|m| m.as_array()).into_iter().flatten();
     for (m, mesh) in meshes.enumerate() {

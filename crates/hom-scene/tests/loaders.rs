@@ -715,6 +715,31 @@ fn gltf_bad_indices_and_ranges_are_typed_errors() {
     assert!(matches!(gltf::load(&p), Err(LoadError::Malformed { .. })));
 }
 
+/// A relative buffer URI whose percent-escapes decode to no UTF-8 text (which
+/// gltf 1.4 unwraps: found by the mutation test) is a typed error naming the
+/// buffer; a well-formed escape still names the file.
+#[test]
+fn gltf_buffer_uri_escapes_that_are_not_text_are_typed_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let buf = quad_buffer();
+    let doc = quad_document(Some("quad%e6.bin".to_owned()), buf.len());
+    let err = load_gltf_doc(dir.path(), "bad_uri.gltf", &doc).unwrap_err();
+    assert!(matches!(err, LoadError::Malformed { .. }), "{err}");
+    assert!(err.to_string().contains("buffers[0]"), "{err}");
+
+    write(dir.path(), "quad one.bin", &buf);
+    let doc = quad_document(Some("quad%20one.bin".to_owned()), buf.len());
+    let scene = load_gltf_doc(dir.path(), "good_uri.gltf", &doc).unwrap();
+    let inline = load_gltf_doc(
+        dir.path(),
+        "inline.gltf",
+        &quad_document(Some(data_uri(&buf)), buf.len()),
+    )
+    .unwrap();
+    assert!(scene.triangle_count() > 0);
+    assert_eq!(scene.triangle_count(), inline.triangle_count());
+}
+
 #[test]
 fn gltf_sparse_accessor_substitutes_values() {
     let dir = tempfile::tempdir().unwrap();
