@@ -26,6 +26,11 @@ fn main() {
     }
 }
 
+/// The environment variable `name` parsed as a `T`, if set and valid.
+fn env<T: std::str::FromStr>(name: &str) -> Option<T> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
 fn run() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let (Some(culler), Some(scene_name)) = (args.get(1), args.get(2)) else {
@@ -42,17 +47,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let built = hom_scene::builtin(scene_name)?;
     let (scene, path) = (built.scene, built.path);
     let mut settings = CullerSettings::for_scene(&scene);
-    if let Some(b) = std::env::var("CULL_BUDGET").ok().and_then(|b| b.parse().ok()) {
+    if let Some(b) = env("CULL_BUDGET") {
         settings.hom.occluders.selection.budget = b;
     }
     if std::env::var("CULL_NO_COST_MODEL").is_ok() {
         settings.hom.cost_model = false;
     }
     let mut c = make(culler, &scene, &settings)?;
-    let threads = std::env::var("CULL_THREADS")
-        .ok()
-        .and_then(|t| t.parse().ok())
-        .unwrap_or(2);
+    let threads = env("CULL_THREADS").unwrap_or(2);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let frames = path.frames.len().min(100);
     if frames == 0 {
@@ -62,9 +64,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let mut stages: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut counters: BTreeMap<&'static str, f64> = BTreeMap::new();
     let mut timed = 0.0;
-    let env_usize = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<usize>().ok());
-    let gap = std::time::Duration::from_micros(env_usize("CULL_GAP_US").unwrap_or(0) as u64);
-    let mut thrash = vec![0u8; env_usize("CULL_THRASH_MB").unwrap_or(0) << 20];
+    let gap = std::time::Duration::from_micros(env("CULL_GAP_US").unwrap_or(0));
+    let mut thrash = vec![0u8; env::<usize>("CULL_THRASH_MB").unwrap_or(0) << 20];
     for pass in 0..passes {
         for i in 0..frames {
             if !gap.is_zero() {
@@ -75,11 +76,10 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             }
             let start = Instant::now();
             pool.install(|| c.cull(&scene, &path.camera(i).to_view(), &mut out))?;
-            if pass > 0 {
-                timed += start.elapsed().as_secs_f64() * 1e3;
-            }
+            let ms = start.elapsed().as_secs_f64() * 1e3;
             c.frame_done(Some(10.0));
             if pass > 0 {
+                timed += ms;
                 for (k, v) in &out.stages {
                     *stages.entry(*k).or_insert(0.0) += v;
                 }
