@@ -1,0 +1,101 @@
+//! What do the hidden objects HOM draws cost the renderer, and how many of
+//! them are its own occluders? An occluder is never culled by a test after
+//! the draw: its own cover holds the depth cells at its depth. Over a
+//! built-in scene's walk (HOM without the cost model), every fifth frame:
+//! the objects HOM draws, the oracle's, the hidden occluders among HOM's
+//! and how many of those the other occluders alone hide (drawn by the
+//! renderer), then the render time of HOM's set, of HOM's set without its
+//! hidden occluders, and of the oracle's set (five timed renders each,
+//! interleaved, after one untimed).
+//!
+//! `cargo run --release -p hom-walk --example hidden_occluders -- office`
+
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
+use hom_render::{Framebuffer, RenderOptions, Renderer};
+use std::time::Instant;
+
+fn main() {
+    let Some(name) = std::env::args().nth(1) else {
+        eprintln!("usage: hidden_occluders SCENE");
+        std::process::exit(2);
+    };
+    let b = hom_scene::builtin(&name).unwrap_or_else(|e| {
+        eprintln!("{e}");
+        std::process::exit(2);
+    });
+    let scene = b.scene;
+    let mut config = HomConfig::for_scene(&scene);
+    config.cost_model = false;
+    let mut culler = HomCuller::new(&scene, config);
+    let renderer = Renderer::new(0).expect("a render pool");
+    let options = RenderOptions::default();
+    let mut out = CullOutput::default();
+    let (mut objects, mut hidden_occluders, mut by_occluders) = ([0usize; 3], 0usize, 0usize);
+    let mut render_ms = [0.0f64; 3];
+    let mut sampled = 0;
+    for f in 0..b.path.frames.len().min(100) {
+        let cam = b.path.camera(f);
+        culler.cull(&scene, &cam.to_view(), &mut out).expect("a valid view");
+        if f % 5 != 0 {
+            continue;
+        }
+        sampled += 1;
+        let mut fb = Framebuffer::new(cam.width, cam.height);
+        let pixels = hom_render::oracle_pixel_counts(&renderer, &scene, &cam, &mut fb);
+        let is_occluder = |id: &u32| out.occluders.binary_search(id).is_ok();
+        renderer.render(&scene, &out.occluders, &cam, &options, &mut fb);
+        let occluder_pixels = fb.visible_pixel_counts(scene.objects().len());
+        for id in out
+            .visible
+            .iter()
+            .filter(|&id| pixels[*id as usize] == 0 && is_occluder(id))
+        {
+            hidden_occluders += 1;
+            by_occluders += usize::from(occluder_pixels[*id as usize] == 0);
+        }
+        let sets: [Vec<u32>; 3] = [
+            out.visible.clone(),
+            out.visible
+                .iter()
+                .copied()
+                .filter(|id| pixels[*id as usize] > 0 || !is_occluder(id))
+                .collect(),
+            out.visible
+                .iter()
+                .copied()
+                .filter(|id| pixels[*id as usize] > 0)
+                .collect(),
+        ];
+        for rep in 0..6 {
+            for (k, set) in sets.iter().enumerate() {
+                let start = Instant::now();
+                renderer.render(&scene, set, &cam, &options, &mut fb);
+                if rep > 0 {
+                    render_ms[k] += start.elapsed().as_secs_f64() * 1e3 / 5.0;
+                }
+            }
+        }
+        for (n, set) in objects.iter_mut().zip(&sets) {
+            *n += set.len();
+        }
+    }
+    let per_frame = |x: f64| x / sampled as f64;
+    println!("{name}, {sampled} frames (every fifth of the walk), means per frame:");
+    println!(
+        "objects drawn: HOM {:.1}, HOM without its hidden occluders {:.1}, oracle {:.1}",
+        per_frame(objects[0] as f64),
+        per_frame(objects[1] as f64),
+        per_frame(objects[2] as f64)
+    );
+    println!(
+        "hidden occluders HOM draws: {:.1}, {:.1} of them hidden by the other occluders alone",
+        per_frame(hidden_occluders as f64),
+        per_frame(by_occluders as f64)
+    );
+    println!(
+        "render ms: HOM {:.3}, HOM without its hidden occluders {:.3}, oracle {:.3}",
+        per_frame(render_ms[0]),
+        per_frame(render_ms[1]),
+        per_frame(render_ms[2])
+    );
+}
