@@ -264,6 +264,10 @@ pub struct BenchRow {
     pub median_pct_occlusion_culled: f64,
     /// Occlusion-culled triangles ÷ invisible in-frustum triangles.
     pub efficiency: Option<f64>,
+    /// Mean objects drawn per frame that own no pixel.
+    pub mean_hidden_drawn: Option<f64>,
+    /// Mean of them per frame that are the culler's occluders.
+    pub mean_hidden_occluders_drawn: Option<f64>,
     /// Falsely culled objects, summed over frames.
     pub false_culls: Option<u64>,
     /// Frames with at least one false cull.
@@ -546,6 +550,8 @@ fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_spe
         median_pct_triangles_culled: s.median_pct_triangles_culled,
         median_pct_occlusion_culled: s.median_pct_occlusion_culled,
         efficiency: s.efficiency,
+        mean_hidden_drawn: s.mean_hidden_drawn,
+        mean_hidden_occluders_drawn: s.mean_hidden_occluders_drawn,
         false_culls: s.false_culls,
         frames_with_false_culls: s.frames_with_false_culls,
         speedup: s.speedup,
@@ -620,6 +626,8 @@ fn oracle_row(
         median_pct_triangles_culled: pct_culled,
         median_pct_occlusion_culled: pct_occluded,
         efficiency: (invisible > 0).then_some(1.0),
+        mean_hidden_drawn: Some(0.0),
+        mean_hidden_occluders_drawn: Some(0.0),
         false_culls: Some(0),
         frames_with_false_culls: Some(0),
         speedup: oracle_speedup,

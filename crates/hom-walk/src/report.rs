@@ -73,6 +73,13 @@ pub struct OracleFrame {
     pub false_cull_pixels: u64,
     /// Triangles of objects in the view frustum that own no pixel.
     pub triangles_in_frustum_invisible: u64,
+    /// Objects drawn that own no pixel.
+    pub hidden_drawn: u64,
+    /// Of those, the culler's occluders: in the buffer that tests them, their
+    /// own cover keeps them from being found hidden, and their large areas
+    /// cost the renderer most of what the culler leaves (ARCHITECTURE.md,
+    /// "Most of HOM's render excess is its own hidden occluders").
+    pub hidden_occluders_drawn: u64,
     /// Culling efficiency this frame (`None` when nothing in the frustum is invisible).
     pub efficiency: Option<f64>,
     /// Milliseconds to render only the oracle's visible set.
@@ -166,6 +173,10 @@ pub struct Summary {
     pub false_cull_pixels: Option<u64>,
     /// Summed occlusion-culled triangles ÷ summed in-frustum invisible triangles.
     pub efficiency: Option<f64>,
+    /// Mean objects drawn per frame that own no pixel.
+    pub mean_hidden_drawn: Option<f64>,
+    /// Mean of them per frame that are the culler's occluders.
+    pub mean_hidden_occluders_drawn: Option<f64>,
     /// Present with level of detail (`lod_` fields).
     #[serde(flatten)]
     pub lod: Option<crate::lod::LodSummary>,

@@ -312,6 +312,16 @@ pub fn walk(
                     .filter(|&id| !kept[id as usize])
                     .collect();
                 let false_cull_pixels = false_culls.iter().map(|&id| counts[id as usize] as u64).sum();
+                let hidden_drawn: Vec<u32> = out
+                    .visible
+                    .iter()
+                    .copied()
+                    .filter(|&id| counts[id as usize] == 0)
+                    .collect();
+                let hidden_occluders_drawn = hidden_drawn
+                    .iter()
+                    .filter(|id| out.occluders.binary_search(id).is_ok())
+                    .count() as u64;
                 let triangles_in_frustum_invisible = objects
                     .iter()
                     .zip(&counts)
@@ -326,6 +336,8 @@ pub fn walk(
                     false_culls,
                     false_cull_pixels,
                     triangles_in_frustum_invisible,
+                    hidden_drawn: hidden_drawn.len() as u64,
+                    hidden_occluders_drawn,
                     oracle_set_render_ms: oracle_set_render_ms.unwrap_or(0.0),
                 }
             });
@@ -381,6 +393,12 @@ pub fn walk(
         frames,
         summary,
     })
+}
+
+/// The mean of some counts; `None` for none.
+fn mean_of(counts: impl ExactSizeIterator<Item = u64>) -> Option<f64> {
+    let n = counts.len();
+    (n > 0).then(|| counts.sum::<u64>() as f64 / n as f64)
 }
 
 /// Medians and ratios over a walk's frames.
@@ -456,6 +474,10 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
             let culled: u64 = frames.iter().map(|f| f.triangles_occlusion_culled).sum();
             (invisible > 0).then(|| culled as f64 / invisible as f64)
         }),
+        mean_hidden_drawn: oracles.as_ref().and_then(|o| mean_of(o.iter().map(|f| f.hidden_drawn))),
+        mean_hidden_occluders_drawn: oracles
+            .as_ref()
+            .and_then(|o| mean_of(o.iter().map(|f| f.hidden_occluders_drawn))),
         lod: None,
     }
 }
