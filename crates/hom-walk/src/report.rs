@@ -75,10 +75,10 @@ pub struct OracleFrame {
     pub triangles_in_frustum_invisible: u64,
     /// Objects drawn that own no pixel.
     pub hidden_drawn: u64,
-    /// Of those, the culler's occluders: in the buffer that tests them, their
-    /// own cover keeps them from being found hidden, and their large areas
-    /// cost the renderer most of what the culler leaves (ARCHITECTURE.md,
-    /// "Most of HOM's render excess is its own hidden occluders").
+    /// Of those, the culler's occluders: few in triangles but large on
+    /// screen, they cost the renderer most of what HOM leaves
+    /// (ARCHITECTURE.md, "Most of HOM's render excess is its own hidden
+    /// occluders").
     pub hidden_occluders_drawn: u64,
     /// Culling efficiency this frame (`None` when nothing in the frustum is invisible).
     pub efficiency: Option<f64>,
