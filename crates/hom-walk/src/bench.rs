@@ -7,7 +7,7 @@
 //! [`ORACLE_ROW`] is that oracle render: the frame time no culler can beat.
 
 use crate::pictures::StageBar;
-use crate::report::{median, Summary};
+use crate::report::{mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
 use hom::cull::{Coherence, Hierarchy, PSkip};
 use hom::occluders::OccluderMeshes;
@@ -518,13 +518,12 @@ impl BenchRow {
 
 /// The mean per frame of the sum of `counters` (`None` when no frame has any of them).
 fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
-    let sums: Vec<u64> = w
-        .frames
-        .iter()
-        .filter(|f| counters.iter().any(|c| f.counters.contains_key(*c)))
-        .map(|f| counters.iter().filter_map(|c| f.counters.get(*c)).sum())
-        .collect();
-    (!sums.is_empty()).then(|| sums.iter().sum::<u64>() as f64 / sums.len() as f64)
+    mean(
+        w.frames
+            .iter()
+            .filter(|f| counters.iter().any(|c| f.counters.contains_key(*c)))
+            .map(|f| counters.iter().filter_map(|c| f.counters.get(*c)).sum::<u64>() as f64),
+    )
 }
 
 fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
@@ -603,8 +602,7 @@ fn oracle_row(
         .sum();
     let mut stages = BTreeMap::new();
     stages.insert("render".to_string(), median_ms);
-    let mean = |v: Vec<f64>| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
-    let mean_ms = mean(oracle_frames.iter().map(|(_, o)| o.oracle_set_render_ms).collect()).unwrap_or(0.0);
+    let mean_ms = mean(oracle_frames.iter().map(|(_, o)| o.oracle_set_render_ms)).unwrap_or(0.0);
     let mean_stages = BTreeMap::from([("render".to_string(), mean_ms)]);
     BenchRow {
         scene: scene.name().to_string(),
@@ -634,7 +632,7 @@ fn oracle_row(
         share_of_oracle: oracle_speedup.map(|_| 1.0),
         median_stage_ms: stages,
         mean_stage_ms: mean_stages,
-        mean_baseline_frame_ms: mean(oracle_frames.iter().filter_map(|(f, _)| f.baseline_frame_ms).collect()),
+        mean_baseline_frame_ms: mean(oracle_frames.iter().filter_map(|(f, _)| f.baseline_frame_ms)),
         config: BTreeMap::new(),
     }
 }

@@ -1,7 +1,7 @@
 //! The walkthrough loop.
 
 use crate::lod::{summarize_lod, LodRun, WalkLod};
-use crate::report::{median, FrameRecord, Header, OracleFrame, Summary};
+use crate::report::{mean, median, FrameRecord, Header, OracleFrame, Summary};
 use hom::cull::{CullError, CullOutput, Culler, FrustumCuller};
 use hom::geom::{Camera, Containment, Frustum};
 use hom::scene::Scene;
@@ -395,12 +395,6 @@ pub fn walk(
     })
 }
 
-/// The mean of some counts; `None` for none.
-fn mean_of(counts: impl ExactSizeIterator<Item = u64>) -> Option<f64> {
-    let n = counts.len();
-    (n > 0).then(|| counts.sum::<u64>() as f64 / n as f64)
-}
-
 /// Medians and ratios over a walk's frames.
 pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
     let mut stage_names: Vec<&String> = frames.iter().flat_map(|f| f.stages_ms.keys()).collect();
@@ -474,10 +468,12 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
             let culled: u64 = frames.iter().map(|f| f.triangles_occlusion_culled).sum();
             (invisible > 0).then(|| culled as f64 / invisible as f64)
         }),
-        mean_hidden_drawn: oracles.as_ref().and_then(|o| mean_of(o.iter().map(|f| f.hidden_drawn))),
+        mean_hidden_drawn: oracles
+            .as_ref()
+            .and_then(|o| mean(o.iter().map(|f| f.hidden_drawn as f64))),
         mean_hidden_occluders_drawn: oracles
             .as_ref()
-            .and_then(|o| mean_of(o.iter().map(|f| f.hidden_occluders_drawn))),
+            .and_then(|o| mean(o.iter().map(|f| f.hidden_occluders_drawn as f64))),
         lod: None,
     }
 }
