@@ -1,6 +1,8 @@
 //! What do the hidden objects HOM draws cost the renderer, and how many of
-//! them are its own occluders? An occluder is never culled by a test after
-//! the draw: its own cover holds the depth cells at its depth. Over a
+//! them are its own occluders? (Few in triangles but large on screen; what
+//! keeps HOM from culling them is the depth test, the box's one nearest
+//! depth against a cell's farthest first cover: ARCHITECTURE.md, "Most of
+//! HOM's render excess is its own hidden occluders".) Over a
 //! built-in scene's walk (HOM without the cost model), every fifth frame:
 //! the objects HOM draws, the oracle's, the hidden occluders among HOM's
 //! and how many of those the other occluders alone hide (drawn by the
