@@ -57,7 +57,7 @@ mod raster;
 pub mod stand_in;
 
 use hom::geom::{object_to_clip, Camera, MAX_VIEWPORT_SIDE};
-use hom::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
+use hom::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
 use hom::scene::Scene;
 use raster::raster_tri;
 use rayon::prelude::*;

@@ -1,8 +1,8 @@
 //! Drawing set-up triangles into the framebuffer's depth, item and colour
-//! buffers. Triangle setup and the sampling rule live in [`hom::raster::setup`],
+//! buffers. Triangle setup and the sampling rule live in [`hom::occlusion::details::setup`],
 //! shared with the occluder rasterizer, so both cover exactly the same samples.
 
-use hom::raster::setup::{divide_span, Tri, ONE, SCAN_MAX};
+use hom::occlusion::details::setup::{divide_span, Tri, ONE, SCAN_MAX};
 
 /// Draws the rows `band_y0..band_y1` of `t` into a band of the framebuffer
 /// (`depth`, `item`, `colour` hold those rows, `width` pixels each).
@@ -141,7 +141,7 @@ fn fill_span<const COLOUR: bool>(
 mod tests {
     use super::*;
     use glam::Vec4;
-    use hom::raster::setup::{setup_triangle, Vertex, Viewport};
+    use hom::occlusion::details::setup::{setup_triangle, Vertex, Viewport};
     use hom_testkit::Rng;
 
     fn setup(clip: [Vec4; 3], w: u32, h: u32) -> Vec<Tri> {

@@ -3,7 +3,7 @@
 use crate::report::FrameRecord;
 use hom::cull::CullOutput;
 use hom::geom::Camera;
-use hom::map::{Level, Pyramid};
+use hom::occlusion::details::{Level, Pyramid};
 use hom::scene::Scene;
 use hom_render::{Colouring, Framebuffer, RenderOptions, Renderer};
 use plotters::prelude::*;

@@ -21,11 +21,12 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
-use hom::depth::DepthEstimationBuffer;
 use hom::geom::{project_box_clipped, project_points, Camera, Footprint, ScreenRect};
-use hom::map::{rect_covered, OverlapStats, Pyramid, Thresholds};
+use hom::occlusion::details::CoverageBuffer;
+use hom::occlusion::details::DepthEstimationBuffer;
+use hom::occlusion::details::{rect_covered, OverlapStats, Pyramid, Thresholds};
+use hom::occlusion::RasterBackend;
 use hom::occlusion::{BufferOptions, DepthMode, FaceCull, HomBuffer, HzBuffer, MapOptions, OcclusionBuffer, Sampling};
-use hom::raster::{CoverageBuffer, RasterBackend};
 use hom::scene::Scene;
 use hom_testkit::Rng;
 use std::hint::black_box;

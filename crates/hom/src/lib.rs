@@ -55,51 +55,41 @@
 //!   culled; approximate modes say so in their names.
 //!
 //! ## One algorithm per file, named after its paper
-//! - [`occlusion`]: the buffers, [`occlusion::HzBuffer`] and [`occlusion::HomBuffer`].
-//! - Hierarchical occlusion maps (Zhang et al. 1997): [`map::Pyramid`] (`map/pyramid.rs`),
-//!   the overlap test (`map/overlap.rs`), the hole search (`map/hole.rs`), the depth
-//!   estimation buffer and single Z plane (`depth/estimation_buffer.rs`), the
-//!   occluder database and selection (`occluders/database.rs`, `occluders/selection.rs`),
-//!   the culler ([`cull::HomCuller`], `cull/hom.rs`).
-//! - Hierarchical Z-buffer (Greene, Kass and Miller 1993; RTR §7.2): the tiled z-buffer
-//!   ([`depth::TiledZBuffer`], `depth/tiled.rs`), its rasterizer (`raster/tiled.rs`),
-//!   the culler ([`cull::HzbCuller`], `cull/hzb.rs`).
-//! - Hierarchical visibility (Greene et al. 1993): the octree (`spatial/octree.rs`),
-//!   the live Z-pyramid (`depth/z_pyramid.rs`), the culler ([`cull::HvCuller`], `cull/hv.rs`).
-//! - The model database: a binned-SAH BVH (`spatial/bvh.rs`, Wald 2007).
-//! - The one triangle setup and sampling rule shared with the reference renderer
-//!   (`raster/setup.rs`), and the vector kernels with their scalar twins
-//!   (`raster/simd.rs`, `raster/simd_tiles.rs`: the only `unsafe` in hom).
+//! The image-space layer is the engine crate `hom-occlusion`, re-exported
+//! here as [`occlusion`] (with [`geom`]): the buffers
+//! [`occlusion::HomBuffer`] (hierarchical occlusion maps, Zhang et al.
+//! 1997), [`occlusion::HzBuffer`] (the hierarchical Z-buffer, Greene, Kass
+//! and Miller 1993; RTR §7.2), [`occlusion::MaskedBuffer`] (Hasselgren et
+//! al. 2016) and [`occlusion::OcclusionTree`] (Bittner et al. 1998), with
+//! their rasterizers, pyramids and the only `unsafe` of the workspace (the
+//! vector kernels). This crate holds what needs a [`scene::Scene`]:
+//! - the occluder database and selection (`occluders/database.rs`,
+//!   `occluders/selection.rs`, Zhang et al. 1997 §6) and virtual occluders
+//!   (`occluders/virtual_occluder.rs`, Law and Tan 1999);
+//! - the cullers ([`cull`]): HOM, HZB, masked and the occlusion tree share
+//!   one pipeline (`cull/traversal.rs`: select occluders, draw them into the
+//!   buffer, traverse the BVH front to back), with coherence (Bittner and
+//!   Havran 2002, `cull/coherence.rs`) and the cost model (`cull/governor.rs`);
+//!   hierarchical visibility (Greene et al. 1993: the octree
+//!   `spatial/octree.rs`, the culler [`cull::HvCuller`], `cull/hv.rs`);
+//! - the model database: a binned-SAH BVH (`spatial/bvh.rs`, Wald 2007);
+//! - view-cell PVS ([`pvs`], Law and Tan 1999) and level of detail guided by
+//!   visibility ([`lod`]).
 
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
 
-#[forbid(unsafe_code)]
 pub mod cull;
-#[forbid(unsafe_code)]
-pub mod depth;
-#[forbid(unsafe_code)]
-pub mod geom;
-#[forbid(unsafe_code)]
 pub mod lod;
-#[forbid(unsafe_code)]
-pub mod map;
-#[forbid(unsafe_code)]
 pub mod occluders;
-#[forbid(unsafe_code)]
-pub mod occlusion;
-#[forbid(unsafe_code)]
 pub mod pvs;
-pub mod raster;
-#[forbid(unsafe_code)]
 pub mod scene;
-#[forbid(unsafe_code)]
 pub(crate) mod simplify;
-#[forbid(unsafe_code)]
 pub mod spatial;
 
 pub use glam;
+/// The engine crate, `hom-occlusion`: occlusion buffers filled with your own
+/// triangles and matrices. Its [`occlusion::geom`] is hom's [`geom`].
+pub use hom_occlusion as occlusion;
+pub use hom_occlusion::geom;
 
-/// Bytes a vector holds on the heap (its capacity), for the memory counters.
-pub(crate) fn vec_bytes<T>(v: &Vec<T>) -> usize {
-    v.capacity() * std::mem::size_of::<T>()
-}
+pub(crate) use hom_occlusion::details::vec_bytes;

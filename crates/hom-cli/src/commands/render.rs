@@ -74,7 +74,7 @@ pub fn write_false_colour(
     out: &Path,
     frame_rate: f32,
     pvs: Option<&Arc<Pvs>>,
-) -> Result<Option<hom::map::Pyramid>> {
+) -> Result<Option<hom::occlusion::details::Pyramid>> {
     w.go_to(frame, frame_rate);
     let (scene, camera) = (&w.scene, w.path.camera(frame));
     let view = camera.to_view();

@@ -22,9 +22,10 @@
 use super::traversal::{culler_buffer_options, sized, OccluderCulling};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy};
 use crate::geom::View;
-use crate::map::{find_worst_hole, Pyramid};
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{HomBuffer, MapOptions, RectTest};
+use crate::occlusion::details::RectTest;
+use crate::occlusion::details::{find_worst_hole, Pyramid};
+use crate::occlusion::{HomBuffer, MapOptions};
 use crate::scene::Scene;
 
 pub use crate::occlusion::{DepthMode, Opacity};

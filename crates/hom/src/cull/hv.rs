@@ -75,7 +75,7 @@
 //! holds depths of drawn triangles, so at every sample it is at least the
 //! renderer's final depth there. A node or triangle is skipped only when its
 //! nearest depth is beyond the pyramid's farthest depth under its rectangle
-//! (by [`crate::depth::DEPTH_MARGIN`]), hence beyond the renderer's final depth
+//! (by [`crate::occlusion::details::DEPTH_MARGIN`]), hence beyond the renderer's final depth
 //! at every sample it could cover: it cannot win nor tie a sample. So every
 //! triangle that owns a sample in the reference rendering is drawn, with the
 //! renderer's own coverage and depth, and the owner rule is order-independent:
@@ -108,17 +108,17 @@
 
 use super::coherence::{Coherence, Step, TemporalState, Vis};
 use super::{CullError, CullOutput, Culler};
-use crate::depth::{ZPyramid, ZTestStats};
 use crate::geom::{object_to_clip, project_points, Containment, Eye, Footprint, Frustum, View};
-use crate::raster::setup::{setup_triangle, Tri, Vertex, Viewport};
-use crate::raster::zbuffer::{Dirty, ZDrawStats, ZTarget};
+use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::occlusion::details::{Dirty, ZDrawStats, ZTarget};
+use crate::occlusion::details::{ZPyramid, ZTestStats};
 use crate::scene::Revision;
 use crate::scene::Scene;
 use crate::spatial::{Octree, OctreeConfig, TriRef};
 use glam::Mat4;
 use std::time::Instant;
 
-pub use crate::raster::zbuffer::NO_OBJECT;
+pub use crate::occlusion::details::NO_OBJECT;
 
 /// Settings of the HV culler.
 #[derive(Clone, Debug, PartialEq)]

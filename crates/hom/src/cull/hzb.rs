@@ -10,12 +10,12 @@
 //! uncovered; occluders hidden by nearer ones are rejected a tile or a block
 //! at a time) with its pyramid of farthest depths above → traverse the BVH
 //! front to back, culling a node or object when its screen rectangle is
-//! behind the pyramid. (The row-major [`crate::depth::ZPyramid`] is the
+//! behind the pyramid. (The row-major [`crate::occlusion::details::ZPyramid`] is the
 //! reference the tiled buffer is tested against.)
 //!
 //! # Conservative
 //! A box is culled only when every sample of its rectangle holds an occluder
-//! triangle nearer than the box's nearest depth (by [`crate::depth::DEPTH_MARGIN`]),
+//! triangle nearer than the box's nearest depth (by [`crate::occlusion::details::DEPTH_MARGIN`]),
 //! with the renderer's sampling and depth; boxes straddling the near plane are
 //! never culled. The same caveats as HOM's apply (same resolution and sampling
 //! as the final image, stand-ins contained in their objects, opaque occluders).
@@ -32,15 +32,16 @@
 //! regions, which the Z-pyramid does not hold: when the selector asks for the
 //! worst hole, an opacity pyramid is built from the last frame's depth
 //! (covered = finite depth), with HOM's default geometry, and searched
-//! ([`crate::map::worst_hole_of_coverage`]).
+//! ([`crate::occlusion::details::worst_hole_of_coverage`]).
 
 use super::traversal::{culler_buffer_options, sized, OccluderCulling, Selected};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
-use crate::depth::TiledZBuffer;
 use crate::geom::View;
-use crate::map::worst_hole_of_coverage;
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer, RectTest};
+use crate::occlusion::details::worst_hole_of_coverage;
+use crate::occlusion::details::RectTest;
+use crate::occlusion::details::TiledZBuffer;
+use crate::occlusion::{HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer};
 use crate::scene::Scene;
 
 /// Which depth the HZB culler keeps of its occluders.

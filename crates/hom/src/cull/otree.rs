@@ -17,7 +17,7 @@
 //! (exact fixed-point edge functions, the renderer's setup and fill rule),
 //! and a rectangle is culled only when it lies beyond the triangle's farthest
 //! depth over the samples that reach each leaf (by
-//! [`crate::depth::DEPTH_MARGIN`]). The same caveats as HOM's apply (same
+//! [`crate::occlusion::details::DEPTH_MARGIN`]). The same caveats as HOM's apply (same
 //! resolution and sampling as the final image, stand-ins contained in their
 //! objects, opaque occluders).
 //!
@@ -25,7 +25,7 @@
 //! regions, which the tree does not keep: as HZB does from its depth, an
 //! opacity pyramid is built from the samples last frame's tree covered (its
 //! *in* leaves' triangles, [`OcclusionTree::coverage_bits`]) and searched
-//! ([`crate::map::worst_hole_of_coverage`]).
+//! ([`crate::occlusion::details::worst_hole_of_coverage`]).
 //!
 //! Counters besides the traversal's: `otree_nodes`, `otree_in_leaves` (the
 //! tree's size), `otree_dropped` (out leaves left out at the node cap), and
@@ -34,9 +34,10 @@
 use super::traversal::{culler_buffer_options, sized, OccluderCulling};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
 use crate::geom::View;
-use crate::map::worst_hole_of_coverage;
 use crate::occluders::{OccluderConfig, OccluderDb};
-use crate::occlusion::{MapOptions, OcclusionBuffer, OcclusionTree, RectTest, DEFAULT_NODE_CAP};
+use crate::occlusion::details::worst_hole_of_coverage;
+use crate::occlusion::details::RectTest;
+use crate::occlusion::{MapOptions, OcclusionBuffer, OcclusionTree, DEFAULT_NODE_CAP};
 use crate::scene::Scene;
 
 /// Settings of the occlusion-tree culler: HOM's occluder selection and database, and the tree's size cap.

@@ -8,7 +8,8 @@
 
 use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
-use crate::occlusion::{faces_turned_away, height_field, ClipConvention, ClosedMesh, FaceCull};
+use crate::occlusion::details::{faces_turned_away, height_field};
+use crate::occlusion::{ClipConvention, ClosedMesh, FaceCull};
 use crate::scene::{Mesh, Scene};
 use glam::Mat4;
 use rayon::prelude::*;

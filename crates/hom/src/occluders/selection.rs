@@ -18,7 +18,7 @@
 use super::database::OccluderDb;
 use super::OccluderCuts;
 use crate::geom::{Aabb, Containment, Eye, Frustum, View};
-use crate::map::Hole;
+use crate::occlusion::details::Hole;
 use crate::scene::Scene;
 use glam::Mat4;
 use std::collections::VecDeque;

@@ -1,0 +1,22 @@
+//! Hierarchical occlusion maps (Zhang, Manocha, Hudson and Hoff 1997): the
+//! buffer ([`HomBuffer`]), its coverage raster (`coverage.rs`: exact
+//! coverage bits, the depth cells, the band schedule and the pyramid build),
+//! the opacity pyramid (`pyramid.rs`), the overlap test (`overlap.rs`,
+//! section 5.1), the hole search (`hole.rs`, section 6.2), and the depth
+//! estimation buffer and single Z plane (`estimation_buffer.rs`, section 4.3).
+
+mod buffer;
+pub(crate) mod coverage;
+mod estimation_buffer;
+mod hole;
+mod overlap;
+mod pyramid;
+
+pub use buffer::{DepthMode, HomBuffer, MapOptions, Opacity};
+pub use coverage::CoverageBuffer;
+pub(crate) use coverage::CoverageRasterizer;
+pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane};
+pub use hole::{find_worst_hole, worst_hole_of_coverage, Hole};
+pub use overlap::{rect_covered, OverlapStats, Thresholds};
+pub(crate) use pyramid::BandBuild;
+pub use pyramid::{Level, Pyramid};
