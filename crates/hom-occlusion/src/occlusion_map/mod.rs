@@ -6,17 +6,19 @@
 //! estimation buffer and single Z plane (`estimation_buffer.rs`, section 4.3).
 
 mod buffer;
-pub(crate) mod coverage;
+mod coverage;
+mod depth_cells;
 mod estimation_buffer;
 mod hole;
 mod overlap;
 mod pyramid;
+pub(crate) mod raster;
 
 pub use buffer::{DepthMode, HomBuffer, MapOptions, Opacity};
 pub use coverage::CoverageBuffer;
-pub(crate) use coverage::CoverageRasterizer;
 pub use estimation_buffer::{DepthEstimationBuffer, SingleZPlane};
 pub use hole::{find_worst_hole, worst_hole_of_coverage, Hole};
 pub use overlap::{rect_covered, OverlapStats, Thresholds};
 pub(crate) use pyramid::BandBuild;
 pub use pyramid::{Level, Pyramid};
+pub(crate) use raster::CoverageRasterizer;
