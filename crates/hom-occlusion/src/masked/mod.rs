@@ -4,6 +4,7 @@
 //! (`raster.rs`) and the rasterizer's vector kernels (`simd.rs`).
 
 mod buffer;
+mod group;
 pub(crate) mod raster;
 #[allow(unsafe_code)]
 mod simd;

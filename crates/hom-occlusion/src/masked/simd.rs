@@ -15,61 +15,11 @@
 //! | [`RasterBackend::Avx2`] | one vector of eight | `vpsllvd`: eight rows at once | one vector of eight subtiles |
 //! | [`RasterBackend::Avx512`] | as AVX2 (a tile row is eight lanes) | as AVX2 | as AVX2 |
 
-use super::raster::{draw_group, GroupParts, MaskedStats};
+use super::group::{draw_group, GroupParts, MaskedStats, RowKernel, Scalar};
 use crate::masked::zbuffer::{MaskTile, SUBTILES};
 use crate::raster::scanline::{LaneSpans, TileRows, LANES};
 use crate::raster::setup::Tri;
 use crate::raster::simd::RasterBackend;
-
-/// What the masked rasterizer asks of a backend, per tile row.
-pub(crate) trait RowKernel: Copy {
-    /// The backend of [`crate::raster::simd::row_masks`] for narrow boxes.
-    const BACKEND: RasterBackend;
-    /// [`TileRows::next_scalar`].
-    fn next(self, rows: &mut TileRows, ja: u32, jb: u32) -> LaneSpans;
-    /// [`LaneSpans::masks`].
-    fn masks(self, spans: &LaneSpans, xt: i32) -> [u32; LANES];
-    /// Whether some `zt[k]` lies nearer than the tile's `z0[k]` (else the
-    /// triangle tells the tile nothing).
-    fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool;
-    /// [`MaskTile::insert`].
-    fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool;
-    /// [`MaskTile::insert_full`].
-    fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool;
-}
-
-/// The scalar kernels: the semantics.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Scalar;
-
-impl RowKernel for Scalar {
-    const BACKEND: RasterBackend = RasterBackend::Scalar;
-
-    #[inline(always)]
-    fn next(self, rows: &mut TileRows, ja: u32, jb: u32) -> LaneSpans {
-        rows.next_scalar(ja, jb)
-    }
-
-    #[inline(always)]
-    fn masks(self, spans: &LaneSpans, xt: i32) -> [u32; LANES] {
-        spans.masks(xt)
-    }
-
-    #[inline(always)]
-    fn nearer(self, tile: &MaskTile, zt: &[f32; SUBTILES]) -> bool {
-        zt.iter().zip(&tile.z0).any(|(z, z0)| z < z0)
-    }
-
-    #[inline(always)]
-    fn insert(self, tile: &mut MaskTile, m: &[u32; 8], zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
-        tile.insert(m, zt, outside)
-    }
-
-    #[inline(always)]
-    fn insert_full(self, tile: &mut MaskTile, zt: &[f32; SUBTILES], outside: &[u32; 8]) -> bool {
-        tile.insert_full(zt, outside)
-    }
-}
 
 /// Draws a group of bands with the kernels of `backend` (the scalar ones
 /// where the CPU lacks it). The vector entry points compile the whole group
