@@ -16,15 +16,16 @@
 //!
 //! // A 20 m × 10 m wall at z = 0, two triangles.
 //! let wall = [Vec3::new(-10.0, -5.0, 0.0), Vec3::new(10.0, -5.0, 0.0), Vec3::new(10.0, 5.0, 0.0), Vec3::new(-10.0, 5.0, 0.0)];
-//! buf.clear();
-//! buf.render_triangles(&wall, &[[0, 1, 2], [0, 2, 3]], &view_proj, FaceCull::None)?;
-//!
 //! let behind = Aabb::new(Vec3::new(-1.0, 0.0, -5.0), Vec3::new(1.0, 2.0, -3.0));
 //! let in_front = Aabb::new(Vec3::new(-1.0, 0.0, 3.0), Vec3::new(1.0, 2.0, 5.0));
 //! let off_screen = Aabb::new(Vec3::new(-1.0, 0.0, 30.0), Vec3::new(1.0, 2.0, 32.0));
-//! assert_eq!(buf.test_aabb(&behind, &view_proj), Visibility::Occluded);
-//! assert_eq!(buf.test_aabb(&in_front, &view_proj), Visibility::Visible);
-//! assert_eq!(buf.test_aabb(&off_screen, &view_proj), Visibility::ViewCulled);
+//! for _frame in 0..3 {
+//!     buf.clear();
+//!     buf.render_triangles(&wall, &[[0, 1, 2], [0, 2, 3]], &view_proj, FaceCull::None)?;
+//!     assert_eq!(buf.test_aabb(&behind, &view_proj), Visibility::Occluded);
+//!     assert_eq!(buf.test_aabb(&in_front, &view_proj), Visibility::Visible);
+//!     assert_eq!(buf.test_aabb(&off_screen, &view_proj), Visibility::ViewCulled);
+//! }
 //! # Ok::<(), hom_occlusion::OcclusionError>(())
 //! ```
 //!
