@@ -112,13 +112,18 @@
 
 #![deny(unsafe_code)]
 
+#[forbid(unsafe_code)]
 mod buffer;
+#[forbid(unsafe_code)]
 mod closed_mesh;
+#[forbid(unsafe_code)]
 pub mod details;
+#[forbid(unsafe_code)]
 pub mod geom;
 mod hzb;
 mod masked;
 mod occlusion_map;
+#[forbid(unsafe_code)]
 mod otree;
 mod raster;
 

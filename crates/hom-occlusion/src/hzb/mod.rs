@@ -7,13 +7,19 @@
 //! the live pyramid of hom's HV culler and the reference the tiled buffer is
 //! tested against.
 
+#[forbid(unsafe_code)]
 mod buffer;
+#[forbid(unsafe_code)]
 pub(crate) mod raster;
 #[allow(unsafe_code)]
 mod simd;
+#[forbid(unsafe_code)]
 mod tile_band;
+#[forbid(unsafe_code)]
 pub(crate) mod tiled;
+#[forbid(unsafe_code)]
 mod z_pyramid;
+#[forbid(unsafe_code)]
 pub(crate) mod zbuffer;
 
 pub use buffer::HzBuffer;

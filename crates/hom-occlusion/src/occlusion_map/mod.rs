@@ -5,13 +5,21 @@
 //! section 5.1), the hole search (`hole.rs`, section 6.2), and the depth
 //! estimation buffer and single Z plane (`estimation_buffer.rs`, section 4.3).
 
+#[forbid(unsafe_code)]
 mod buffer;
+#[forbid(unsafe_code)]
 mod coverage;
+#[forbid(unsafe_code)]
 mod depth_cells;
+#[forbid(unsafe_code)]
 mod estimation_buffer;
+#[forbid(unsafe_code)]
 mod hole;
+#[forbid(unsafe_code)]
 mod overlap;
+#[forbid(unsafe_code)]
 mod pyramid;
+#[forbid(unsafe_code)]
 pub(crate) mod raster;
 
 pub use buffer::{DepthMode, HomBuffer, MapOptions, Opacity};
