@@ -120,6 +120,7 @@ mod masked;
 mod occlusion_map;
 mod otree;
 mod raster;
+mod weld;
 
 pub use buffer::{BufferOptions, BufferStats, OcclusionBuffer, OcclusionError, Sampling, Visibility};
 pub use closed_mesh::ClosedMesh;

@@ -117,7 +117,7 @@ fn every_cut_is_watertight_where_the_mesh_is() {
     let mut seed = 0x5EED_u64;
     let config = LodConfig { leaf_triangles: 64 };
     for mesh in [height_field(48, 3, 0.5), sphere(20, 36)] {
-        let canonical = crate::simplify::weld(mesh.positions());
+        let canonical = crate::occlusion::details::weld(mesh.positions());
         let original = edge_counts(mesh.triangles().iter(), &canonical);
         let h = LodHierarchy::build(&mesh, &config);
         for round in 0..40 {

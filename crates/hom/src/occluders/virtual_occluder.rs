@@ -48,6 +48,7 @@
 use super::convex_part::{convex_part, ConvexPart};
 use super::draw::draw_stand_in;
 use crate::geom::{Aabb, Eye, Frustum};
+use crate::occlusion::details::{number_welded, weld};
 use crate::occlusion::{OcclusionBuffer, OcclusionError};
 use crate::scene::{Mesh, SceneError};
 use glam::{Mat4, Vec3};
@@ -430,19 +431,11 @@ struct Parts {
 impl Parts {
     fn find(mesh: &Mesh) -> Parts {
         let p = mesh.positions();
-        // Weld by position (+0.0 makes -0.0 and 0.0 one key).
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-        let weld: Vec<u32> = p
-            .iter()
-            .map(|v| {
-                let key = (*v + Vec3::ZERO).to_array().map(f32::to_bits);
-                let next = ids.len() as u32;
-                *ids.entry(key).or_insert(next)
-            })
-            .collect();
+        // Weld by position (-0.0 and 0.0 one point), numbered in order of first appearance.
+        let (weld, welded_count) = number_welded(&weld(p));
         let tris: Vec<[u32; 3]> = mesh.triangles().iter().map(|t| t.map(|i| weld[i as usize])).collect();
         // Components over welded vertices.
-        let mut parent: Vec<u32> = (0..ids.len() as u32).collect();
+        let mut parent: Vec<u32> = (0..welded_count as u32).collect();
         fn root(parent: &mut [u32], mut x: u32) -> u32 {
             while parent[x as usize] != x {
                 parent[x as usize] = parent[parent[x as usize] as usize];
@@ -469,7 +462,7 @@ impl Parts {
             }
         }
         let floor = mesh.bounds().min.y;
-        let mut position = vec![Vec3::ZERO; ids.len()];
+        let mut position = vec![Vec3::ZERO; welded_count];
         for (i, &w) in weld.iter().enumerate() {
             position[w as usize] = p[i];
         }

@@ -35,41 +35,6 @@ const MIN_NORMAL_COS: f64 = 0.2;
 /// mesh's bounding box: below it a triangle's normal is rounding noise.
 const MIN_AREA_REL: f64 = 1e-12;
 
-/// Canonical vertex per distinct position (bitwise-equal f32 coordinates): returns,
-/// for each vertex index, the smallest index holding the same position.
-///
-/// `-0.0` and `+0.0` count as equal (they are the same point, and mesh generators
-/// produce both on seams); NaN coordinates are equal only with identical bits.
-///
-/// # Panics
-/// If there are more than `u32::MAX + 1` positions (indices are `u32`).
-pub(crate) fn weld(positions: &[Vec3]) -> Vec<u32> {
-    let n = u32::try_from(positions.len()).ok().and_then(|n| n.checked_sub(1));
-    assert!(positions.is_empty() || n.is_some(), "weld takes at most 2^32 positions");
-    // Adding +0.0 turns -0.0 into +0.0 and leaves every other value alone.
-    let key = |i: u32| {
-        let p = positions[i as usize];
-        [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]
-    };
-    // Sorting, not hashing: O(n log n), and the smallest index of a run comes first.
-    let mut order: Vec<u32> = (0..positions.len()).map(|i| i as u32).collect();
-    order.sort_unstable_by_key(|&i| (key(i), i));
-    let mut canonical = vec![0; positions.len()];
-    let mut run: Option<([u32; 3], u32)> = None;
-    for &i in &order {
-        let k = key(i);
-        let first = match run {
-            Some((run_key, first)) if run_key == k => first,
-            _ => {
-                run = Some((k, i));
-                i
-            }
-        };
-        canonical[i as usize] = first;
-    }
-    canonical
-}
-
 /// Options of one simplification.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SimplifyOptions {
@@ -756,6 +721,7 @@ impl<'a> Simplifier<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::occlusion::details::weld;
     use std::collections::{BTreeMap, BTreeSet};
 
     /// xorshift64*: small, deterministic, good enough to scatter test data.
@@ -923,23 +889,6 @@ mod tests {
         let mut simplifier = Simplifier::new(positions, tris, locked, options.max_error);
         let out = simplifier.run(options.target_triangles);
         (out, simplifier.work)
-    }
-
-    #[test]
-    fn weld_maps_each_position_to_its_first_index() {
-        let positions = [
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(-0.0, 0.0, -0.0),
-            Vec3::new(1.0, 2.0, 3.000_000_2),
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 2.0, 3.000_000_2),
-            Vec3::new(f32::NAN, 0.0, 0.0),
-            Vec3::new(f32::NAN, 0.0, 0.0),
-        ];
-        assert_eq!(weld(&positions), vec![0, 1, 0, 1, 4, 1, 4, 7, 7]);
-        assert!(weld(&[]).is_empty());
     }
 
     #[test]
