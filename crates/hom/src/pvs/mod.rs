@@ -613,15 +613,6 @@ pub fn fingerprint(scene: &Scene, moving: &[u32]) -> u64 {
     h.0
 }
 
-/// xorshift64 in `[0, 1)`, for the PVS's unit tests.
-#[cfg(test)]
-pub(crate) fn test_rng(seed: &mut u64) -> f64 {
-    *seed ^= *seed << 13;
-    *seed ^= *seed >> 7;
-    *seed ^= *seed << 17;
-    (*seed >> 11) as f64 / (1u64 << 53) as f64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -341,11 +341,11 @@ pub(crate) fn box_distance(a: &Aabb, b: &Aabb) -> f32 {
 mod tests {
     use super::*;
 
-    use crate::pvs::test_rng as rng;
+    use hom_testkit::Rng;
 
-    fn point_in(b: &Aabb, seed: &mut u64) -> DVec3 {
+    fn point_in(b: &Aabb, seed: &mut Rng) -> DVec3 {
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-        lo + (hi - lo) * DVec3::new(rng(seed), rng(seed), rng(seed))
+        lo + (hi - lo) * DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64())
     }
 
     fn unit_box_solid(lo: Vec3, hi: Vec3) -> ConvexOccluder {
@@ -357,13 +357,13 @@ mod tests {
 
     /// Brute force: does any sampled segment from the cell to the box miss
     /// the occluder (no margin)?
-    fn some_segment_misses(o: &ConvexOccluder, cell: &Aabb, x: &Aabb, seed: &mut u64) -> bool {
+    fn some_segment_misses(o: &ConvexOccluder, cell: &Aabb, x: &Aabb, seed: &mut Rng) -> bool {
         (0..4000).any(|_| !o.crossed_by(point_in(cell, seed), point_in(x, seed), 0.0))
     }
 
-    fn random_box(seed: &mut u64, centre: DVec3, spread: f64, size: f64) -> Aabb {
-        let c = centre + (DVec3::new(rng(seed), rng(seed), rng(seed)) - 0.5) * spread;
-        let h = DVec3::new(rng(seed), rng(seed), rng(seed)) * size + 0.01;
+    fn random_box(seed: &mut Rng, centre: DVec3, spread: f64, size: f64) -> Aabb {
+        let c = centre + (DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) - 0.5) * spread;
+        let h = DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) * size + 0.01;
         Aabb::new((c - h).as_vec3(), (c + h).as_vec3())
     }
 
@@ -390,14 +390,14 @@ mod tests {
     /// triangle occluders, random cells and boxes on either side).
     #[test]
     fn hidden_means_every_sampled_segment_crosses() {
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut seed = Rng::new(0x9E37_79B9_7F4A_7C15);
         let (mut hidden, mut cases) = (0, 0);
         for case in 0..600 {
             let o = if case % 2 == 0 {
                 let b = random_box(&mut seed, DVec3::ZERO, 2.0, 3.0);
                 unit_box_solid(b.min, b.max)
             } else {
-                let p = |s: &mut u64| ((DVec3::new(rng(s), rng(s), rng(s)) - 0.5) * 12.0).as_vec3();
+                let p = |s: &mut Rng| ((DVec3::new(s.unit_f64(), s.unit_f64(), s.unit_f64()) - 0.5) * 12.0).as_vec3();
                 let t = [p(&mut seed), p(&mut seed), p(&mut seed)];
                 let made = if case % 4 == 1 {
                     ConvexOccluder::triangle(0, t)
@@ -410,7 +410,7 @@ mod tests {
                     None => continue,
                 }
             };
-            let dir = (DVec3::new(rng(&mut seed), rng(&mut seed), rng(&mut seed)) - 0.5).normalize() * 8.0;
+            let dir = (DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) - 0.5).normalize() * 8.0;
             let cell = random_box(&mut seed, dir, 2.0, 1.0);
             let x = random_box(&mut seed, -dir, 4.0, 1.5);
             let m = Margins { lateral: 0.0, gap: 0.0 };
@@ -431,7 +431,7 @@ mod tests {
     /// no margin, some segment between the two boxes' corners misses.
     #[test]
     fn not_hidden_means_some_corner_segment_misses() {
-        let mut seed = 77u64;
+        let mut seed = Rng::new(77);
         let zero = Margins { lateral: 0.0, gap: 0.0 };
         for _ in 0..300 {
             let b = random_box(&mut seed, DVec3::ZERO, 2.0, 3.0);

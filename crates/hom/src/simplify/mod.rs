@@ -722,28 +722,8 @@ impl<'a> Simplifier<'a> {
 mod tests {
     use super::*;
     use crate::occlusion::details::weld;
+    use hom_testkit::Rng;
     use std::collections::{BTreeMap, BTreeSet};
-
-    /// xorshift64*: small, deterministic, good enough to scatter test data.
-    struct XorShift(u64);
-
-    impl XorShift {
-        fn next_u64(&mut self) -> u64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-        }
-
-        /// Uniform in [0, 1).
-        fn unit(&mut self) -> f32 {
-            (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-        }
-
-        fn below(&mut self, n: u64) -> u64 {
-            self.next_u64() % n
-        }
-    }
 
     const FREE: SimplifyOptions = SimplifyOptions {
         target_triangles: 0,
@@ -985,7 +965,7 @@ mod tests {
     #[test]
     fn locked_vertices_and_borders_survive_on_a_bumpy_field() {
         for seed in 1..=8u64 {
-            let mut rng = XorShift(0x9e37_79b9_7f4a_7c15 ^ seed);
+            let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15 ^ seed);
             let noise: Vec<f32> = (0..25 * 25).map(|_| rng.unit()).collect();
             let (positions, tris) = grid(24, |x, z| {
                 (0.7 * x).sin() * (0.5 * z).cos() + 0.1 * noise[(z as usize) * 25 + x as usize]
@@ -1232,7 +1212,7 @@ mod tests {
     fn cheapest_collapse_first_like_the_brute_force() {
         // Random heights: no two costs tie, so the order is the costs' alone.
         for seed in 1..=4u64 {
-            let mut rng = XorShift(seed.wrapping_mul(0x2545_f491_4f6c_dd1d));
+            let mut rng = Rng::new(seed.wrapping_mul(0x2545_f491_4f6c_dd1d));
             let noise: Vec<f32> = (0..13 * 13).map(|_| rng.unit()).collect();
             let (positions, tris) = grid(12, |x, z| 0.3 * noise[(z as usize) * 13 + x as usize]);
             let locked: Vec<bool> = (0..positions.len()).map(|_| rng.below(8) == 0).collect();
@@ -1263,7 +1243,7 @@ mod tests {
 
     #[test]
     fn deterministic() {
-        let mut rng = XorShift(7);
+        let mut rng = Rng::new(7);
         let noise: Vec<f32> = (0..41 * 41).map(|_| rng.unit()).collect();
         let (positions, tris) = grid(40, |x, z| noise[(z as usize) * 41 + x as usize]);
         let locked: Vec<bool> = (0..positions.len()).map(|_| rng.below(10) == 0).collect();
@@ -1418,7 +1398,7 @@ mod tests {
     #[test]
     fn each_collapse_moves_triangles_without_turning_them_over() {
         for seed in 1..=3u64 {
-            let mut rng = XorShift(seed * 0x1234_5678_9abc_def1);
+            let mut rng = Rng::new(seed * 0x1234_5678_9abc_def1);
             let noise: Vec<f32> = (0..11 * 11).map(|_| rng.unit()).collect();
             // Steep random heights: many collapses here would fold the sheet.
             let (positions, tris) = grid(10, |x, z| 0.5 * noise[(z as usize) * 11 + x as usize]);
