@@ -31,7 +31,7 @@
 //! vanish: fusion needs thick solid space (city blocks, the rock between a
 //! game level's rooms), not thin walls.
 
-use super::region::{box_distance, Margins};
+use super::margins::{box_distance, Margins};
 use super::solid::{CellOpenings, Eroded};
 use super::PvsConfig;
 use crate::geom::Aabb;

@@ -64,6 +64,7 @@ mod bake;
 mod cells;
 mod file;
 mod fusion;
+mod margins;
 mod planar_union;
 mod polygons;
 mod region;
