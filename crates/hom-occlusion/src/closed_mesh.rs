@@ -54,15 +54,15 @@ use std::collections::HashMap;
 /// [`OcclusionBuffer::render_convex_stand_in`](crate::OcclusionBuffer::render_convex_stand_in).
 ///
 /// ```
-/// use hom::glam::{Mat4, Vec3};
-/// use hom::occlusion::{ClipConvention, ClosedMesh, FaceCull};
+/// use hom_occlusion::glam::{Mat4, Vec3};
+/// use hom_occlusion::{ClipConvention, ClosedMesh, FaceCull};
 ///
 /// // A tetrahedron, outward faces counter-clockwise.
 /// let p = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
 /// let t = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
 /// let closed = ClosedMesh::of(&p, &t).expect("closed");
-/// let proj = hom::glam::camera::rh::proj::directx::perspective(1.0, 1.5, 0.1, 100.0);
-/// let view = hom::glam::camera::rh::view::look_at_mat4(Vec3::new(2.0, 2.0, 5.0), Vec3::ZERO, Vec3::Y);
+/// let proj = hom_occlusion::glam::camera::rh::proj::directx::perspective(1.0, 1.5, 0.1, 100.0);
+/// let view = hom_occlusion::glam::camera::rh::view::look_at_mat4(Vec3::new(2.0, 2.0, 5.0), Vec3::ZERO, Vec3::Y);
 /// let view_proj: Mat4 = proj * view;
 /// let cull = closed.back_faces(&view_proj, ClipConvention::ZeroToOne);
 /// assert_ne!(cull, FaceCull::None);
