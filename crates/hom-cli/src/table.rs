@@ -1,12 +1,8 @@
 //! The table `hom walk` and `hom demo` print: one row per culler's walk.
 
 use hom::scene::Scene;
-use hom_walk::report::Summary;
+use hom_walk::report::{fmt_opt, Summary};
 use hom_walk::WalkResult;
-
-fn fmt_opt(v: Option<f64>, digits: usize) -> String {
-    v.map(|x| format!("{x:.digits$}")).unwrap_or_else(|| "-".into())
-}
 
 /// Prints the scene's counts, then one row of medians per (culler name, walk).
 pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {

@@ -1,6 +1,7 @@
 //! Closed occluders are drawn without their back faces.
 //!
-//! A mesh whose triangles, with vertices matched by position, pair every
+//! A mesh whose triangles, with vertices matched by position ([`weld`](crate::details::weld)'s
+//! rule: `-0.0` and `+0.0` are one point), pair every
 //! directed edge with its reverse exactly once is a closed, consistently
 //! oriented surface. Projected, such a surface covers each sample as often
 //! with front faces as with back faces (the projection of a closed surface
@@ -33,6 +34,7 @@
 
 use crate::geom::ClipConvention;
 use crate::raster::setup::FaceCull;
+use crate::weld::weld;
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
 
@@ -76,18 +78,13 @@ pub struct ClosedMesh {
 
 impl ClosedMesh {
     /// The mesh `positions`, `triangles` when it is closed and consistently
-    /// oriented (triangles with two corners at one position are ignored) and
+    /// oriented (vertices matched by position as
+    /// [`details::weld`](crate::details::weld) does, `-0.0` and `+0.0` one
+    /// point; triangles with two corners at one position are ignored) and
     /// encloses some volume; `None` otherwise (draw it two-sided). Indices
     /// out of range make it `None` too.
     pub fn of(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<ClosedMesh> {
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::with_capacity(positions.len());
-        let vertex: Vec<u32> = positions
-            .iter()
-            .map(|q| {
-                let next = ids.len() as u32;
-                *ids.entry(q.to_array().map(f32::to_bits)).or_insert(next)
-            })
-            .collect();
+        let vertex = weld(positions);
         let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(3 * triangles.len());
         // Six times the enclosed volume, in f64: a sum of signed tetrahedra.
         let mut volume = 0.0f64;
@@ -214,6 +211,32 @@ mod tests {
         let mut bad = t.clone();
         bad[0][0] = 99;
         assert_eq!(ClosedMesh::of(&p, &bad), None);
+    }
+
+    /// Vertices match by position with `-0.0` and `+0.0` one point: a
+    /// closed cube whose copies of a corner on the plane x = 0 carry `-0.0`
+    /// on some triangles and `+0.0` on others is closed (matched by bit
+    /// pattern, as before the one weld, it looked open and lost its back-face
+    /// saving).
+    #[test]
+    fn minus_zero_and_plus_zero_are_one_point() {
+        let (mut p, t) = cube();
+        for q in &mut p {
+            q.x += 0.5;
+        }
+        let mut negated = 0;
+        for &i in &t[0] {
+            if p[i as usize].x == 0.0 {
+                p[i as usize].x = -0.0;
+                negated += 1;
+            }
+        }
+        assert!(negated > 0, "the first triangle has a corner on x = 0");
+        assert!(
+            p.iter().any(|q| q.x == 0.0 && q.x.is_sign_positive()),
+            "+0.0 copies remain"
+        );
+        assert_eq!(ClosedMesh::of(&p, &t), Some(ClosedMesh { outward_ccw: true }));
     }
 
     fn draw(p: &[Vec3], t: &[[u32; 3]], mvp: &Mat4, clip: ClipConvention, cull: FaceCull) -> (Vec<u64>, Vec<f32>) {

@@ -126,6 +126,7 @@ mod occlusion_map;
 #[forbid(unsafe_code)]
 mod otree;
 mod raster;
+mod weld;
 
 pub use buffer::{BufferOptions, BufferStats, OcclusionBuffer, OcclusionError, Sampling, Visibility};
 pub use closed_mesh::ClosedMesh;

@@ -64,8 +64,9 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// Item-buffer value of a pixel no object covers.
-pub const NO_OBJECT: u32 = u32::MAX;
+/// Item-buffer value of a pixel no object covers (the one definition is
+/// hom-occlusion's, which HV's z-buffer writes too).
+pub use hom::occlusion::details::NO_OBJECT;
 
 /// Triangles per setup chunk (fixed, so results never depend on thread count).
 const CHUNK_TRIANGLES: u64 = 2048;

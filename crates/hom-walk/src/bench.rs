@@ -7,7 +7,7 @@
 //! [`ORACLE_ROW`] is that oracle render: the frame time no culler can beat.
 
 use crate::pictures::StageBar;
-use crate::report::{mean, median, Summary};
+use crate::report::{fmt_opt, mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
 use hom::cull::{Coherence, Hierarchy, PSkip};
 use hom::occluders::OccluderMeshes;
@@ -635,11 +635,6 @@ fn oracle_row(
         mean_baseline_frame_ms: mean(oracle_frames.iter().filter_map(|(f, _)| f.baseline_frame_ms)),
         config: BTreeMap::new(),
     }
-}
-
-fn fmt_opt(v: Option<f64>, decimals: usize) -> String {
-    // `+ 0.0` turns -0.0 (a sum of nothing, rounding) into 0.0.
-    v.map_or_else(|| "-".to_string(), |v| format!("{:.decimals$}", v + 0.0))
 }
 
 impl BenchReport {

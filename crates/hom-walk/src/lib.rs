@@ -26,6 +26,7 @@ pub mod pictures;
 pub mod pvs;
 pub mod raster_bench;
 pub mod report;
+mod stats;
 pub mod virtual_occluders;
 mod walk;
 pub use walk::summarize;

@@ -325,7 +325,7 @@ pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>, occluders: bool)
         v.filter(|v| !v.is_empty()).map(|v| v.iter().sum())
     };
     LodSummary {
-        median_lod_triangles: crate::report::median(frames.iter().map(|f| f.lod_triangles as f64)),
+        median_lod_triangles: crate::stats::median(frames.iter().map(|f| f.lod_triangles as f64)),
         lod_triangles: frames.iter().map(|f| f.lod_triangles).sum(),
         lod_unguided_triangles: sum_opt(|f| f.lod_unguided_triangles),
         lod_view_only_triangles: frames.iter().map(|f| f.lod_view_only_triangles).sum(),
@@ -333,7 +333,7 @@ pub fn summarize_lod(frames: &[&LodFrame], budget: Option<u64>, occluders: bool)
         lod_pixels_differ_from_full: sum_opt(|f| f.lod_pixels_differ_from_full),
         lod_max_error_px: frames.iter().map(|f| f.lod_max_error_px).fold(0.0, f32::max),
         lod_nodes_occluded: frames.iter().map(|f| f.lod_nodes_occluded).sum(),
-        median_lod_ms: crate::report::median(frames.iter().map(|f| f.lod_ms)),
+        median_lod_ms: crate::stats::median(frames.iter().map(|f| f.lod_ms)),
         lod_guidance_pixels_changed: sum_opt(|f| f.lod_guidance_pixels_changed),
         lod_culling_pixels_changed: sum_opt(|f| f.lod_culling_pixels_changed),
         lod_occluders: occluders,

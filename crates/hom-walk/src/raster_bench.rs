@@ -11,12 +11,14 @@
 //! the same for a [`HomBuffer`] (occlusion map + depth estimation buffer)
 //! and a [`MaskedBuffer`] (coverage masks and two depth layers per tile).
 //! Recorded game frames (`.mocrec`) are rendered at their own resolution and
-//! at 256×256. Times are medians over the runs.
+//! at 256×256. Times are medians over the runs ([`median`]: the mean of the
+//! middle two for an even number).
 //!
 //! The reference answers come from a rasterizer that does not snap vertices,
 //! so the buffers use [`hom::occlusion::Sampling::Conservative`] (their default), and MOC's
 //! rectangles cover every pixel they touch, as `test_rect` does.
 
+use crate::report::median;
 use glam::{Vec2, Vec4};
 use hom::occlusion::{BufferOptions, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, Visibility};
 use hom_scene::moc::{self, MocRecording, MocScene};
@@ -157,11 +159,6 @@ pub struct RasterBenchReport {
     pub options: RasterBenchOptions,
     /// One row per input, resolution and thread count.
     pub rows: Vec<RasterRow>,
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn ms(t: Instant) -> f64 {

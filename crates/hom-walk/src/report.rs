@@ -5,6 +5,8 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;
 
+pub use crate::stats::{fmt_opt, mean, median};
+
 /// First line: what was walked, with what.
 #[derive(Clone, Debug, Serialize)]
 pub struct Header {
@@ -182,48 +184,8 @@ pub struct Summary {
     pub lod: Option<crate::lod::LodSummary>,
 }
 
-/// Median of a list (mean of the middle two for an even count); 0 for none.
-pub fn median(values: impl IntoIterator<Item = f64>) -> f64 {
-    let mut v: Vec<f64> = values.into_iter().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) * 0.5
-    }
-}
-
-/// Mean of a list; `None` for none.
-pub fn mean(values: impl IntoIterator<Item = f64>) -> Option<f64> {
-    let (n, sum) = values.into_iter().fold((0usize, 0.0), |(n, s), x| (n + 1, s + x));
-    (n > 0).then(|| sum / n as f64)
-}
-
 /// Writes one record as a JSON line.
 pub fn write_line<W: Write + ?Sized>(out: &mut W, record: &impl Serialize) -> std::io::Result<()> {
     serde_json::to_writer(&mut *out, record)?;
     out.write_all(b"\n")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median([3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median([4.0, 1.0, 3.0, 2.0]), 2.5);
-        assert_eq!(median([]), 0.0);
-        assert_eq!(median([f64::NAN, 5.0]), 5.0);
-    }
-
-    #[test]
-    fn mean_of_some_and_none() {
-        assert_eq!(mean([1.0, 2.0, 6.0]), Some(3.0));
-        assert_eq!(mean([]), None);
-    }
 }

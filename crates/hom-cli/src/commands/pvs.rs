@@ -397,6 +397,12 @@ pub fn check(a: PvsCheckArgs) -> Result<()> {
 }
 
 /// xorshift64: the viewpoints of a check, reproducible from its seed.
+///
+/// The same stream as `hom_testkit::Rng` (shifts 13, 7, 17; the top 24 bits
+/// as `[0, 1)`) but kept here: the test kit is for tests (a CLI cannot
+/// depend on it), and it starts from `seed | 1` where this starts from
+/// `seed.max(1)`, so an even `--seed` would give other viewpoints than the
+/// checks recorded with it.
 struct Rng(u64);
 
 impl Rng {

@@ -1,11 +1,8 @@
 //! The pinhole camera every culler and the renderer share.
 
-use super::Frustum;
+use super::{ClipConvention, Frustum, View, MAX_VIEWPORT_SIDE};
 use glam::{Mat4, Vec3};
 use thiserror::Error;
-
-/// Largest accepted image side, pixels: larger is almost certainly a typo.
-pub const MAX_VIEWPORT_SIDE: u32 = 16_384;
 
 /// Why a camera cannot be used.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -146,10 +143,10 @@ impl Camera {
         self.projection() * self.view()
     }
 
-    /// The frame's [`super::View`], what cullers take: `view_proj`, the
-    /// viewport and [`super::ClipConvention::ZeroToOne`].
-    pub fn to_view(&self) -> super::View {
-        super::View::from(self)
+    /// The frame's [`View`], what cullers take: `view_proj`, the
+    /// viewport and [`ClipConvention::ZeroToOne`].
+    pub fn to_view(&self) -> View {
+        View::from(self)
     }
 
     /// The view frustum; `None` for an invalid camera.
@@ -161,6 +158,13 @@ impl Camera {
     /// Unit view direction.
     pub fn forward(&self) -> Vec3 {
         (self.target - self.eye).normalize_or_zero()
+    }
+}
+
+impl From<&Camera> for View {
+    /// The camera's view: its `view_proj`, viewport, [`ClipConvention::ZeroToOne`].
+    fn from(c: &Camera) -> View {
+        View::new(c.view_proj(), c.width, c.height, ClipConvention::ZeroToOne)
     }
 }
 

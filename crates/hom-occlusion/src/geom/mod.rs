@@ -9,12 +9,12 @@ mod screen;
 mod view;
 
 pub use aabb::Aabb;
-pub use camera::{Camera, CameraError, MAX_VIEWPORT_SIDE};
+pub use camera::{Camera, CameraError};
 pub use frustum::{Containment, Frustum};
 pub use obb::Obb;
 pub use plane::Plane;
 pub use screen::{project_box_clipped, project_points, Footprint, ScreenRect};
-pub use view::{ClipConvention, Eye, View, ViewError};
+pub use view::{ClipConvention, Eye, View, ViewError, MAX_VIEWPORT_SIDE};
 
 use glam::{Mat4, Vec3, Vec4};
 

@@ -7,9 +7,12 @@
 //! row operation on the matrix ([`ClipConvention::to_zero_to_one`]), so a
 //! culler can never silently assume the wrong one.
 
-use super::{Aabb, Camera, Frustum, MAX_VIEWPORT_SIDE};
+use super::{Aabb, Frustum};
 use glam::{Mat4, Vec3, Vec4};
 use thiserror::Error;
+
+/// Largest accepted image side, pixels: larger is almost certainly a typo.
+pub const MAX_VIEWPORT_SIDE: u32 = 16_384;
 
 /// Which clip-space depth range a projection matrix produces. NDC x and y are
 /// in `[-1, 1]` with y up in every convention (a y-down projection, such as
@@ -220,13 +223,6 @@ fn cross4(a: Vec4, b: Vec4, c: Vec4) -> Vec4 {
         det3(pick(a), pick(b), pick(c))
     };
     Vec4::new(minor(0), -minor(1), minor(2), -minor(3))
-}
-
-impl From<&Camera> for View {
-    /// The camera's view: its `view_proj`, viewport, [`ClipConvention::ZeroToOne`].
-    fn from(c: &Camera) -> View {
-        View::new(c.view_proj(), c.width, c.height, ClipConvention::ZeroToOne)
-    }
 }
 
 #[cfg(test)]

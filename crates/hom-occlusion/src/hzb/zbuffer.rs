@@ -11,7 +11,8 @@ use crate::geom::ScreenRect;
 use crate::hzb::{ZPyramid, ZTestStats};
 use crate::raster::setup::Tri;
 
-/// Item-buffer value of a sample no object owns (the renderer's `NO_OBJECT`).
+/// Item-buffer value of a sample no object owns: the one definition, which
+/// the reference renderer re-exports as `hom_render::NO_OBJECT`.
 pub const NO_OBJECT: u32 = u32::MAX;
 
 /// A half-open pixel rectangle of changed samples.

@@ -55,7 +55,7 @@ use std::ops::Range;
 pub(crate) const SHRINK: f64 = 5.0 / ONE as f64;
 
 /// Most corners a silhouette is drawn from: a box's 8. A convex part's hull
-/// (`occluders/convex_part.rs`) keeps three corners per triangle (36 for
+/// (`occluders/virtual_occluder/convex.rs` in hom) keeps three corners per triangle (36 for
 /// the smallest) and is drawn as its triangles. As silhouettes, hulls of up
 /// to 64 corners took HOM's efficiency on sculpture-park from 83.0 to
 /// 80.5 % (`hom bench --cullers hom --no-cost-model`, 2026-12-04; HZB's and

@@ -403,7 +403,8 @@ mod tests {
 
     /// Edges (as welded position pairs) used by other than exactly two triangles.
     fn open_edges(b: &MeshBuilder) -> usize {
-        let key = |i: u32| b.positions[i as usize].to_array().map(f32::to_bits);
+        let canonical = hom::occlusion::details::weld(&b.positions);
+        let key = |i: u32| canonical[i as usize];
         let mut edges = std::collections::HashMap::new();
         for t in &b.triangles {
             for k in 0..3 {

@@ -24,8 +24,9 @@
 
 use super::LodConfig;
 use crate::geom::Aabb;
+use crate::occlusion::details::weld;
 use crate::scene::Mesh;
-use crate::simplify::{simplify, simplify_cluster, weld, SimplifyOptions};
+use crate::simplify::{simplify, simplify_cluster, SimplifyOptions};
 use glam::Vec3;
 
 /// The chain above the clusters stops at this many triangles.

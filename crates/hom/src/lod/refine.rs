@@ -529,6 +529,7 @@ mod tests {
     use super::super::tests::{camera, ground_scene};
     use super::super::LodConfig;
     use super::*;
+    use hom_testkit::Rng;
 
     /// Frame after frame, from wherever last frame left it, the moved front
     /// is the cut found from the root with the same classification; with
@@ -540,7 +541,7 @@ mod tests {
         let ids: Vec<u32> = (0..6).collect();
         let mut selector = LodSelector::default();
         let mut parts = Vec::new();
-        let mut seed = 42u64;
+        let mut seed = Rng::new(42);
         let mut coarse_view_only = 0;
         for frame in 0..80 {
             let view = LodView::new(&camera(&mut seed).to_view()).expect("valid view");

@@ -4,19 +4,19 @@
 
 use super::*;
 use crate::geom::Camera;
-use crate::pvs::test_rng;
 use crate::scene::{Mesh, Scene};
 use glam::{Mat4, Vec3};
+use hom_testkit::Rng;
 use std::collections::BTreeMap;
 
 /// An `n` × `n` quad height field of rolling hills with noise, open border.
 pub(super) fn height_field(n: usize, seed: u64, bump: f32) -> Mesh {
-    let mut s = seed | 1;
+    let mut s = Rng::new(seed);
     let v = n + 1;
     let positions: Vec<Vec3> = (0..v * v)
         .map(|i| {
             let (x, z) = ((i % v) as f32, (i / v) as f32);
-            let y = 3.0 * (x * 0.21).sin() * (z * 0.17).cos() + bump * test_rng(&mut s) as f32;
+            let y = 3.0 * (x * 0.21).sin() * (z * 0.17).cos() + bump * s.unit_f64() as f32;
             Vec3::new(x, y, z)
         })
         .collect();
@@ -76,8 +76,8 @@ fn border(edges: &BTreeMap<(u32, u32), u32>) -> Vec<(u32, u32)> {
 }
 
 /// A cut refining each inner node with probability `p`.
-fn random_cut(h: &LodHierarchy, p: f64, seed: &mut u64) -> Vec<u32> {
-    top_down_cut(h, |_| test_rng(seed) < p)
+fn random_cut(h: &LodHierarchy, p: f64, seed: &mut Rng) -> Vec<u32> {
+    top_down_cut(h, |_| seed.unit_f64() < p)
 }
 
 #[test]
@@ -114,10 +114,10 @@ fn hierarchies_are_well_formed_deterministic_and_coarser_towards_the_root() {
 
 #[test]
 fn every_cut_is_watertight_where_the_mesh_is() {
-    let mut seed = 0x5EED_u64;
+    let mut seed = Rng::new(0x5EED);
     let config = LodConfig { leaf_triangles: 64 };
     for mesh in [height_field(48, 3, 0.5), sphere(20, 36)] {
-        let canonical = crate::simplify::weld(mesh.positions());
+        let canonical = crate::occlusion::details::weld(mesh.positions());
         let original = edge_counts(mesh.triangles().iter(), &canonical);
         let h = LodHierarchy::build(&mesh, &config);
         for round in 0..40 {
@@ -216,8 +216,8 @@ pub(super) fn ground_scene(objects: usize) -> Scene {
     scene
 }
 
-pub(super) fn camera(seed: &mut u64) -> Camera {
-    let r = |s: &mut u64| test_rng(s) as f32;
+pub(super) fn camera(seed: &mut Rng) -> Camera {
+    let r = |s: &mut Rng| s.unit_f64() as f32;
     let eye = Vec3::new(-20.0 + 140.0 * r(seed), 2.0 + 30.0 * r(seed), -20.0 + 140.0 * r(seed));
     let target = Vec3::new(100.0 * r(seed), 0.0, 100.0 * r(seed));
     Camera::new(eye, target, Vec3::Y, 1.0, 0.1, 500.0, 320, 200)
@@ -230,7 +230,7 @@ fn selection_stays_within_the_threshold_and_guidance_only_keeps_hidden_nodes_coa
     let ids: Vec<u32> = (0..6).collect();
     let (mut guided, mut unguided) = (LodSelector::default(), LodSelector::default());
     let (mut parts, mut parts_unguided) = (Vec::new(), Vec::new());
-    let mut seed = 99u64;
+    let mut seed = Rng::new(99);
     let mut fewer = 0;
     for frame in 0..60 {
         let cam = camera(&mut seed);
@@ -304,7 +304,7 @@ fn the_budget_is_held() {
     let ids: Vec<u32> = (0..9).collect();
     let mut selector = LodSelector::default();
     let mut parts = Vec::new();
-    let mut seed = 3u64;
+    let mut seed = Rng::new(3);
     for frame in 0..30 {
         let view = LodView::new(&camera(&mut seed).to_view()).expect("valid view");
         let budget = 2_000 + 400 * frame as u64;
@@ -348,7 +348,7 @@ fn the_budget_is_held() {
 fn bad_options_and_another_scene_are_refused() {
     let scene = ground_scene(1);
     let lod = SceneLod::build(&scene, &LodConfig::default(), &|_, _| {}).expect("built");
-    let view = LodView::new(&camera(&mut 5).to_view()).expect("valid view");
+    let view = LodView::new(&camera(&mut Rng::new(5)).to_view()).expect("valid view");
     let mut selector = LodSelector::default();
     let mut parts = Vec::new();
     for (options, want) in [
@@ -424,7 +424,7 @@ fn occluder_cuts_follow_the_scene_they_were_built_for() {
     };
     assert!(cut.set_occluder_lod(lod(own)));
     assert!(wrong.set_occluder_lod(lod(other)));
-    let mut seed = 3u64;
+    let mut seed = Rng::new(3);
     let mut cuts = 0;
     for _ in 0..30 {
         let view = camera(&mut seed).to_view();

@@ -9,14 +9,14 @@
 //! it, two-sided. Stand-ins are drawn two-sided too.
 
 use super::database::ToDraw;
+use super::virtual_occluder::draw_stand_in;
 use super::{OccluderCuts, OccluderDb};
 #[cfg(doc)]
 use crate::geom::View;
 use crate::geom::{Aabb, Eye, Frustum};
 use crate::occlusion::{FaceCull, OcclusionBuffer};
 use crate::scene::Scene;
-use glam::{Mat4, Vec3};
-use std::ops::Range;
+use glam::Mat4;
 
 /// The draw order's key (smaller first): the squared distance from the eye
 /// to the box's centre, or for a parallel projection the centre's depth.
@@ -106,36 +106,4 @@ pub(crate) fn draw_occluders(
         submitted += triangles.len() as u64;
     }
     (submitted, cut_count)
-}
-
-/// Queues a stand-in's triangles: each box among them (`boxes`, triangle
-/// ranges in order) as its silhouette when the stand-in lies wholly beyond
-/// the near plane ([`OcclusionBuffer::render_convex_stand_in`]: a box's 12
-/// triangles become a fan of at most 6), the rest two-sided by the inner
-/// rule, in as few submissions as the order allows. (`beyond_near` false
-/// skips the boxes: every corner would be checked and refused.)
-pub(super) fn draw_stand_in(
-    buffer: &mut impl OcclusionBuffer,
-    positions: &[Vec3],
-    triangles: &[[u32; 3]],
-    boxes: &[Range<u32>],
-    model_to_clip: &Mat4,
-    beyond_near: bool,
-) -> Result<(), crate::occlusion::OcclusionError> {
-    let two_sided = |buffer: &mut _, run: Range<usize>| -> Result<(), crate::occlusion::OcclusionError> {
-        if run.is_empty() {
-            return Ok(());
-        }
-        OcclusionBuffer::render_stand_in_triangles(buffer, positions, &triangles[run], model_to_clip, FaceCull::None)
-    };
-    // Triangles not yet queued start here.
-    let mut next = 0;
-    for piece in boxes.iter().filter(|_| beyond_near) {
-        let piece = piece.start as usize..piece.end as usize;
-        debug_assert!(piece.start >= next, "box pieces in order, apart");
-        two_sided(buffer, next..piece.start)?;
-        buffer.render_convex_stand_in(positions, &triangles[piece.clone()], model_to_clip)?;
-        next = piece.end;
-    }
-    two_sided(buffer, next..triangles.len())
 }

@@ -1,7 +1,6 @@
 //! Occluders: the preprocessed occluder database, per-frame selection, and
 //! handing the selected ones to an occlusion buffer.
 
-mod convex_part;
 mod cuts;
 mod database;
 mod draw;

@@ -17,8 +17,9 @@
 //! between the cell's and the occludee's centres crosses (every segment must
 //! cross the one that hides), found in a BVH over the occluders.
 
+use super::margins::Margins;
 use super::planar_union::planar_unions;
-use super::region::{ConvexOccluder, DPlane, Margins, Shape};
+use super::region::{ConvexOccluder, DPlane, Shape};
 use super::solid::{Eroded, SolidSpace, MAX_VOXELS};
 use super::PvsError;
 use super::{CellGrid, PvsConfig};

@@ -31,7 +31,7 @@
 //! vanish: fusion needs thick solid space (city blocks, the rock between a
 //! game level's rooms), not thin walls.
 
-use super::region::{box_distance, Margins};
+use super::margins::{box_distance, Margins};
 use super::solid::{CellOpenings, Eroded};
 use super::PvsConfig;
 use crate::geom::Aabb;
@@ -355,12 +355,13 @@ mod tests {
     /// segments from viewpoints clear of the walls to points of the box
     /// must be `blocked`. Returns how many boxes fusion hid.
     fn check_random_walls(
-        mut seed: u64,
+        seed: u64,
         tries: usize,
         openings: impl Fn(&[Aabb], &mut dyn FnMut() -> f32) -> Vec<Aabb>,
         blocked: impl Fn(DVec3, DVec3, &[Aabb], &[Aabb]) -> bool,
     ) -> usize {
-        let mut rnd = move || crate::pvs::test_rng(&mut seed) as f32;
+        let mut rng = hom_testkit::Rng::new(seed);
+        let mut rnd = move || rng.unit_f64() as f32;
         let mut found = 0;
         let bounds = Aabb::new(Vec3::new(-16.0, -4.0, -16.0), Vec3::new(16.0, 10.0, 16.0));
         let snap = |v: Vec3| (v * 5.0).round() / 5.0;

@@ -51,9 +51,10 @@
 //!
 //! **Fusion** (many occluders hiding together) is `fusion.rs`'s point
 //! sampling of the scene's solid space eroded as one (Wonka et al. 2000;
-//! [`SolidSpace`]), sound and tested, but off by default: it finds nothing
-//! more on the built-in scenes, whose solids are thinner than the erosion
-//! or tile a building in convex pieces whose seams the voxels open.
+//! [`SolidSpace`], under [`crate::experimental::pvs_fusion`]), sound and
+//! tested, but off by default: it finds nothing more on the built-in
+//! scenes, whose solids are thinner than the erosion or tile a building in
+//! convex pieces whose seams the voxels open.
 //!
 //! **Not yet:** a solid space whose voxels cover the union of convex pieces
 //! (not one piece each), planar occluders joined as Law & Tan join adjacent
@@ -64,14 +65,15 @@ mod bake;
 mod cells;
 mod file;
 mod fusion;
+mod margins;
 mod planar_union;
 mod polygons;
 mod region;
-mod solid;
+pub(crate) mod solid;
 
 pub use cells::CellGrid;
 pub use file::PvsFileError;
-pub use solid::{SolidSpace, MAX_VOXELS};
+use solid::SolidSpace;
 
 use crate::geom::{Aabb, View};
 use crate::scene::Scene;
@@ -108,7 +110,8 @@ pub struct PvsConfig {
     /// Occluder fusion at the cells (`fusion.rs`): sample points at most this
     /// far apart (metres) over each cell, the solid space eroded by half a
     /// grid box's diagonal and a pixel slack; 0 (the default) for none: it
-    /// found nothing more on the built-in scenes.
+    /// found nothing more on the built-in scenes (experimental:
+    /// [`crate::experimental::pvs_fusion`]).
     pub fusion_spacing: f32,
     /// Fusion: pixels along a side of each of the six cube faces seen from a sample point.
     pub fusion_side: u32,
@@ -611,15 +614,6 @@ pub fn fingerprint(scene: &Scene, moving: &[u32]) -> u64 {
         h.word((m >> 32) as u32);
     }
     h.0
-}
-
-/// xorshift64 in `[0, 1)`, for the PVS's unit tests.
-#[cfg(test)]
-pub(crate) fn test_rng(seed: &mut u64) -> f64 {
-    *seed ^= *seed << 13;
-    *seed ^= *seed >> 7;
-    *seed ^= *seed << 17;
-    (*seed >> 11) as f64 / (1u64 << 53) as f64
 }
 
 #[cfg(test)]

@@ -26,7 +26,7 @@
 //! coordinate on the plane's axis, so the 2D coordinates are the other two
 //! coordinates, exact, and matching edges is comparing bits.
 
-use super::region::grown_corners;
+use super::margins::grown_corners;
 use crate::geom::Aabb;
 use glam::{DVec2, DVec3, Vec3};
 use std::collections::HashMap;

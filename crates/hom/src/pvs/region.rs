@@ -31,6 +31,7 @@
 //! depth tie (an occludee within `gap` of the occluder's box is never
 //! hidden by it, so no part of it lies inside a solid occluder). [`Margins::for_pair`] scales both with the distance involved.
 
+use super::margins::{box_distance, grown_corners, Margins};
 use super::planar_union::PlanarUnion;
 use crate::geom::Aabb;
 use glam::{DVec3, Vec3};
@@ -292,60 +293,15 @@ impl ConvexOccluder {
     }
 }
 
-/// How far inside its boundary a segment must cross an occluder
-/// (`lateral`), and how far the occludee's box is grown (`gap`), in metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Margins {
-    pub(crate) lateral: f64,
-    pub(crate) gap: f64,
-}
-
-/// Lateral margin per metre of distance: 1e-4 rad is 1/256 pixel (the snap)
-/// at a 60° field of view down to 45 rows, with room to spare at any real
-/// viewport; so a sample ray through the pulled-in occluder stays covered
-/// however hom's rule snaps its vertices.
-const LATERAL_PER_METRE: f64 = 1e-4;
-/// Depth resolution of `z / w` in `[0, 1]`: 4 `f32` ulps at 1.0. A world
-/// distance `d` resolves to `DEPTH_ULPS * d² / near` metres.
-const DEPTH_ULPS: f64 = 4.0 * f32::EPSILON as f64;
-
-impl Margins {
-    /// Margins for a cell and an occludee box: `base` metres (the bake's
-    /// absolute margin) plus what the farthest distance between them needs
-    /// at the nearest near plane `near` the PVS serves.
-    pub(crate) fn for_pair(cell: &Aabb, x: &Aabb, base: f64, near: f64) -> Margins {
-        let far = cell.union(*x).extent().as_dvec3().length();
-        let lateral = base + LATERAL_PER_METRE * far;
-        Margins {
-            lateral,
-            gap: lateral + DEPTH_ULPS * far * far / near,
-        }
-    }
-}
-
-/// The corners of `x` grown by `gap` on every side, in `f64` (the growth
-/// exact, not rounded back to the box's `f32`).
-pub(crate) fn grown_corners(x: &Aabb, gap: f64) -> [DVec3; 8] {
-    let g = DVec3::splat(gap);
-    let (lo, hi) = (x.min.as_dvec3() - g, x.max.as_dvec3() + g);
-    std::array::from_fn(|i| DVec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo))
-}
-
-/// The smallest distance between two boxes (0 when they touch or overlap).
-pub(crate) fn box_distance(a: &Aabb, b: &Aabb) -> f32 {
-    let gap = (a.min - b.max).max(b.min - a.max).max(Vec3::ZERO);
-    gap.length()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    use crate::pvs::test_rng as rng;
+    use hom_testkit::Rng;
 
-    fn point_in(b: &Aabb, seed: &mut u64) -> DVec3 {
+    fn point_in(b: &Aabb, seed: &mut Rng) -> DVec3 {
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-        lo + (hi - lo) * DVec3::new(rng(seed), rng(seed), rng(seed))
+        lo + (hi - lo) * DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64())
     }
 
     fn unit_box_solid(lo: Vec3, hi: Vec3) -> ConvexOccluder {
@@ -357,13 +313,13 @@ mod tests {
 
     /// Brute force: does any sampled segment from the cell to the box miss
     /// the occluder (no margin)?
-    fn some_segment_misses(o: &ConvexOccluder, cell: &Aabb, x: &Aabb, seed: &mut u64) -> bool {
+    fn some_segment_misses(o: &ConvexOccluder, cell: &Aabb, x: &Aabb, seed: &mut Rng) -> bool {
         (0..4000).any(|_| !o.crossed_by(point_in(cell, seed), point_in(x, seed), 0.0))
     }
 
-    fn random_box(seed: &mut u64, centre: DVec3, spread: f64, size: f64) -> Aabb {
-        let c = centre + (DVec3::new(rng(seed), rng(seed), rng(seed)) - 0.5) * spread;
-        let h = DVec3::new(rng(seed), rng(seed), rng(seed)) * size + 0.01;
+    fn random_box(seed: &mut Rng, centre: DVec3, spread: f64, size: f64) -> Aabb {
+        let c = centre + (DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) - 0.5) * spread;
+        let h = DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) * size + 0.01;
         Aabb::new((c - h).as_vec3(), (c + h).as_vec3())
     }
 
@@ -390,14 +346,14 @@ mod tests {
     /// triangle occluders, random cells and boxes on either side).
     #[test]
     fn hidden_means_every_sampled_segment_crosses() {
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut seed = Rng::new(0x9E37_79B9_7F4A_7C15);
         let (mut hidden, mut cases) = (0, 0);
         for case in 0..600 {
             let o = if case % 2 == 0 {
                 let b = random_box(&mut seed, DVec3::ZERO, 2.0, 3.0);
                 unit_box_solid(b.min, b.max)
             } else {
-                let p = |s: &mut u64| ((DVec3::new(rng(s), rng(s), rng(s)) - 0.5) * 12.0).as_vec3();
+                let p = |s: &mut Rng| ((DVec3::new(s.unit_f64(), s.unit_f64(), s.unit_f64()) - 0.5) * 12.0).as_vec3();
                 let t = [p(&mut seed), p(&mut seed), p(&mut seed)];
                 let made = if case % 4 == 1 {
                     ConvexOccluder::triangle(0, t)
@@ -410,7 +366,7 @@ mod tests {
                     None => continue,
                 }
             };
-            let dir = (DVec3::new(rng(&mut seed), rng(&mut seed), rng(&mut seed)) - 0.5).normalize() * 8.0;
+            let dir = (DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) - 0.5).normalize() * 8.0;
             let cell = random_box(&mut seed, dir, 2.0, 1.0);
             let x = random_box(&mut seed, -dir, 4.0, 1.5);
             let m = Margins { lateral: 0.0, gap: 0.0 };
@@ -431,7 +387,7 @@ mod tests {
     /// no margin, some segment between the two boxes' corners misses.
     #[test]
     fn not_hidden_means_some_corner_segment_misses() {
-        let mut seed = 77u64;
+        let mut seed = Rng::new(77);
         let zero = Margins { lateral: 0.0, gap: 0.0 };
         for _ in 0..300 {
             let b = random_box(&mut seed, DVec3::ZERO, 2.0, 3.0);

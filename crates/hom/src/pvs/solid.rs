@@ -426,18 +426,15 @@ impl Eroded {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn rng(seed: &mut u64) -> f64 {
-        crate::pvs::test_rng(seed)
-    }
+    use hom_testkit::Rng;
 
     /// Random solid boxes on a 16³ grid of 0.25 m voxels.
-    fn random_space(seed: &mut u64) -> SolidSpace {
+    fn random_space(seed: &mut Rng) -> SolidSpace {
         let bounds = Aabb::new(Vec3::ZERO, Vec3::splat(4.0));
         let mut s = SolidSpace::new(&bounds, 0.25).unwrap();
         for _ in 0..6 {
-            let a = [0, 1, 2].map(|_| (rng(seed) * 16.0) as usize);
-            let e = [0, 1, 2].map(|_| 1 + (rng(seed) * 8.0) as usize);
+            let a = [0, 1, 2].map(|_| (seed.unit_f64() * 16.0) as usize);
+            let e = [0, 1, 2].map(|_| 1 + (seed.unit_f64() * 8.0) as usize);
             for z in a[2]..(a[2] + e[2]).min(16) {
                 for y in a[1]..(a[1] + e[1]).min(16) {
                     for x in a[0]..(a[0] + e[0]).min(16) {
@@ -453,7 +450,7 @@ mod tests {
     /// within Chebyshev distance k is solid (and in the grid).
     #[test]
     fn erosion_keeps_what_a_solid_neighbourhood_surrounds() {
-        let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+        let mut seed = Rng::new(0x9E37_79B9_7F4A_7C15);
         for _ in 0..20 {
             let s = random_space(&mut seed);
             for k in 0..3usize {
@@ -485,14 +482,14 @@ mod tests {
     /// later than that point.
     #[test]
     fn ray_casts_find_the_solid_that_fine_steps_find() {
-        let mut seed = 0x2545_F491_4F6C_DD1Du64;
+        let mut seed = Rng::new(0x2545_F491_4F6C_DD1D);
         let mut hits = 0;
         for _ in 0..20 {
             let s = random_space(&mut seed);
             let e = s.eroded(0.0);
             for _ in 0..500 {
-                let p = DVec3::new(rng(&mut seed), rng(&mut seed), rng(&mut seed)) * 6.0 - 1.0;
-                let dir = (DVec3::new(rng(&mut seed), rng(&mut seed), rng(&mut seed)) * 2.0 - 1.0).normalize();
+                let p = DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) * 6.0 - 1.0;
+                let dir = (DVec3::new(seed.unit_f64(), seed.unit_f64(), seed.unit_f64()) * 2.0 - 1.0).normalize();
                 let got = e.first_hit(p, dir, 8.0, &e.cell_openings(&Aabb::new(Vec3::ZERO, Vec3::ONE)));
                 if let Some(t) = got {
                     assert!(e.contains(p + dir * t) && t <= 8.0);
@@ -517,8 +514,8 @@ mod tests {
     /// yes often enough for that to prove something.
     #[test]
     fn region_through_an_opening_against_sampled_segments() {
-        let mut seed = 0x1234_5678_9ABC_DEF1u64;
-        let mut rnd = move || rng(&mut seed) as f32;
+        let mut seed = Rng::new(0x1234_5678_9ABC_DEF1);
+        let mut rnd = move || seed.unit_f64() as f32;
         let mut random_box = |scale: f32| {
             let c = Vec3::new(rnd(), rnd(), rnd()) * 20.0 - 10.0;
             let h = Vec3::new(rnd(), rnd(), rnd()) * scale + 0.05;
@@ -529,9 +526,9 @@ mod tests {
             let (c, h, q) = (random_box(2.0), random_box(1.0), random_box(3.0));
             let meets = meets_region(&c, &h, &q);
             met += meets as usize;
-            let mut s2 = seed_from(&c, &h);
+            let mut s2 = Rng::new(seed_from(&c, &h));
             for _ in 0..200 {
-                let mut r = || rng(&mut s2) as f32;
+                let mut r = || s2.unit_f64() as f32;
                 let v = c.min + (c.max - c.min) * Vec3::new(r(), r(), r());
                 let a = h.min + (h.max - h.min) * Vec3::new(r(), r(), r());
                 let t = 1.0 + r() * r() * 20.0;

@@ -35,41 +35,6 @@ const MIN_NORMAL_COS: f64 = 0.2;
 /// mesh's bounding box: below it a triangle's normal is rounding noise.
 const MIN_AREA_REL: f64 = 1e-12;
 
-/// Canonical vertex per distinct position (bitwise-equal f32 coordinates): returns,
-/// for each vertex index, the smallest index holding the same position.
-///
-/// `-0.0` and `+0.0` count as equal (they are the same point, and mesh generators
-/// produce both on seams); NaN coordinates are equal only with identical bits.
-///
-/// # Panics
-/// If there are more than `u32::MAX + 1` positions (indices are `u32`).
-pub(crate) fn weld(positions: &[Vec3]) -> Vec<u32> {
-    let n = u32::try_from(positions.len()).ok().and_then(|n| n.checked_sub(1));
-    assert!(positions.is_empty() || n.is_some(), "weld takes at most 2^32 positions");
-    // Adding +0.0 turns -0.0 into +0.0 and leaves every other value alone.
-    let key = |i: u32| {
-        let p = positions[i as usize];
-        [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits(), (p.z + 0.0).to_bits()]
-    };
-    // Sorting, not hashing: O(n log n), and the smallest index of a run comes first.
-    let mut order: Vec<u32> = (0..positions.len()).map(|i| i as u32).collect();
-    order.sort_unstable_by_key(|&i| (key(i), i));
-    let mut canonical = vec![0; positions.len()];
-    let mut run: Option<([u32; 3], u32)> = None;
-    for &i in &order {
-        let k = key(i);
-        let first = match run {
-            Some((run_key, first)) if run_key == k => first,
-            _ => {
-                run = Some((k, i));
-                i
-            }
-        };
-        canonical[i as usize] = first;
-    }
-    canonical
-}
-
 /// Options of one simplification.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct SimplifyOptions {
@@ -756,28 +721,9 @@ impl<'a> Simplifier<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::occlusion::details::weld;
+    use hom_testkit::Rng;
     use std::collections::{BTreeMap, BTreeSet};
-
-    /// xorshift64*: small, deterministic, good enough to scatter test data.
-    struct XorShift(u64);
-
-    impl XorShift {
-        fn next_u64(&mut self) -> u64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
-        }
-
-        /// Uniform in [0, 1).
-        fn unit(&mut self) -> f32 {
-            (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-        }
-
-        fn below(&mut self, n: u64) -> u64 {
-            self.next_u64() % n
-        }
-    }
 
     const FREE: SimplifyOptions = SimplifyOptions {
         target_triangles: 0,
@@ -926,23 +872,6 @@ mod tests {
     }
 
     #[test]
-    fn weld_maps_each_position_to_its_first_index() {
-        let positions = [
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 2.0, 3.0),
-            Vec3::new(-0.0, 0.0, -0.0),
-            Vec3::new(1.0, 2.0, 3.000_000_2),
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 2.0, 3.000_000_2),
-            Vec3::new(f32::NAN, 0.0, 0.0),
-            Vec3::new(f32::NAN, 0.0, 0.0),
-        ];
-        assert_eq!(weld(&positions), vec![0, 1, 0, 1, 4, 1, 4, 7, 7]);
-        assert!(weld(&[]).is_empty());
-    }
-
-    #[test]
     fn flat_grid_collapses_to_few_triangles_without_error_or_flips() {
         let n = 16;
         let (positions, tris) = grid(n, |_, _| 0.0);
@@ -1036,7 +965,7 @@ mod tests {
     #[test]
     fn locked_vertices_and_borders_survive_on_a_bumpy_field() {
         for seed in 1..=8u64 {
-            let mut rng = XorShift(0x9e37_79b9_7f4a_7c15 ^ seed);
+            let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15 ^ seed);
             let noise: Vec<f32> = (0..25 * 25).map(|_| rng.unit()).collect();
             let (positions, tris) = grid(24, |x, z| {
                 (0.7 * x).sin() * (0.5 * z).cos() + 0.1 * noise[(z as usize) * 25 + x as usize]
@@ -1283,7 +1212,7 @@ mod tests {
     fn cheapest_collapse_first_like_the_brute_force() {
         // Random heights: no two costs tie, so the order is the costs' alone.
         for seed in 1..=4u64 {
-            let mut rng = XorShift(seed.wrapping_mul(0x2545_f491_4f6c_dd1d));
+            let mut rng = Rng::new(seed.wrapping_mul(0x2545_f491_4f6c_dd1d));
             let noise: Vec<f32> = (0..13 * 13).map(|_| rng.unit()).collect();
             let (positions, tris) = grid(12, |x, z| 0.3 * noise[(z as usize) * 13 + x as usize]);
             let locked: Vec<bool> = (0..positions.len()).map(|_| rng.below(8) == 0).collect();
@@ -1314,7 +1243,7 @@ mod tests {
 
     #[test]
     fn deterministic() {
-        let mut rng = XorShift(7);
+        let mut rng = Rng::new(7);
         let noise: Vec<f32> = (0..41 * 41).map(|_| rng.unit()).collect();
         let (positions, tris) = grid(40, |x, z| noise[(z as usize) * 41 + x as usize]);
         let locked: Vec<bool> = (0..positions.len()).map(|_| rng.below(10) == 0).collect();
@@ -1469,7 +1398,7 @@ mod tests {
     #[test]
     fn each_collapse_moves_triangles_without_turning_them_over() {
         for seed in 1..=3u64 {
-            let mut rng = XorShift(seed * 0x1234_5678_9abc_def1);
+            let mut rng = Rng::new(seed * 0x1234_5678_9abc_def1);
             let noise: Vec<f32> = (0..11 * 11).map(|_| rng.unit()).collect();
             // Steep random heights: many collapses here would fold the sheet.
             let (positions, tris) = grid(10, |x, z| 0.5 * noise[(z as usize) * 11 + x as usize]);

@@ -1,7 +1,7 @@
-//! Convex parts of a virtual occluder: inscribed hulls (Law & Tan 1999,
-//! section 4.2's first option, specialised to convex solids).
+//! Stage 2 of the virtual-occluder bake, convex parts: inscribed hulls (Law
+//! & Tan 1999, section 4.2's first option, specialised to convex solids).
 //!
-//! The cell boxes of `virtual_occluder.rs` keep about 55 % of a sphere's
+//! The cell boxes of `boxes.rs` keep about 55 % of a sphere's
 //! coverage; a round part deserves better. When a closed component is convex,
 //! the convex hull of *any* subset of its vertices lies inside it, so a hull
 //! of a few dozen of its vertices is an inscribed stand-in that keeps close
@@ -23,6 +23,7 @@
 //! hull towards the vertices' centroid, by several times the tolerance plus
 //! the rounding of the shrunk corners.
 
+use super::solids::Parts;
 use glam::{DVec3, Vec3};
 
 /// Local convexity allowed: a neighbour may lie this far (times the part's
@@ -216,6 +217,23 @@ fn hull(points: &[DVec3]) -> Option<Vec<[usize; 3]>> {
     // Deterministic order (the horizon came out of a hash set).
     faces.sort_unstable();
     Some(faces)
+}
+
+impl Parts {
+    /// Takes the provably convex solids out of [`Parts::solid`] (the grid
+    /// need not find their inside cells) and returns their hulls.
+    pub(super) fn take_convex(&mut self) -> Vec<ConvexPart> {
+        let mut of_solid: Vec<Vec<[u32; 3]>> = vec![Vec::new(); self.count as usize];
+        for &(t, s) in &self.solid {
+            of_solid[s as usize].push(self.welded[t as usize]);
+        }
+        let convex: Vec<Option<ConvexPart>> = of_solid
+            .iter()
+            .map(|tris| convex_part(&self.welded_positions, tris))
+            .collect();
+        self.solid.retain(|&(_, s)| convex[s as usize].is_none());
+        convex.into_iter().flatten().collect()
+    }
 }
 
 #[cfg(test)]
