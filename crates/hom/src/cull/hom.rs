@@ -19,7 +19,7 @@
 //! the camera the culler was given; occluder stand-in meshes that are not
 //! contained in the object they stand for; and transparent occluders.
 
-use super::traversal::{culler_buffer_options, sized, OccluderCulling};
+use super::occluder_culler::{culler_buffer_options, sized, OccluderCulling};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy};
 use crate::geom::View;
 use crate::occluders::{OccluderConfig, OccluderDb};

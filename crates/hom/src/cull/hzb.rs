@@ -34,7 +34,8 @@
 //! (covered = finite depth), with HOM's default geometry, and searched
 //! ([`crate::occlusion::details::worst_hole_of_coverage`]).
 
-use super::traversal::{culler_buffer_options, sized, OccluderCulling, Selected};
+use super::occluder_culler::{culler_buffer_options, sized, OccluderCulling};
+use super::traversal::Selected;
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
 use crate::geom::View;
 use crate::occluders::{OccluderConfig, OccluderDb};

@@ -15,6 +15,7 @@ mod hv;
 mod hzb;
 mod kd_traversal;
 mod model_db;
+mod occluder_culler;
 mod otree;
 mod pvs;
 mod traversal;
@@ -26,7 +27,8 @@ pub use governor::MAX_REST;
 pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
 pub use hzb::{HzbConfig, HzbCuller, ZDepth};
-pub use kd_traversal::{Hierarchy, DFS_BUDGET, P_VP};
+pub use kd_traversal::{DFS_BUDGET, P_VP};
+pub use occluder_culler::Hierarchy;
 pub use otree::{OtreeConfig, OtreeCuller};
 pub use pvs::PvsCuller;
 

@@ -31,7 +31,7 @@
 //! tree's size), `otree_dropped` (out leaves left out at the node cap), and
 //! the tests' classes `otree_visible`, `otree_partial`, `otree_invisible`.
 
-use super::traversal::{culler_buffer_options, sized, OccluderCulling};
+use super::occluder_culler::{culler_buffer_options, sized, OccluderCulling};
 use super::{Coherence, CullError, CullOutput, Culler, Hierarchy, HomConfig};
 use crate::geom::View;
 use crate::occluders::{OccluderConfig, OccluderDb};
