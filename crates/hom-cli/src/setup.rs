@@ -90,20 +90,20 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         if !(o > 0.0 && o <= 1.0) {
             bail!("--opacity must be in (0, 1], got {o}");
         }
-        c.map.opacity = if o == 1.0 {
+        c.buffer.opacity = if o == 1.0 {
             Opacity::Conservative
         } else {
             Opacity::Threshold(o)
         };
     }
     if let Some(d) = args.depth {
-        c.map.depth = d.mode();
+        c.buffer.depth = d.mode();
     }
     if let Some(m) = args.map_size {
         if !(1..=4096).contains(&m) {
             bail!("--map-size must be 1..=4096, got {m}");
         }
-        c.map.map_size = m;
+        c.buffer.map_size = m;
     }
     if let Some(s) = args.selection {
         c.occluders.selection.mode = s.mode();

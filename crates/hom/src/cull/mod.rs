@@ -8,28 +8,27 @@
 //! compare cullers on equal terms.
 
 mod coherence;
+mod culler_buffers;
 mod frustum;
 mod governor;
-mod hom;
 mod hv;
-mod hzb;
 mod kd_traversal;
 mod model_db;
 mod occluder_culler;
-mod otree;
 mod pvs;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
 pub use coherence::{Coherence, PSkip, AUTO_P_SKIP_MAX};
+pub use culler_buffers::{
+    DepthMode, HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, Opacity, OtreeConfig,
+    OtreeCuller, TreeOptions,
+};
 pub use frustum::{FrustumCuller, NoCuller};
 pub use governor::MAX_REST;
-pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
-pub use hzb::{HzbConfig, HzbCuller, ZDepth};
 pub use kd_traversal::{DFS_BUDGET, P_VP};
-pub use occluder_culler::Hierarchy;
-pub use otree::{OtreeConfig, OtreeCuller};
+pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
 
 use crate::geom::{View, ViewError};

@@ -1,10 +1,17 @@
-//! What the occluder-based cullers (HOM, HZB) share, so that they differ
-//! only in how occlusion is represented: the model database (object boxes in
-//! a BVH, refit when objects move), the occluder database, per-frame occluder
-//! selection with its feedback, and the occlusion traversal — the BVH front
-//! to back, the frustum's three-way test, then an occlusion test of each
-//! node's and object's screen rectangle. An occluded node culls its whole
-//! subtree; boxes straddling the near plane are never image-tested.
+//! The occluder culler: one pipeline over any occlusion buffer. Per frame,
+//! select occluders → draw them into the buffer → traverse the model
+//! database front to back, testing each node's and object's screen
+//! rectangle against the buffer. [`OccluderCuller`] is generic over the
+//! buffer ([`CullerBuffer`]); HOM, HZB, masked and the occlusion tree are
+//! that culler over their buffers (`culler_buffers.rs`: [`super::HomCuller`],
+//! [`super::HzbCuller`], [`super::MaskedCuller`], [`super::OtreeCuller`]).
+//! What they share, so that they differ only in how occlusion is
+//! represented: the model database (object boxes in a BVH, refit when
+//! objects move), the occluder database, per-frame occluder selection with
+//! its feedback, coherence, the cost model, and the occlusion traversal —
+//! the BVH front to back, the frustum's three-way test, then an occlusion
+//! test of each node's and object's screen rectangle. An occluded node culls
+//! its whole subtree; boxes straddling the near plane are never image-tested.
 //!
 //! This frame's occluders are tested like every other object: an occluder
 //! hidden by nearer ones is culled. Sound because an object's own triangles
@@ -22,12 +29,12 @@ use super::governor::{FrameFacts, Governor};
 use super::kd_traversal::KdModel;
 use super::model_db::{Change, ModelDb};
 use super::traversal::{Selected, Traversal};
-use super::{CullError, CullOutput};
+use super::{CullError, CullOutput, Culler};
 use crate::geom::{project_points, Footprint, Frustum, ScreenRect, View};
 use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
 use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderCuts, OccluderDb, OccluderSelector, SelectionStats};
-use crate::occlusion::details::Hole;
+use crate::occlusion::details::{Hole, RectTest};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
@@ -57,9 +64,194 @@ impl std::fmt::Display for Hierarchy {
     }
 }
 
+/// What [`OccluderCuller`] needs of its buffer besides the front door
+/// ([`OcclusionBuffer`]) and the cullers' rectangle test ([`RectTest`]).
+pub trait CullerBuffer: OcclusionBuffer + RectTest + Sized + Send {
+    /// The buffer's own settings, [`OccluderCullerConfig::buffer`].
+    type Options: Clone + std::fmt::Debug + Default + PartialEq + Send;
+
+    /// The culler's name, as `hom walk --culler` accepts it.
+    const NAME: &'static str;
+
+    /// A buffer for a `width` × `height` viewport with the cullers' `buffer`
+    /// options (hom's clip convention, exact sampling) and its own `options`.
+    fn make(width: u32, height: u32, buffer: BufferOptions, options: &Self::Options) -> Result<Self, OcclusionError>;
+
+    /// The worst hole of the last frame drawn, for occluder selection's hole
+    /// filling (holes of opacity below `hole_opacity`).
+    fn worst_hole(&self, hole_opacity: f32) -> Option<Hole>;
+
+    /// The culler's report lines ([`Culler::config`]) before the shared ones.
+    fn describe(options: &Self::Options) -> Vec<(&'static str, String)>;
+
+    /// The buffer's own account of the frame, after the traversal; none by default.
+    fn frame_stats(&self, _out: &mut CullOutput) {}
+}
+
+/// Settings of an [`OccluderCuller`]: what every occluder culler shares, and
+/// its buffer's own options (`O`: [`crate::occlusion::MapOptions`] for HOM,
+/// [`super::TreeOptions`] for the occlusion tree, `()` for HZB and masked).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OccluderCullerConfig<O> {
+    /// Which objects occlude, and how each frame's are chosen.
+    pub occluders: OccluderConfig,
+    /// How much of last frame's classification the traversal reuses.
+    pub coherence: Coherence,
+    /// Rest (frustum culling only) while occlusion culling costs more than it
+    /// saves, learnt from the frame times given to [`Culler::frame_done`].
+    pub cost_model: bool,
+    /// The hierarchy the occlusion traversal walks: the BVH (default) or a
+    /// kD-tree with ropes, with or without visibility propagation.
+    pub hierarchy: Hierarchy,
+    /// The buffer's own options.
+    pub buffer: O,
+}
+
+impl<O: Default> Default for OccluderCullerConfig<O> {
+    /// Default occluders and buffer, exact coherence, the cost model on, the BVH.
+    fn default() -> Self {
+        OccluderCullerConfig {
+            occluders: OccluderConfig::default(),
+            coherence: Coherence::default(),
+            cost_model: true,
+            hierarchy: Hierarchy::Bvh,
+            buffer: O::default(),
+        }
+    }
+}
+
+impl<O: Default> OccluderCullerConfig<O> {
+    /// The default buffer with [`OccluderConfig::for_scene`]'s occluders.
+    pub fn for_scene(scene: &Scene) -> Self {
+        OccluderCullerConfig {
+            occluders: OccluderConfig::for_scene(scene),
+            ..Self::default()
+        }
+    }
+}
+
+impl<O> OccluderCullerConfig<O> {
+    /// The same shared settings over another buffer, with its `buffer` options.
+    pub fn with_buffer<P>(&self, buffer: P) -> OccluderCullerConfig<P> {
+        OccluderCullerConfig {
+            occluders: self.occluders.clone(),
+            coherence: self.coherence,
+            cost_model: self.cost_model,
+            hierarchy: self.hierarchy,
+            buffer,
+        }
+    }
+}
+
+/// The occluder culler over buffer `B`; see the module docs, and each
+/// buffer's alias ([`super::HomCuller`], …) for its guarantee.
+pub struct OccluderCuller<B: CullerBuffer> {
+    config: OccluderCullerConfig<B::Options>,
+    common: OccluderCulling,
+    buffer: Option<B>,
+}
+
+impl<B: CullerBuffer> OccluderCuller<B> {
+    /// Builds the model database (BVH) and the occluder database for `scene`.
+    pub fn new(scene: &Scene, config: OccluderCullerConfig<B::Options>) -> Self {
+        OccluderCuller {
+            common: OccluderCulling::new(
+                scene,
+                &config.occluders,
+                config.coherence,
+                config.cost_model,
+                config.hierarchy,
+            ),
+            config,
+            buffer: None,
+        }
+    }
+
+    /// The occluder database (with its report of what was kept and why).
+    pub fn occluder_db(&self) -> &OccluderDb {
+        &self.common.db
+    }
+
+    /// Mutable occluder database, to give occluders stand-in meshes.
+    pub fn occluder_db_mut(&mut self) -> &mut OccluderDb {
+        &mut self.common.db
+    }
+
+    /// The last frame's occlusion buffer (`None` before the first frame that culled).
+    pub fn buffer(&self) -> Option<&B> {
+        self.buffer.as_ref()
+    }
+
+    /// The last frame's occlusion buffer (for diagnostics: its tests alone).
+    pub fn buffer_mut(&mut self) -> Option<&mut B> {
+        self.buffer.as_mut()
+    }
+
+    /// The current settings.
+    pub fn config(&self) -> &OccluderCullerConfig<B::Options> {
+        &self.config
+    }
+}
+
+impl<B: CullerBuffer> Culler for OccluderCuller<B> {
+    fn name(&self) -> &'static str {
+        B::NAME
+    }
+
+    fn config(&self) -> Vec<(&'static str, String)> {
+        B::describe(&self.config.buffer)
+            .into_iter()
+            .chain(self.common.describe())
+            .collect()
+    }
+
+    fn cull(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<(), CullError> {
+        if self.common.rest(scene, view, out)? {
+            return Ok(()); // occlusion culling does not pay now: frustum culling only
+        }
+        // 1. Occluder selection (with last frame's worst hole when culling was poor).
+        let hole_opacity = self.config.occluders.selection.hole_opacity;
+        let last = &self.buffer;
+        let frame = self.common.select(scene, view, out, || {
+            last.as_ref().and_then(|b| b.worst_hole(hole_opacity))
+        })?;
+        // 2. The occluders into the buffer (timed as `raster`).
+        let options = &self.config.buffer;
+        let buffer = sized(&mut self.buffer, view, |w, h| {
+            B::make(w, h, culler_buffer_options(), options)
+        });
+        let common = &mut self.common;
+        let drawn = common.draw(scene, &frame, buffer, out);
+        // 3. Traversal: frustum → the buffer's test, front to back.
+        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+        buffer.frame_stats(out);
+        Ok(())
+    }
+
+    fn set_known_hidden(&mut self, scene: &Scene, hidden: &[u32]) {
+        self.common.set_known_hidden(scene, hidden);
+    }
+
+    fn set_occluder_lod(&mut self, lod: Option<OccluderLod>) -> bool {
+        self.common.set_occluder_lod(lod);
+        true
+    }
+
+    fn box_hidden(&mut self, corners: &[Vec3; 8]) -> bool {
+        match (self.common.last_rect(corners), self.buffer.as_mut()) {
+            (Some(r), Some(buffer)) => buffer.rect_is_occluded(&r),
+            _ => false,
+        }
+    }
+
+    fn frame_done(&mut self, frame_ms: Option<f64>) {
+        self.common.feedback(frame_ms);
+    }
+}
+
 /// The buffer options of the occluder cullers: hom's own clip convention and
 /// the reference renderer's exact sampling (the oracle draws with it).
-pub(crate) fn culler_buffer_options() -> BufferOptions {
+fn culler_buffer_options() -> BufferOptions {
     BufferOptions {
         sampling: Sampling::Exact,
         ..BufferOptions::default()
@@ -68,7 +260,7 @@ pub(crate) fn culler_buffer_options() -> BufferOptions {
 
 /// The culler's buffer in `slot`, made anew by `make(width, height)` when
 /// there is none yet or the view's viewport changed.
-pub(crate) fn sized<'a, B: OcclusionBuffer>(
+fn sized<'a, B: OcclusionBuffer>(
     slot: &'a mut Option<B>,
     view: &View,
     make: impl FnOnce(u32, u32) -> Result<B, OcclusionError>,
