@@ -9,7 +9,7 @@
 use crate::pictures::StageBar;
 use crate::report::{mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
-use hom::cull::{Coherence, Hierarchy, PSkip};
+use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
@@ -516,14 +516,14 @@ impl BenchRow {
     }
 }
 
-/// The mean per frame of the sum of `counters` (`None` when no frame has any of them).
-fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
-    mean(
-        w.frames
-            .iter()
-            .filter(|f| counters.iter().any(|c| f.counters.contains_key(*c)))
-            .map(|f| counters.iter().filter_map(|c| f.counters.get(*c)).sum::<u64>() as f64),
-    )
+/// The mean per frame of `stat` over the frames that have it (`None` when none has).
+fn mean_stat(w: &WalkResult, stat: impl Fn(&CullStats) -> Option<u64>) -> Option<f64> {
+    mean(w.frames.iter().filter_map(|f| stat(&f.stats)).map(|n| n as f64))
+}
+
+/// The propagation statistics of a frame's traversal (kD-tree only).
+fn propagation(s: &CullStats) -> Option<PropagationStats> {
+    s.traversal.and_then(|t| t.propagation)
 }
 
 fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
@@ -535,12 +535,15 @@ fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_spe
         coherence,
         hierarchy,
         occluders,
-        node_tests_per_frame: mean_counter(w, &["node_tests"]),
-        object_tests_per_frame: mean_counter(w, &["object_tests"]),
-        propagated_per_frame: mean_counter(w, &["propagated_invisible"]),
-        propagation_attempts_per_frame: mean_counter(w, &["propagation_attempts"]),
-        tests_per_frame: mean_counter(w, &["node_tests", "object_tests"]),
-        tests_skipped_per_frame: mean_counter(w, &["tests_skipped"]),
+        node_tests_per_frame: mean_stat(w, CullStats::node_tests),
+        object_tests_per_frame: mean_stat(w, CullStats::object_tests),
+        propagated_per_frame: mean_stat(w, |s| propagation(s).map(|p| p.propagated)),
+        propagation_attempts_per_frame: mean_stat(w, |s| propagation(s).map(|p| p.attempts)),
+        tests_per_frame: mean_stat(w, |s| match (s.node_tests(), s.object_tests()) {
+            (None, None) => None,
+            (n, o) => Some(n.unwrap_or(0) + o.unwrap_or(0)),
+        }),
+        tests_skipped_per_frame: mean_stat(w, CullStats::tests_skipped),
         frames: s.frames,
         median_frame_ms: s.median_frame_ms,
         median_cull_ms: Some(s.median_stage_ms.get("cull").copied().unwrap_or(0.0)),

@@ -4,7 +4,7 @@
 //! and of their settings, and each one's diagnostic accessors.
 
 use super::occluder_culler::{CullerBuffer, OccluderCuller, OccluderCullerConfig};
-use super::CullOutput;
+use super::{CullStats, MapStats, OtreeStats};
 use crate::occlusion::details::{find_worst_hole, worst_hole_of_coverage, Hole, Pyramid, TiledZBuffer};
 use crate::occlusion::{
     BufferOptions, HomBuffer, HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer, OcclusionError, OcclusionTree,
@@ -34,8 +34,8 @@ pub use crate::occlusion::{DepthMode, Opacity};
 /// the camera the culler was given; occluder stand-in meshes that are not
 /// contained in the object they stand for; and transparent occluders.
 ///
-/// Counters besides the shared ones: `overlap_pixels`, `levels_visited`
-/// (the overlap tests' work).
+/// Statistics besides the shared ones: [`super::MapStats`] (the overlap
+/// tests' work).
 pub type HomCuller = OccluderCuller<HomBuffer>;
 
 /// Settings of the HOM culler; its buffer options are the occlusion map's
@@ -113,9 +113,8 @@ pub type MaskedConfig = OccluderCullerConfig<()>;
 /// *in* leaves' triangles, [`OcclusionTree::coverage_bits`]) and searched
 /// ([`crate::occlusion::details::worst_hole_of_coverage`]).
 ///
-/// Counters besides the shared ones: `otree_nodes`, `otree_in_leaves` (the
-/// tree's size), `otree_dropped` (out leaves left out at the node cap), and
-/// the tests' classes `otree_visible`, `otree_partial`, `otree_invisible`.
+/// Statistics besides the shared ones: [`super::OtreeStats`], the tree's
+/// size, the out leaves left out at the node cap, and the tests' classes.
 pub type OtreeCuller = OccluderCuller<OcclusionTree>;
 
 /// Settings of the occlusion-tree culler; its buffer options are the tree's size cap.
@@ -164,10 +163,12 @@ impl CullerBuffer for HomBuffer {
         ]
     }
 
-    fn frame_stats(&self, out: &mut CullOutput) {
+    fn frame_stats(&self, stats: &mut CullStats) {
         let overlap = self.overlap_stats();
-        out.count("overlap_pixels", overlap.pixels);
-        out.count("levels_visited", overlap.levels);
+        stats.map = Some(MapStats {
+            overlap_pixels: overlap.pixels,
+            levels_visited: overlap.levels,
+        });
     }
 }
 
@@ -236,14 +237,16 @@ impl CullerBuffer for OcclusionTree {
         vec![("depth", tree)]
     }
 
-    fn frame_stats(&self, out: &mut CullOutput) {
+    fn frame_stats(&self, stats: &mut CullStats) {
         let s = self.last_tree_stats();
-        out.count("otree_nodes", s.nodes);
-        out.count("otree_in_leaves", s.in_leaves);
-        out.count("otree_dropped", s.leaves_dropped);
-        out.count("otree_visible", s.visible);
-        out.count("otree_partial", s.partial);
-        out.count("otree_invisible", s.invisible);
+        stats.otree = Some(OtreeStats {
+            nodes: s.nodes,
+            in_leaves: s.in_leaves,
+            dropped: s.leaves_dropped,
+            visible: s.visible,
+            partial: s.partial,
+            invisible: s.invisible,
+        });
     }
 }
 

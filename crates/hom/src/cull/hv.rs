@@ -107,7 +107,7 @@
 //! The work is single-threaded.
 
 use super::coherence::{Coherence, Step, TemporalState, Vis};
-use super::{CullError, CullOutput, Culler};
+use super::{CullError, CullOutput, Culler, HvStats};
 use crate::geom::{object_to_clip, project_points, Containment, Eye, Footprint, Frustum, View};
 use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::occlusion::details::{Dirty, ZDrawStats, ZTarget};
@@ -785,31 +785,29 @@ impl Culler for HvCuller {
             .config
             .count_zbuffer
             .then(|| self.zbuffer_comparisons(scene, &frustum, &viewport));
-        out.count("nodes_visited", stats.nodes_visited);
-        out.count("node_tests", stats.node_tests);
-        out.count("object_tests", stats.dynamic_tested);
-        out.count("tests_skipped", stats.tests_skipped);
-        out.count("objects_primed", stats.objects_primed);
-        out.count("nodes_primed", stats.nodes_primed);
-        out.count("node_box_tests", stats.node_box_tests);
-        out.count("nodes_occluded", stats.nodes_occluded);
-        out.count("nodes_drawn", stats.nodes_drawn);
-        out.count("dynamic_tested", stats.dynamic_tested);
-        out.count("dynamic_occluded", stats.dynamic_occluded);
-        out.count("triangles_submitted", stats.triangles_submitted);
-        out.count("triangles_occluded", raster.triangles_occluded);
-        out.count("triangles_rasterized", raster.triangles_rasterized);
-        out.count("sample_tests", raster.sample_tests);
-        out.count("samples_written", raster.samples_written);
-        out.count("tile_tests", raster.tile_tests);
-        out.count("tiles_skipped", raster.tiles_skipped);
-        out.count("pyramid_texel_tests", zstats.texels);
-        out.count("pyramid_texels_updated", stats.texels_updated);
-        out.count("depth_comparisons", raster.sample_tests + zstats.texels);
-        if let Some(z) = zbuffer {
-            out.count("zbuffer_depth_comparisons", z);
-        }
-        out.count("objects_passing", self.passed.iter().filter(|&&p| p).count() as u64);
+        out.stats.hv = Some(HvStats {
+            nodes_visited: stats.nodes_visited,
+            node_tests: stats.node_tests,
+            tests_skipped: stats.tests_skipped,
+            objects_primed: stats.objects_primed,
+            nodes_primed: stats.nodes_primed,
+            node_box_tests: stats.node_box_tests,
+            nodes_occluded: stats.nodes_occluded,
+            nodes_drawn: stats.nodes_drawn,
+            dynamic_tested: stats.dynamic_tested,
+            dynamic_occluded: stats.dynamic_occluded,
+            triangles_submitted: stats.triangles_submitted,
+            triangles_occluded: raster.triangles_occluded,
+            triangles_rasterized: raster.triangles_rasterized,
+            sample_tests: raster.sample_tests,
+            samples_written: raster.samples_written,
+            tile_tests: raster.tile_tests,
+            tiles_skipped: raster.tiles_skipped,
+            pyramid_texel_tests: zstats.texels,
+            pyramid_texels_updated: stats.texels_updated,
+            zbuffer_depth_comparisons: zbuffer,
+            objects_passing: self.passed.iter().filter(|&&p| p).count() as u64,
+        });
         Ok(())
     }
 }
@@ -854,12 +852,12 @@ mod tests {
         hv.cull(&scene, &camera.to_view(), &mut out).unwrap();
         assert_eq!(out.visible, vec![near]);
         assert_eq!(out.occluded, vec![far]);
-        let c = |name: &str| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();
-        assert_eq!(c("depth_comparisons"), c("sample_tests") + c("pyramid_texel_tests"));
+        let s = out.stats.hv.unwrap();
+        assert_eq!(s.depth_comparisons(), s.sample_tests + s.pyramid_texel_tests);
         // The near wall covers the whole 64x48 frame: every sample tested once by
         // it; the far wall is culled before any of its samples is tested.
-        assert_eq!(c("sample_tests"), 64 * 48);
-        assert!(c("zbuffer_depth_comparisons") > c("sample_tests"));
+        assert_eq!(s.sample_tests, 64 * 48);
+        assert!(s.zbuffer_depth_comparisons.unwrap() > s.sample_tests);
         assert!(hv.items().iter().all(|&i| i == near));
     }
 }

@@ -60,7 +60,7 @@
 
 use super::coherence::{combine, mix, Step, TemporalState, Vis};
 use super::model_db::{Change, ModelDb};
-use super::traversal::{Traversal, TraversalStats, Visit};
+use super::traversal::{Traversal, TraversalCounts, Visit};
 use crate::geom::{Containment, Footprint, ScreenRect};
 use crate::scene::Scene;
 use crate::spatial::kdtree::{front_faces, KdNode, KdTree, NONE};
@@ -255,7 +255,7 @@ impl Traversal<'_> {
         is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
-    ) -> TraversalStats {
+    ) -> TraversalCounts {
         let (scene, f) = (self.scene, self.frame);
         let KdModel {
             tree,
@@ -276,7 +276,7 @@ impl Traversal<'_> {
             is_occluded,
             visible,
             occluded,
-            stats: TraversalStats::default(),
+            stats: TraversalCounts::default(),
         };
         let c = &mut KdVisit { v, marks };
         let propagation = *propagation;

@@ -29,7 +29,10 @@ use super::governor::{FrameFacts, Governor};
 use super::kd_traversal::KdModel;
 use super::model_db::{Change, ModelDb};
 use super::traversal::{Selected, Traversal};
-use super::{CullError, CullOutput, Culler};
+use super::{
+    CullError, CullOutput, CullStats, Culler, FrustumStats, MemoryStats, OccluderStats, PropagationStats,
+    TraversalStats,
+};
 use crate::geom::{project_points, Footprint, Frustum, ScreenRect, View};
 use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
@@ -84,8 +87,9 @@ pub trait CullerBuffer: OcclusionBuffer + RectTest + Sized + Send {
     /// The culler's report lines ([`Culler::config`]) before the shared ones.
     fn describe(options: &Self::Options) -> Vec<(&'static str, String)>;
 
-    /// The buffer's own account of the frame, after the traversal; none by default.
-    fn frame_stats(&self, _out: &mut CullOutput) {}
+    /// The buffer's own statistics of the frame into `stats`, after the
+    /// traversal; none by default.
+    fn frame_stats(&self, _stats: &mut CullStats) {}
 }
 
 /// Settings of an [`OccluderCuller`]: what every occluder culler shares, and
@@ -224,7 +228,7 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
         let drawn = common.draw(scene, &frame, buffer, out);
         // 3. Traversal: frustum → the buffer's test, front to back.
         common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
-        buffer.frame_stats(out);
+        buffer.frame_stats(&mut out.stats);
         Ok(())
     }
 
@@ -361,7 +365,7 @@ impl OccluderCulling {
 
     /// A resting frame, when the cost model says occlusion culling does not
     /// pay for itself now: frustum culling alone into `out` (stages `refit`,
-    /// `frustum`; counter `rested`). Returns `false`, doing nothing, on a
+    /// `frustum`; statistics `frustum` and `rested`). Returns `false`, doing nothing, on a
     /// frame that culls.
     pub fn rest(&mut self, scene: &Scene, view: &View, out: &mut CullOutput) -> Result<bool, CullError> {
         if !self.governor.rests() {
@@ -382,8 +386,8 @@ impl OccluderCulling {
             occluded: 0,
         });
         out.visible = visible;
-        out.count("node_tests", tests);
-        out.count("rested", 1);
+        out.stats.frustum = Some(FrustumStats { node_tests: tests });
+        out.stats.rested = true;
         Ok(true)
     }
 
@@ -472,9 +476,9 @@ impl OccluderCulling {
     /// The timed stage `raster`: clears `buffer`, queues this frame's
     /// occluders nearest first and draws them. Returns the occluder
     /// triangles submitted; the buffer's own account of the work goes to
-    /// the counters (`occluder_triangles_drawn` after clipping and culling,
-    /// `occluder_setup_us` and `occluder_raster_us`, the tiles drawn and
-    /// rejected; with occluders at the level of detail, `occluder_cuts`).
+    /// `out.stats.occluders` (the triangles drawn after clipping and culling,
+    /// setup and raster time, the tiles drawn and rejected; with occluders at
+    /// the level of detail, the cuts drawn).
     pub fn draw(
         &self,
         scene: &Scene,
@@ -499,20 +503,21 @@ impl OccluderCulling {
             n
         });
         let stats = buffer.stats();
-        if self.cuts.is_on() {
-            out.count("occluder_cuts", cuts);
-        }
-        out.count("occluder_triangles_drawn", stats.triangles_drawn);
-        out.count("occluder_setup_us", (stats.setup_ms * 1e3) as u64);
-        out.count("occluder_raster_us", (stats.raster_ms * 1e3) as u64);
-        out.count("occluder_tiles_drawn", stats.tiles_drawn);
-        out.count("occluder_tiles_rejected", stats.tiles_rejected);
+        out.stats.occluders = Some(OccluderStats {
+            cuts: self.cuts.is_on().then_some(cuts),
+            triangles_drawn: stats.triangles_drawn,
+            setup_us: (stats.setup_ms * 1e3) as u64,
+            raster_us: (stats.raster_ms * 1e3) as u64,
+            tiles_drawn: stats.tiles_drawn,
+            tiles_rejected: stats.tiles_rejected,
+            ..OccluderStats::default()
+        });
         drawn
     }
 
     /// Ends a frame: the timed traversal with `is_occluded` deciding each
     /// screen rectangle, then the visible, occluded and occluder sets and the
-    /// counters into `out`. `occluder_triangles` is what the culler drew.
+    /// statistics into `out`. `occluder_triangles` is what the culler drew.
     pub fn traverse(
         &mut self,
         scene: &Scene,
@@ -551,17 +556,24 @@ impl OccluderCulling {
         out.occluded = occluded;
         self.last_frame = Some((frame.world_to_clip, frame.width, frame.height));
         out.occluders = frame.occluders;
-        out.count("box_tests", stats.node_tests + stats.object_tests);
-        out.count("node_tests", stats.node_tests);
-        out.count("object_tests", stats.object_tests);
-        out.count("tests_skipped", stats.skipped);
-        if self.kd.is_some() {
-            out.count("propagation_attempts", stats.propagation_attempts);
-            out.count("propagated_invisible", stats.propagated);
-        }
-        count_occluders(out, &frame.stats, occluder_triangles);
-        out.count("temporal_bytes", self.temporal.heap_bytes() as u64);
-        out.count("state_bytes", self.state_bytes() as u64);
+        out.stats.traversal = Some(TraversalStats {
+            node_tests: stats.node_tests,
+            object_tests: stats.object_tests,
+            tests_skipped: stats.skipped,
+            propagation: self.kd.is_some().then_some(PropagationStats {
+                attempts: stats.propagation_attempts,
+                propagated: stats.propagated,
+            }),
+        });
+        count_occluders(
+            out.stats.occluders.get_or_insert_default(),
+            &frame.stats,
+            occluder_triangles,
+        );
+        out.stats.memory = Some(MemoryStats {
+            temporal_bytes: self.temporal.heap_bytes() as u64,
+            state_bytes: self.state_bytes() as u64,
+        });
     }
 
     /// The screen rectangle of a world-space box's corners in the last frame
@@ -617,13 +629,13 @@ fn triangles(scene: &Scene, ids: &[u32]) -> u64 {
     ids.iter().map(|&i| scene.object(i).triangles as u64).sum()
 }
 
-/// The counters every occluder-based culler reports about its occluders.
-fn count_occluders(out: &mut CullOutput, sel: &SelectionStats, occluder_triangles: u64) {
-    out.count("occluders", sel.selected as u64);
-    out.count("occluder_triangles", occluder_triangles);
-    out.count("hole_fillers", sel.hole_fillers as u64);
-    out.count("queued_occluders", sel.queued as u64);
-    out.count("occluder_originals", sel.originals as u64);
-    out.count("budget", sel.budget as u64);
-    out.count("candidates", sel.candidates as u64);
+/// The selection's part of the statistics every occluder culler reports about its occluders.
+fn count_occluders(out: &mut OccluderStats, sel: &SelectionStats, occluder_triangles: u64) {
+    out.selected = sel.selected as u64;
+    out.triangles = occluder_triangles;
+    out.hole_fillers = sel.hole_fillers as u64;
+    out.queued = sel.queued as u64;
+    out.originals = sel.originals as u64;
+    out.budget = sel.budget as u64;
+    out.candidates = sel.candidates as u64;
 }

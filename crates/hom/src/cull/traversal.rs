@@ -37,7 +37,7 @@ pub(super) struct Traversal<'a> {
 
 /// What a traversal did, for the counters.
 #[derive(Clone, Copy, Debug, Default)]
-pub(super) struct TraversalStats {
+pub(super) struct TraversalCounts {
     /// Nodes classified by a test: found outside the frustum, or tested
     /// against the buffer.
     pub node_tests: u64,
@@ -59,7 +59,7 @@ pub(super) struct Visit<'a, F> {
     pub is_occluded: F,
     pub visible: &'a mut Vec<u32>,
     pub occluded: &'a mut Vec<u32>,
-    pub stats: TraversalStats,
+    pub stats: TraversalCounts,
 }
 
 impl Traversal<'_> {
@@ -71,14 +71,14 @@ impl Traversal<'_> {
         is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
-    ) -> TraversalStats {
+    ) -> TraversalCounts {
         let (bvh, f) = (self.model.bvh(), self.frame);
         let v = &mut Visit {
             temporal,
             is_occluded,
             visible,
             occluded,
-            stats: TraversalStats::default(),
+            stats: TraversalCounts::default(),
         };
         bvh.walk_front_to_back(
             &f.eye,
