@@ -4,6 +4,7 @@
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
 use hom::cull::{Coherence, Culler, Opacity};
+use hom::experimental::HvPriming;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};
@@ -130,7 +131,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         octree.max_depth = d;
     }
     octree.keep_large = args.hv_keep_large;
-    settings.hv.priming = args.hv_priming;
+    settings.hv.priming = args.hv_priming.then_some(HvPriming);
     Ok(settings)
 }
 

@@ -10,6 +10,7 @@ use crate::pictures::StageBar;
 use crate::report::{mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
 use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
+use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
@@ -131,8 +132,8 @@ pub fn parse_occluders(s: &str) -> Result<OccluderMeshes, String> {
 pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
     match s {
         "bvh" => Ok(Hierarchy::Bvh),
-        "kd" => Ok(Hierarchy::KdTree { propagation: false }),
-        "kd-propagate" => Ok(Hierarchy::KdTree { propagation: true }),
+        "kd" => Ok(Hierarchy::KdTree(KdTree { propagation: false })),
+        "kd-propagate" => Ok(Hierarchy::KdTree(KdTree { propagation: true })),
         _ => Err(format!("expected bvh, kd or kd-propagate, got `{s}`")),
     }
 }
@@ -424,7 +425,7 @@ pub fn run_bench(
                 settings.hom.occluders.occluder_db.meshes = m;
             }
             settings.hom.cost_model = options.cost_model;
-            settings.hv.priming = options.hv_priming;
+            settings.hv.priming = options.hv_priming.then_some(HvPriming);
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
                 &mut scene,
@@ -759,12 +760,12 @@ mod tests {
         }
         assert_eq!(
             parse_hierarchy("kd-propagate"),
-            Ok(Hierarchy::KdTree { propagation: true })
+            Ok(Hierarchy::KdTree(KdTree { propagation: true }))
         );
         assert!(parse_hierarchy("octree").is_err());
         let mode = Mode {
             coherence: Some(Coherence::Exact),
-            hierarchy: Some(Hierarchy::KdTree { propagation: false }),
+            hierarchy: Some(Hierarchy::KdTree(KdTree { propagation: false })),
             occluders: None,
         };
         assert_eq!(row_label("hom", mode.labels()), "hom/kd/exact");

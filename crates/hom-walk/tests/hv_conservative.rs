@@ -8,6 +8,7 @@
 //! tie-breaking (see `hom::cull::hv`).
 
 use hom::cull::{Coherence, CullOutput, Culler, HvConfig, HvCuller, HvStats, PSkip};
+use hom::experimental::HvPriming;
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::scene::Scene;
@@ -99,7 +100,7 @@ proptest! {
         steps in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0, 0u8..6), 2..6),
     ) {
         let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
-        let config = HvConfig { coherence: mode(k), priming, ..config(4, 6, seed % 2 == 0, true) };
+        let config = HvConfig { coherence: mode(k), priming: priming.then_some(HvPriming), ..config(4, 6, seed % 2 == 0, true) };
         let mut hv = HvCuller::new(&scene, config);
         let mut eye = Vec3::new(0.0, 0.5, 12.0);
         let mut look = Vec3::ZERO;
@@ -188,11 +189,11 @@ fn coherence_and_priming_save_work_on_the_city_walk() {
         p.frames.truncate(40);
         p
     };
-    let run = |coherence, priming| {
+    let run = |coherence, priming: bool| {
         let mut scene = built.scene.clone();
         let config = HvConfig {
             coherence,
-            priming,
+            priming: priming.then_some(HvPriming),
             count_zbuffer: false,
             ..HvConfig::default()
         };

@@ -9,6 +9,7 @@
 //! node around the same objects is not, and the reverse).
 
 use hom::cull::{Coherence, CullStats, Culler, Hierarchy, HomConfig, PSkip};
+use hom::experimental::KdTree;
 use hom::glam::{Mat4, Vec3};
 use hom::scene::Scene;
 use hom_render::Renderer;
@@ -18,7 +19,7 @@ use hom_testkit::{
 use hom_walk::{cullers, walk, WalkOptions};
 use proptest::prelude::*;
 
-const PROPAGATE: Hierarchy = Hierarchy::KdTree { propagation: true };
+const PROPAGATE: Hierarchy = Hierarchy::KdTree(KdTree { propagation: true });
 
 /// HOM, HZB and masked over `hierarchy` with every object an occluder candidate.
 fn kd_cullers(scene: &Scene, hierarchy: Hierarchy, coherence: Coherence, budget: u32) -> Vec<Box<dyn Culler>> {
@@ -125,7 +126,13 @@ fn on_the_city_walk_propagation_classifies_nodes_and_is_off_without_it() {
         with[1]
     );
     assert!(with[1] < with[0], "not every attempt succeeds");
-    let without = walk_builtin("city", "hzb", Hierarchy::KdTree { propagation: false }, 4, &counters);
+    let without = walk_builtin(
+        "city",
+        "hzb",
+        Hierarchy::KdTree(KdTree { propagation: false }),
+        4,
+        &counters,
+    );
     assert_eq!(&without[..2], &[0, 0]);
     assert!(without[2] > 0);
 }

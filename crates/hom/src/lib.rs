@@ -79,6 +79,7 @@
 #![forbid(unsafe_code)]
 
 pub mod cull;
+pub mod experimental;
 pub mod lod;
 pub mod occluders;
 pub mod pvs;

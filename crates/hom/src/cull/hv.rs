@@ -108,6 +108,7 @@
 
 use super::coherence::{Coherence, Step, TemporalState, Vis};
 use super::{CullError, CullOutput, Culler, HvStats};
+use crate::experimental::HvPriming;
 use crate::geom::{object_to_clip, project_points, Containment, Eye, Footprint, Frustum, View};
 use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::occlusion::details::{Dirty, ZDrawStats, ZTarget};
@@ -138,13 +139,10 @@ pub struct HvConfig {
     /// `Skip` also those of nodes visible last frame, leaves included). The
     /// visible set is exact in every mode: a skipped test only draws more.
     pub coherence: Coherence,
-    /// Temporal priming (Greene et al.'s temporal coherence): last frame's visible
-    /// nodes (and visible moving objects) are drawn first, so the traversal
-    /// tests nodes against a pyramid that already holds most of this frame's
-    /// occluders. Off by default: on the six built-in walks it saves 30-63 %
-    /// of the node tests but submits -15..+2 % triangles and makes 0-10 % more
-    /// sample tests (the octree's own front-to-back order leaves it little).
-    pub priming: bool,
+    /// Temporal priming (Greene et al.'s temporal coherence), when `Some`:
+    /// last frame's visible nodes (and visible moving objects) are drawn
+    /// first. Off by default; experimental: see [`HvPriming`] for why.
+    pub priming: Option<HvPriming>,
 }
 
 impl Default for HvConfig {
@@ -154,7 +152,7 @@ impl Default for HvConfig {
             triangle_tests: true,
             count_zbuffer: true,
             coherence: Coherence::Exact,
-            priming: false,
+            priming: None,
         }
     }
 }
@@ -523,7 +521,7 @@ impl Culler for HvCuller {
             ("triangle_tests", c.triangle_tests.to_string()),
             ("count_zbuffer", c.count_zbuffer.to_string()),
             ("coherence", c.coherence.to_string()),
-            ("priming", c.priming.to_string()),
+            ("priming", c.priming.is_some().to_string()),
         ]
     }
 
@@ -616,7 +614,7 @@ impl Culler for HvCuller {
             raster_s: 0.0,
             pyramid_s: 0.0,
         };
-        if config.priming {
+        if config.priming.is_some() {
             // Last frame's visible nodes and moving objects still in view,
             // then the pyramid once over what they changed.
             prime_nodes.retain(|&i| frustum.test_aabb(&octree.nodes()[i as usize].bounds) != Containment::Outside);
@@ -762,7 +760,7 @@ impl Culler for HvCuller {
             }
         });
         self.last_visible.clone_from(&visible);
-        if self.config.priming {
+        if self.config.priming.is_some() {
             // Next frame's priming: the nodes drawn whose box is not behind
             // the final pyramid (the others' triangles own no sample now).
             let (pyramid, octree, nodes) = (&self.pyramid, &self.octree, &mut self.prime_nodes);

@@ -3,7 +3,7 @@
 //! hierarchical visibility algorithms" (Journal of Visualization and
 //! Computer Animation 13, 2002), section "Visibility Propagation" and its
 //! part "Temporal Coherence". The tree is [`crate::spatial::kdtree`]; the
-//! option is [`super::Hierarchy::KdTree`] beside the default BVH.
+//! option is [`super::Hierarchy::KdTree`] (experimental: [`crate::experimental::KdTree`]) beside the default BVH.
 //!
 //! The traversal is the BVH one's ([`super::traversal`]): front to back,
 //! hierarchy updating and conservative hierarchy updating as

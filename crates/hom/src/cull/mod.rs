@@ -12,7 +12,7 @@ mod culler_buffers;
 mod frustum;
 mod governor;
 mod hv;
-mod kd_traversal;
+pub(crate) mod kd_traversal;
 mod model_db;
 mod occluder_culler;
 mod pvs;
@@ -28,7 +28,6 @@ pub use culler_buffers::{
 pub use frustum::{FrustumCuller, NoCuller};
 pub use governor::MAX_REST;
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
-pub use kd_traversal::{DFS_BUDGET, P_VP};
 pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
 pub use stats::{

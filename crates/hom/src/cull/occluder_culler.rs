@@ -33,6 +33,7 @@ use super::{
     CullError, CullOutput, CullStats, Culler, FrustumStats, MemoryStats, OccluderStats, PropagationStats,
     TraversalStats,
 };
+use crate::experimental::KdTree;
 use crate::geom::{project_points, Footprint, Frustum, ScreenRect, View};
 use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
@@ -50,19 +51,16 @@ pub enum Hierarchy {
     Bvh,
     /// A kD-tree with ropes over the static objects' boxes (dynamic and
     /// added objects tested one by one); with `propagation`, visibility
-    /// propagation through the ropes (see the module docs).
-    KdTree {
-        /// Try to classify nodes invisible from their neighbours before testing them.
-        propagation: bool,
-    },
+    /// propagation through the ropes. Experimental: see [`KdTree`] for why.
+    KdTree(KdTree),
 }
 
 impl std::fmt::Display for Hierarchy {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Hierarchy::Bvh => write!(f, "bvh"),
-            Hierarchy::KdTree { propagation: false } => write!(f, "kd"),
-            Hierarchy::KdTree { propagation: true } => write!(f, "kd-propagate"),
+            Hierarchy::KdTree(KdTree { propagation: false }) => write!(f, "kd"),
+            Hierarchy::KdTree(KdTree { propagation: true }) => write!(f, "kd-propagate"),
         }
     }
 }
@@ -320,7 +318,7 @@ impl OccluderCulling {
         let model = ModelDb::new(scene);
         let kd = match hierarchy {
             Hierarchy::Bvh => None,
-            Hierarchy::KdTree { propagation } => Some(KdModel::new(&model, scene, propagation)),
+            Hierarchy::KdTree(KdTree { propagation }) => Some(KdModel::new(&model, scene, propagation)),
         };
         OccluderCulling {
             model,
