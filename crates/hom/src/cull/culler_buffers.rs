@@ -136,9 +136,12 @@ impl Default for TreeOptions {
     }
 }
 
-/// The worst hole of a per-sample coverage mask `w` × `h`, with HOM's default map geometry.
-fn coverage_hole(bits: &[u64], w: u32, h: u32, hole_opacity: f32) -> Option<Hole> {
-    worst_hole_of_coverage(bits, w, h, &MapOptions::default(), hole_opacity)
+/// The worst hole of the per-sample coverage mask `w` × `h` that `coverage`
+/// writes, with HOM's default map geometry.
+fn coverage_hole(w: u32, h: u32, hole_opacity: f32, coverage: impl FnOnce(&mut Vec<u64>)) -> Option<Hole> {
+    let mut bits = Vec::new();
+    coverage(&mut bits);
+    worst_hole_of_coverage(&bits, w, h, &MapOptions::default(), hole_opacity)
 }
 
 impl CullerBuffer for HomBuffer {
@@ -182,14 +185,11 @@ impl CullerBuffer for HzBuffer {
 
     fn worst_hole(&self, hole_opacity: f32) -> Option<Hole> {
         let zb = self.last_zbuffer();
-        let mut bits = Vec::new();
-        zb.coverage_bits(&mut bits);
-        coverage_hole(&bits, zb.width(), zb.height(), hole_opacity)
+        coverage_hole(zb.width(), zb.height(), hole_opacity, |bits| zb.coverage_bits(bits))
     }
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
-        let depth = "per-sample tiled z-buffer, pyramid of farthest depth";
-        vec![("depth", depth.to_string())]
+        vec![("depth", "per-sample tiled z-buffer, pyramid of farthest depth".into())]
     }
 }
 
@@ -203,14 +203,14 @@ impl CullerBuffer for MaskedBuffer {
 
     fn worst_hole(&self, hole_opacity: f32) -> Option<Hole> {
         let zb = self.last_zbuffer();
-        let mut bits = Vec::new();
-        zb.coverage_bits(&mut bits);
-        coverage_hole(&bits, zb.width(), zb.height(), hole_opacity)
+        coverage_hole(zb.width(), zb.height(), hole_opacity, |bits| zb.coverage_bits(bits))
     }
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
-        let depth = "masked: coverage mask and two depth layers per 32x8 tile";
-        vec![("depth", depth.to_string())]
+        vec![(
+            "depth",
+            "masked: coverage mask and two depth layers per 32x8 tile".into(),
+        )]
     }
 }
 
@@ -223,10 +223,9 @@ impl CullerBuffer for OcclusionTree {
     }
 
     fn worst_hole(&self, hole_opacity: f32) -> Option<Hole> {
-        let (w, h) = (self.width(), self.height());
-        let mut bits = Vec::new();
-        self.coverage_bits(&mut bits);
-        coverage_hole(&bits, w, h, hole_opacity)
+        coverage_hole(self.width(), self.height(), hole_opacity, |bits| {
+            self.coverage_bits(bits)
+        })
     }
 
     fn describe(tree: &TreeOptions) -> Vec<(&'static str, String)> {
