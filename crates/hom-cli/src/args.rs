@@ -296,8 +296,9 @@ pub struct HomArgs {
     /// assumed visible without a test: `auto` (from each node's history) or a number in [0, 1].
     #[arg(long, value_parser = hom_walk::bench::parse_p_skip)]
     pub p_skip: Option<PSkip>,
-    /// HOM, HZB, masked: the hierarchy the occlusion traversal walks: `bvh` (default),
-    /// `kd` (a kD-tree with ropes) or `kd-propagate` (with visibility propagation, Bittner & Havran 2002).
+    /// HOM, HZB, masked, otree: the hierarchy the occlusion traversal walks (resting frames and
+    /// occluder selection keep the BVH): `bvh` (default), `kd` (a kD-tree with ropes) or
+    /// `kd-propagate` (with visibility propagation, Bittner & Havran 2002); both kD ones experimental.
     #[arg(long, value_parser = hom_walk::bench::parse_hierarchy)]
     pub hierarchy: Option<Hierarchy>,
     /// HOM, HZB, masked, otree: never rest, even where occlusion culling costs more than it saves
@@ -313,8 +314,8 @@ pub struct HomArgs {
     /// HV: keep large triangles at the octree node being split instead of passing them down.
     #[arg(long)]
     pub hv_keep_large: bool,
-    /// HV: temporal priming: draw last frame's visible nodes first (off by default: it saves
-    /// node tests but not raster work, BENCHMARKS "HV: coherence and priming").
+    /// HV: temporal priming: draw last frame's visible nodes first (off by default, experimental:
+    /// it saves node tests but not raster work, docs/decisions/hv.md).
     #[arg(long)]
     pub hv_priming: bool,
 }
@@ -553,8 +554,8 @@ pub struct BenchArgs {
     /// off, exact, skip (adaptive p_skip) or skip:P (default: each culler's default only).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_coherence)]
     pub coherence: Vec<Coherence>,
-    /// Comma-separated hierarchies to walk HOM, HZB and masked with, a row each (times the
-    /// coherence modes): bvh, kd, kd-propagate (default: the BVH only).
+    /// Comma-separated hierarchies to walk HOM, HZB, masked and otree with, a row each (times the
+    /// coherence modes): bvh, kd, kd-propagate (default: the BVH only; the kD ones experimental).
     #[arg(long, value_delimiter = ',', value_parser = hom_walk::bench::parse_hierarchy)]
     pub hierarchy: Vec<Hierarchy>,
     /// Comma-separated occluder meshes to walk HOM, HZB, masked and otree with, a row each:

@@ -4,6 +4,7 @@
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
 use hom::cull::{Coherence, Culler, Opacity};
+use hom::experimental::HvPriming;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};
@@ -90,20 +91,20 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         if !(o > 0.0 && o <= 1.0) {
             bail!("--opacity must be in (0, 1], got {o}");
         }
-        c.map.opacity = if o == 1.0 {
+        c.buffer.opacity = if o == 1.0 {
             Opacity::Conservative
         } else {
             Opacity::Threshold(o)
         };
     }
     if let Some(d) = args.depth {
-        c.map.depth = d.mode();
+        c.buffer.depth = d.mode();
     }
     if let Some(m) = args.map_size {
         if !(1..=4096).contains(&m) {
             bail!("--map-size must be 1..=4096, got {m}");
         }
-        c.map.map_size = m;
+        c.buffer.map_size = m;
     }
     if let Some(s) = args.selection {
         c.occluders.selection.mode = s.mode();
@@ -130,7 +131,7 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         octree.max_depth = d;
     }
     octree.keep_large = args.hv_keep_large;
-    settings.hv.priming = args.hv_priming;
+    settings.hv.priming = args.hv_priming.then_some(HvPriming);
     Ok(settings)
 }
 

@@ -13,7 +13,7 @@
 //!   of that crate (the one without `cfg(test)`); there use [`Rng`] only.
 #![forbid(unsafe_code)]
 
-use hom::cull::{CullOutput, Culler, HomConfig, HomCuller, HzbConfig, HzbCuller, ZDepth};
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller, HzbCuller, MaskedCuller};
 use hom::geom::{Aabb, Camera};
 use hom::glam::{Mat4, Quat, Vec3};
 use hom::occluders::OccluderDbConfig;
@@ -145,19 +145,13 @@ pub fn cut_camera_path(seed: u64, frames: usize, cut: usize) -> Vec<Camera> {
 }
 
 /// The three occluder cullers built for `scene` from one HOM configuration:
-/// HOM, the HZB with per-sample depth, and the masked buffer (HZB with
-/// [`ZDepth::Masked`]), which take its occluder, coherence and cost settings.
+/// HOM, the HZB with per-sample depth, and the masked buffer, which take its
+/// occluder, coherence and cost settings.
 pub fn occluder_cullers(scene: &Scene, hom: &HomConfig) -> Vec<Box<dyn Culler>> {
     vec![
         Box::new(HomCuller::new(scene, hom.clone())),
-        Box::new(HzbCuller::new(scene, HzbConfig::from_hom(hom))),
-        Box::new(HzbCuller::new(
-            scene,
-            HzbConfig {
-                depth: ZDepth::Masked,
-                ..HzbConfig::from_hom(hom)
-            },
-        )),
+        Box::new(HzbCuller::new(scene, hom.with_buffer(()))),
+        Box::new(MaskedCuller::new(scene, hom.with_buffer(()))),
     ]
 }
 

@@ -83,8 +83,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
                 for (k, v) in &out.stages {
                     *stages.entry(*k).or_insert(0.0) += v;
                 }
-                for (k, v) in &out.counters {
-                    *counters.entry(*k).or_insert(0.0) += *v as f64;
+                for (k, v) in out.stats.counters() {
+                    *counters.entry(k).or_insert(0.0) += v as f64;
                 }
             }
         }

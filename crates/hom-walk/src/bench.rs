@@ -9,7 +9,8 @@
 use crate::pictures::StageBar;
 use crate::report::{fmt_opt, mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
-use hom::cull::{Coherence, Hierarchy, PSkip};
+use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
+use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
@@ -131,8 +132,8 @@ pub fn parse_occluders(s: &str) -> Result<OccluderMeshes, String> {
 pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
     match s {
         "bvh" => Ok(Hierarchy::Bvh),
-        "kd" => Ok(Hierarchy::KdTree { propagation: false }),
-        "kd-propagate" => Ok(Hierarchy::KdTree { propagation: true }),
+        "kd" => Ok(Hierarchy::KdTree(KdTree { propagation: false })),
+        "kd-propagate" => Ok(Hierarchy::KdTree(KdTree { propagation: true })),
         _ => Err(format!("expected bvh, kd or kd-propagate, got `{s}`")),
     }
 }
@@ -424,7 +425,7 @@ pub fn run_bench(
                 settings.hom.occluders.occluder_db.meshes = m;
             }
             settings.hom.cost_model = options.cost_model;
-            settings.hv.priming = options.hv_priming;
+            settings.hv.priming = options.hv_priming.then_some(HvPriming);
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
                 &mut scene,
@@ -516,14 +517,14 @@ impl BenchRow {
     }
 }
 
-/// The mean per frame of the sum of `counters` (`None` when no frame has any of them).
-fn mean_counter(w: &WalkResult, counters: &[&str]) -> Option<f64> {
-    mean(
-        w.frames
-            .iter()
-            .filter(|f| counters.iter().any(|c| f.counters.contains_key(*c)))
-            .map(|f| counters.iter().filter_map(|c| f.counters.get(*c)).sum::<u64>() as f64),
-    )
+/// The mean per frame of `stat` over the frames that have it (`None` when none has).
+fn mean_stat(w: &WalkResult, stat: impl Fn(&CullStats) -> Option<u64>) -> Option<f64> {
+    mean(w.frames.iter().filter_map(|f| stat(&f.stats)).map(|n| n as f64))
+}
+
+/// The propagation statistics of a frame's traversal (kD-tree only).
+fn propagation(s: &CullStats) -> Option<PropagationStats> {
+    s.traversal.and_then(|t| t.propagation)
 }
 
 fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
@@ -535,12 +536,15 @@ fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_spe
         coherence,
         hierarchy,
         occluders,
-        node_tests_per_frame: mean_counter(w, &["node_tests"]),
-        object_tests_per_frame: mean_counter(w, &["object_tests"]),
-        propagated_per_frame: mean_counter(w, &["propagated_invisible"]),
-        propagation_attempts_per_frame: mean_counter(w, &["propagation_attempts"]),
-        tests_per_frame: mean_counter(w, &["node_tests", "object_tests"]),
-        tests_skipped_per_frame: mean_counter(w, &["tests_skipped"]),
+        node_tests_per_frame: mean_stat(w, CullStats::node_tests),
+        object_tests_per_frame: mean_stat(w, CullStats::object_tests),
+        propagated_per_frame: mean_stat(w, |s| propagation(s).map(|p| p.propagated)),
+        propagation_attempts_per_frame: mean_stat(w, |s| propagation(s).map(|p| p.attempts)),
+        tests_per_frame: mean_stat(w, |s| match (s.node_tests(), s.object_tests()) {
+            (None, None) => None,
+            (n, o) => Some(n.unwrap_or(0) + o.unwrap_or(0)),
+        }),
+        tests_skipped_per_frame: mean_stat(w, CullStats::tests_skipped),
         frames: s.frames,
         median_frame_ms: s.median_frame_ms,
         median_cull_ms: Some(s.median_stage_ms.get("cull").copied().unwrap_or(0.0)),
@@ -751,12 +755,12 @@ mod tests {
         }
         assert_eq!(
             parse_hierarchy("kd-propagate"),
-            Ok(Hierarchy::KdTree { propagation: true })
+            Ok(Hierarchy::KdTree(KdTree { propagation: true }))
         );
         assert!(parse_hierarchy("octree").is_err());
         let mode = Mode {
             coherence: Some(Coherence::Exact),
-            hierarchy: Some(Hierarchy::KdTree { propagation: false }),
+            hierarchy: Some(Hierarchy::KdTree(KdTree { propagation: false })),
             occluders: None,
         };
         assert_eq!(row_label("hom", mode.labels()), "hom/kd/exact");

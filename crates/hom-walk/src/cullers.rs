@@ -2,8 +2,8 @@
 //! every caller builds cullers with.
 
 use hom::cull::{
-    Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbConfig, HzbCuller, NoCuller, OtreeConfig,
-    OtreeCuller, ZDepth,
+    Culler, FrustumCuller, HomConfig, HomCuller, HvConfig, HvCuller, HzbCuller, MaskedCuller, NoCuller, OtreeCuller,
+    TreeOptions,
 };
 use hom::scene::Scene;
 
@@ -36,7 +36,9 @@ pub const BEST: &str = "hom";
 /// Settings of every culler [`make`] can build; each culler reads its own.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CullerSettings {
-    /// The HOM culler's; the HZB culler takes their occluder selection and database settings.
+    /// The HOM culler's; the HZB, masked and occlusion-tree cullers take
+    /// its shared settings (occluders, coherence, cost model, hierarchy)
+    /// over their own buffers.
     pub hom: HomConfig,
     /// The HV culler's.
     pub hv: HvConfig,
@@ -66,15 +68,12 @@ pub fn make(name: &str, scene: &Scene, settings: &CullerSettings) -> Result<Box<
         "none" => Box::new(NoCuller),
         "frustum" => Box::new(FrustumCuller::new(scene)),
         "hom" => Box::new(HomCuller::new(scene, settings.hom.clone())),
-        "hzb" => Box::new(HzbCuller::new(scene, HzbConfig::from_hom(&settings.hom))),
-        "masked" => Box::new(HzbCuller::new(
+        "hzb" => Box::new(HzbCuller::new(scene, settings.hom.with_buffer(()))),
+        "masked" => Box::new(MaskedCuller::new(scene, settings.hom.with_buffer(()))),
+        "otree" => Box::new(OtreeCuller::new(
             scene,
-            HzbConfig {
-                depth: ZDepth::Masked,
-                ..HzbConfig::from_hom(&settings.hom)
-            },
+            settings.hom.with_buffer(TreeOptions::default()),
         )),
-        "otree" => Box::new(OtreeCuller::new(scene, OtreeConfig::from_hom(&settings.hom))),
         "hv" => Box::new(HvCuller::new(scene, settings.hv.clone())),
         _ => return Err(UnknownCuller { name: name.to_string() }),
     })

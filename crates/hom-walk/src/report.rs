@@ -1,6 +1,7 @@
 //! Walkthrough report records: one JSON object per line — a header, one line
 //! per frame, then a summary. Field names are a stable contract: add, never rename.
 
+use hom::cull::CullStats;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::io::Write;
@@ -124,14 +125,23 @@ pub struct FrameRecord {
     pub frame_ms: f64,
     /// Frustum-only culling plus rendering of the same frame, milliseconds (the baseline).
     pub baseline_frame_ms: Option<f64>,
-    /// The culler's counters.
-    pub counters: BTreeMap<String, u64>,
+    /// What the culler did; in the report, the `counters` object (each
+    /// statistic under its name, [`CullStats::counters`]).
+    #[serde(rename = "counters", serialize_with = "serialize_counters")]
+    pub stats: CullStats,
     /// Present where the oracle ran.
     #[serde(flatten)]
     pub oracle: Option<OracleFrame>,
     /// Present with level of detail (`lod_` fields).
     #[serde(flatten)]
     pub lod: Option<crate::lod::LodFrame>,
+}
+
+/// A frame's statistics as the report's `counters` object: name → value,
+/// the names in order.
+fn serialize_counters<S: serde::Serializer>(stats: &CullStats, s: S) -> Result<S::Ok, S::Error> {
+    let counters: BTreeMap<&str, u64> = stats.counters().into_iter().collect();
+    serde::Serialize::serialize(&counters, s)
 }
 
 /// Last line: medians and ratios over the walk.

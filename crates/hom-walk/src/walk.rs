@@ -376,7 +376,7 @@ pub fn walk(
             stages_ms,
             frame_ms,
             baseline_frame_ms,
-            counters: out.counters.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            stats: out.stats.clone(),
             oracle,
             lod: lod_frame,
         };
@@ -500,7 +500,7 @@ mod tests {
             stages_ms: stages.iter().map(|&(k, v)| (k.to_string(), v)).collect(),
             frame_ms: stages.iter().map(|s| s.1).sum(),
             baseline_frame_ms: None,
-            counters: BTreeMap::new(),
+            stats: Default::default(),
             oracle: None,
             lod: None,
         }

@@ -53,8 +53,7 @@ proptest! {
                 y.cull(&scene, &camera.to_view(), &mut b).unwrap();
                 prop_assert_eq!(&a.visible, &b.visible, "{} frame {}: visible", x.name(), frame);
                 prop_assert_eq!(&a.occluded, &b.occluded, "{} frame {}: occluded", x.name(), frame);
-                let skipped = |o: &CullOutput| o.counters.iter().find(|c| c.0 == "tests_skipped").map_or(0, |c| c.1);
-                prop_assert_eq!(skipped(&a), 0);
+                prop_assert_eq!(a.stats.tests_skipped().unwrap_or(0), 0);
             }
         }
     }
@@ -139,11 +138,6 @@ fn an_object_coming_out_from_behind_a_wall_is_drawn_in_that_frame() {
     }
 }
 
-/// The sum of counter `name` in `out`.
-fn counter(out: &CullOutput, name: &str) -> u64 {
-    out.counters.iter().find(|c| c.0 == name).map_or(0, |c| c.1)
-}
-
 #[test]
 fn on_the_city_walk_exact_saves_tests_and_skip_saves_more_drawing_a_superset() {
     let b = hom_scene::builtin("city").unwrap();
@@ -156,7 +150,7 @@ fn on_the_city_walk_exact_saves_tests_and_skip_saves_more_drawing_a_superset() {
     let mut exact = HomCuller::new(&b.scene, config(Coherence::Exact));
     let mut skip = HomCuller::new(&b.scene, config(Coherence::Skip(PSkip::Auto)));
     let (mut o, mut e, mut s) = (CullOutput::default(), CullOutput::default(), CullOutput::default());
-    let tests = |out: &CullOutput| counter(out, "node_tests") + counter(out, "object_tests");
+    let tests = |out: &CullOutput| out.stats.node_tests().unwrap_or(0) + out.stats.object_tests().unwrap_or(0);
     let (mut t_off, mut t_exact, mut t_skip) = (0, 0, 0);
     for i in (0..path.frames.len()).take(60) {
         let view = path.camera(i).to_view();
@@ -189,8 +183,8 @@ fn state_per_object_stays_small() {
         for _ in 0..2 {
             culler.cull(&scene, &camera.to_view(), &mut out).unwrap();
         }
-        let count = |name| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();
-        let (state, temporal) = (count("state_bytes"), count("temporal_bytes"));
+        let memory = out.stats.memory.expect("an occluder culler's frame");
+        let (state, temporal) = (memory.state_bytes, memory.temporal_bytes);
         assert!(state <= 256 * n, "{}: {state} bytes for {n} objects", culler.name());
         assert!(
             temporal >= 8 * n && temporal < 8 * 3 * n,

@@ -53,7 +53,7 @@ fn walk(scene: &Scene, culler: &mut dyn Culler, frustum: &mut FrustumCuller) -> 
             64,
         );
         culler.cull(scene, &camera.to_view(), &mut out).unwrap();
-        if out.counters.iter().any(|c| c.0 == "rested") {
+        if out.stats.rested {
             frustum.cull(scene, &camera.to_view(), &mut reference).unwrap();
             assert_eq!(out.visible, reference.visible, "{} frame {frame}", culler.name());
             assert!(out.occluded.is_empty());
@@ -99,7 +99,7 @@ fn without_frame_times_or_with_the_cost_model_off_no_frame_rests() {
     for (culler, timed) in cullers.iter_mut() {
         for _ in 0..40 {
             culler.cull(&scene, &camera.to_view(), &mut out).unwrap();
-            assert!(!out.counters.iter().any(|c| c.0 == "rested"));
+            assert!(!out.stats.rested);
             culler.frame_done(timed.then_some(100.0));
         }
     }

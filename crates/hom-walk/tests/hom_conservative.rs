@@ -32,8 +32,8 @@ proptest! {
         let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
         prop_assume!(camera.validate().is_ok());
         let mut config = permissive();
-        config.map.map_size = map_size;
-        config.map.depth = [DepthMode::Rasterized(13, 9), DepthMode::EstimationBuffer(16, 16), DepthMode::SingleZPlane][depth_mode];
+        config.buffer.map_size = map_size;
+        config.buffer.depth = [DepthMode::Rasterized(13, 9), DepthMode::EstimationBuffer(16, 16), DepthMode::SingleZPlane][depth_mode];
         let mut culler = HomCuller::new(&scene, config);
         // Two frames, so the second uses the feedback (hole filling) of the first.
         assert_no_false_culls(&scene, &camera, &mut culler);
@@ -218,7 +218,7 @@ fn approximate_mode_culls_at_least_as_much() {
     );
     let mut conservative = HomCuller::new(&scene, walls_only());
     let mut config = walls_only();
-    config.map.opacity = Opacity::NegligibleHole(4);
+    config.buffer.opacity = Opacity::NegligibleHole(4);
     let mut approx = HomCuller::new(&scene, config);
     let (mut a, mut b) = (CullOutput::default(), CullOutput::default());
     conservative.cull(&scene, &camera.to_view(), &mut a).unwrap();

@@ -7,7 +7,8 @@
 //! that owns a sample is drawn, with the renderer's setup, depth and
 //! tie-breaking (see `hom::cull::hv`).
 
-use hom::cull::{Coherence, CullOutput, Culler, HvConfig, HvCuller, PSkip};
+use hom::cull::{Coherence, CullOutput, Culler, HvConfig, HvCuller, HvStats, PSkip};
+use hom::experimental::HvPriming;
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom::scene::Scene;
@@ -17,8 +18,9 @@ use hom_testkit::{random_moving_scene, random_scene};
 use hom_walk::{walk, WalkOptions};
 use proptest::prelude::*;
 
-fn counter(out: &CullOutput, name: &str) -> u64 {
-    out.counters.iter().find(|c| c.0 == name).map_or(0, |c| c.1)
+/// HV's statistics of the frame in `out`.
+fn hv_stats(out: &CullOutput) -> HvStats {
+    out.stats.hv.expect("HV reports its statistics")
 }
 
 /// Culls with HV and checks, against a full render of every object: the
@@ -40,7 +42,7 @@ fn assert_exact(scene: &Scene, camera: &Camera, hv: &mut HvCuller) -> CullOutput
     for &id in &out.occluded {
         assert_eq!(counts[id as usize], 0, "object {id} culled as occluded owns pixels");
     }
-    assert!(counter(&out, "objects_passing") >= out.visible.len() as u64);
+    assert!(hv_stats(&out).objects_passing >= out.visible.len() as u64);
     out
 }
 
@@ -98,7 +100,7 @@ proptest! {
         steps in proptest::collection::vec((-1.0f32..1.0, -1.0f32..1.0, 0u8..6), 2..6),
     ) {
         let (mut scene, animation) = random_moving_scene(seed, n, dynamic);
-        let config = HvConfig { coherence: mode(k), priming, ..config(4, 6, seed % 2 == 0, true) };
+        let config = HvConfig { coherence: mode(k), priming: priming.then_some(HvPriming), ..config(4, 6, seed % 2 == 0, true) };
         let mut hv = HvCuller::new(&scene, config);
         let mut eye = Vec3::new(0.0, 0.5, 12.0);
         let mut look = Vec3::ZERO;
@@ -115,7 +117,7 @@ proptest! {
             animation.apply(&mut scene, t as f32 * 0.3);
             let out = assert_exact(&scene, &camera, &mut hv);
             if !priming || t == 0 {
-                prop_assert_eq!(counter(&out, "nodes_primed") + counter(&out, "objects_primed"), 0);
+                prop_assert_eq!(hv_stats(&out).nodes_primed + hv_stats(&out).objects_primed, 0);
             }
         }
     }
@@ -133,9 +135,10 @@ fn random_scenes_are_really_culled() {
         let mut hv = HvCuller::new(&scene, config(4, 8, seed % 3 == 0, true));
         let out = assert_exact(&scene, &camera, &mut hv);
         occluded += out.occluded.len();
-        nodes_occluded += counter(&out, "nodes_occluded");
-        hv_cmp += counter(&out, "sample_tests");
-        zb_cmp += counter(&out, "zbuffer_depth_comparisons");
+        let s = hv_stats(&out);
+        nodes_occluded += s.nodes_occluded;
+        hv_cmp += s.sample_tests;
+        zb_cmp += s.zbuffer_depth_comparisons.unwrap_or(0);
     }
     assert!(occluded > 100, "only {occluded} objects occluded");
     assert!(nodes_occluded > 100, "only {nodes_occluded} nodes occluded");
@@ -169,7 +172,7 @@ fn sampled_builtin_walks_are_exact() {
                 oracle.false_culls
             );
             assert_eq!(f.visible, oracle.oracle_visible, "{name} frame {}", f.frame);
-            assert!(f.counters["depth_comparisons"] > 0, "{name} frame {}", f.frame);
+            assert!(f.stats.hv.unwrap().depth_comparisons() > 0, "{name} frame {}", f.frame);
         }
     }
 }
@@ -186,11 +189,11 @@ fn coherence_and_priming_save_work_on_the_city_walk() {
         p.frames.truncate(40);
         p
     };
-    let run = |coherence, priming| {
+    let run = |coherence, priming: bool| {
         let mut scene = built.scene.clone();
         let config = HvConfig {
             coherence,
-            priming,
+            priming: priming.then_some(HvPriming),
             count_zbuffer: false,
             ..HvConfig::default()
         };
@@ -211,7 +214,9 @@ fn coherence_and_priming_save_work_on_the_city_walk() {
         )
         .unwrap()
     };
-    let sum = |w: &hom_walk::WalkResult, c: &str| w.frames.iter().map(|f| f.counters[c]).sum::<u64>();
+    let sum = |w: &hom_walk::WalkResult, c: fn(&HvStats) -> u64| {
+        w.frames.iter().map(|f| c(&f.stats.hv.unwrap())).sum::<u64>()
+    };
     let classical = run(Coherence::Off, false);
     let exact = run(Coherence::Exact, false);
     let primed = run(Coherence::Exact, true);
@@ -219,12 +224,12 @@ fn coherence_and_priming_save_work_on_the_city_walk() {
         assert_eq!(a.visible, b.visible, "frame {}", a.frame);
         assert_eq!(a.visible, c.visible, "frame {}", a.frame);
     }
-    let (off, on) = (sum(&classical, "node_tests"), sum(&exact, "node_tests"));
+    let (off, on) = (sum(&classical, |s| s.node_tests), sum(&exact, |s| s.node_tests));
     assert!(on * 100 < off * 95, "exact made {on} node tests, classical {off}");
     // Primed leaves are drawn without a test, and their triangles are not drawn twice.
-    assert!(sum(&primed, "nodes_primed") > 0);
-    assert!(sum(&primed, "node_tests") < on, "priming saved no node tests");
-    let submitted = |w| sum(w, "triangles_submitted");
+    assert!(sum(&primed, |s| s.nodes_primed) > 0);
+    assert!(sum(&primed, |s| s.node_tests) < on, "priming saved no node tests");
+    let submitted = |w| sum(w, |s| s.triangles_submitted);
     assert!(
         submitted(&primed) <= submitted(&exact) * 21 / 20,
         "priming drew {} triangles, exact {}",

@@ -8,7 +8,8 @@
 //! boxes make other tests (a kD region may be found occluded where the BVH
 //! node around the same objects is not, and the reverse).
 
-use hom::cull::{Coherence, Culler, Hierarchy, HomConfig, PSkip};
+use hom::cull::{Coherence, CullStats, Culler, Hierarchy, HomConfig, PSkip};
+use hom::experimental::KdTree;
 use hom::glam::{Mat4, Vec3};
 use hom::scene::Scene;
 use hom_render::Renderer;
@@ -18,7 +19,7 @@ use hom_testkit::{
 use hom_walk::{cullers, walk, WalkOptions};
 use proptest::prelude::*;
 
-const PROPAGATE: Hierarchy = Hierarchy::KdTree { propagation: true };
+const PROPAGATE: Hierarchy = Hierarchy::KdTree(KdTree { propagation: true });
 
 /// HOM, HZB and masked over `hierarchy` with every object an occluder candidate.
 fn kd_cullers(scene: &Scene, hierarchy: Hierarchy, coherence: Coherence, budget: u32) -> Vec<Box<dyn Culler>> {
@@ -63,9 +64,15 @@ proptest! {
 }
 
 /// Walks `name`'s path (every `step`th frame, at 256×192) with `culler` over
-/// `hierarchy`, oracle on; returns the summed counters `names` after
+/// `hierarchy`, oracle on; returns the sums of the statistics `stats` after
 /// asserting no false culls.
-fn walk_builtin(name: &str, culler: &str, hierarchy: Hierarchy, step: usize, names: &[&str]) -> Vec<u64> {
+fn walk_builtin(
+    name: &str,
+    culler: &str,
+    hierarchy: Hierarchy,
+    step: usize,
+    stats: &[fn(&CullStats) -> Option<u64>],
+) -> Vec<u64> {
     let built = hom_scene::builtin(name).unwrap();
     let (mut scene, animation) = (built.scene, built.animation);
     let mut path = built.path.with_viewport(256, 192);
@@ -89,9 +96,9 @@ fn walk_builtin(name: &str, culler: &str, hierarchy: Hierarchy, step: usize, nam
             oracle.false_culls
         );
     }
-    names
+    stats
         .iter()
-        .map(|n| result.frames.iter().filter_map(|f| f.counters.get(*n)).sum())
+        .map(|stat| result.frames.iter().filter_map(|f| stat(&f.stats)).sum())
         .collect()
 }
 
@@ -106,7 +113,11 @@ fn builtin_walks_over_the_kd_tree_have_no_false_culls() {
 
 #[test]
 fn on_the_city_walk_propagation_classifies_nodes_and_is_off_without_it() {
-    let counters = ["propagation_attempts", "propagated_invisible", "node_tests"];
+    let counters: [fn(&CullStats) -> Option<u64>; 3] = [
+        |s| s.traversal.and_then(|t| t.propagation).map(|p| p.attempts),
+        |s| s.traversal.and_then(|t| t.propagation).map(|p| p.propagated),
+        CullStats::node_tests,
+    ];
     let with = walk_builtin("city", "hzb", PROPAGATE, 4, &counters);
     assert!(
         with[0] > 0 && with[1] > 0,
@@ -115,7 +126,13 @@ fn on_the_city_walk_propagation_classifies_nodes_and_is_off_without_it() {
         with[1]
     );
     assert!(with[1] < with[0], "not every attempt succeeds");
-    let without = walk_builtin("city", "hzb", Hierarchy::KdTree { propagation: false }, 4, &counters);
+    let without = walk_builtin(
+        "city",
+        "hzb",
+        Hierarchy::KdTree(KdTree { propagation: false }),
+        4,
+        &counters,
+    );
     assert_eq!(&without[..2], &[0, 0]);
     assert!(without[2] > 0);
 }

@@ -192,7 +192,7 @@ fn occluders_at_the_level_of_detail_change_no_pixel_and_hide_more_on_terrain() {
             f.frame
         );
         assert_eq!(lod.lod_guidance_pixels_changed, Some(0), "frame {}", f.frame);
-        cuts += f.counters.get("occluder_cuts").copied().unwrap_or(0);
+        cuts += f.stats.occluders.and_then(|o| o.cuts).unwrap_or(0);
     }
     assert!(cuts > 0, "no occluder was drawn as a cut");
     let occluded = |r: &hom_walk::WalkResult| r.frames.iter().map(|f| f.triangles_occlusion_culled).sum::<u64>();

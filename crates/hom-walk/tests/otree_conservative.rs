@@ -2,7 +2,7 @@
 //! oracle sees: random static and dynamic scenes with every object a
 //! possible occluder (the built-in walks: `builtin_walks.rs`).
 
-use hom::cull::{Culler, OtreeConfig, OtreeCuller};
+use hom::cull::{Culler, OtreeConfig, OtreeCuller, TreeOptions};
 use hom::geom::Camera;
 use hom::glam::Vec3;
 use hom_testkit::{assert_culls_a_fair_share, assert_no_false_culls, permissive_hom, random_moving_scene};
@@ -10,7 +10,7 @@ use proptest::prelude::*;
 
 /// Every object may be an occluder: the strongest test of the tree.
 fn permissive() -> OtreeConfig {
-    OtreeConfig::from_hom(&permissive_hom(60))
+    permissive_hom(60).with_buffer(TreeOptions::default())
 }
 
 proptest! {

@@ -383,15 +383,15 @@ fn spheres_walk(originals_from_leftover: bool) -> (usize, u64) {
     let mut with_originals = 0;
     for f in &result.frames {
         assert!(f.oracle.as_ref().unwrap().false_culls.is_empty(), "frame {}", f.frame);
-        let budget = f.counters["budget"];
+        let occluders = f.stats.occluders.expect("an occluder culler's frame");
         // Stand-ins count their own triangles; originals bought back fit the budget.
-        if f.counters["occluder_originals"] > 0 {
+        if occluders.originals > 0 {
             with_originals += 1;
             assert!(
-                f.counters["occluder_triangles"] <= budget,
+                occluders.triangles <= occluders.budget,
                 "frame {}: {:?}",
                 f.frame,
-                f.counters
+                occluders
             );
         }
     }

@@ -66,15 +66,21 @@
 //! - the occluder database and selection (`occluders/database.rs`,
 //!   `occluders/selection.rs`, Zhang et al. 1997 §6) and virtual occluders
 //!   (`occluders/virtual_occluder.rs`, Law and Tan 1999);
-//! - the cullers ([`cull`]): HOM, HZB, masked and the occlusion tree share
-//!   one pipeline (`cull/traversal.rs`: select occluders, draw them into the
-//!   buffer, traverse the BVH front to back), with coherence (Bittner and
-//!   Havran 2002, `cull/coherence.rs`) and the cost model (`cull/governor.rs`);
+//! - the cullers ([`cull`]): HOM, HZB, masked and the occlusion tree are one
+//!   culler over their buffers ([`cull::OccluderCuller`],
+//!   `cull/occluder_culler.rs`: select occluders, draw them into the buffer,
+//!   traverse the BVH front to back, `cull/traversal.rs`), with coherence
+//!   (Bittner and Havran 2002, `cull/coherence.rs`) and the cost model
+//!   (`cull/governor.rs`); statistics typed per concern ([`cull::CullStats`]);
 //!   hierarchical visibility (Greene et al. 1993: the octree
 //!   `spatial/octree.rs`, the culler [`cull::HvCuller`], `cull/hv.rs`);
 //! - the model database: a binned-SAH BVH (`spatial/bvh.rs`, Wald 2007);
 //! - view-cell PVS ([`pvs`], Law and Tan 1999) and level of detail guided by
 //!   visibility ([`lod`]).
+//!
+//! What lost its measurement (the kD-tree traversal with visibility
+//! propagation, HV's temporal priming, PVS occluder fusion) is kept under
+//! [`experimental`], each item with why.
 
 #![forbid(unsafe_code)]
 

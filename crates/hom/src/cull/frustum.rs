@@ -1,7 +1,7 @@
 //! The baseline cullers: draw everything, or only what is in the view frustum.
 
 use super::model_db::ModelDb;
-use super::{CullError, CullOutput, Culler};
+use super::{CullError, CullOutput, Culler, FrustumStats};
 use crate::geom::{Containment, Frustum, View};
 use crate::scene::Scene;
 
@@ -52,7 +52,7 @@ impl Culler for FrustumCuller {
         let mut visible = std::mem::take(&mut out.visible);
         let tests = out.time("frustum", || frustum_visible(model, scene, &frustum, &mut visible));
         out.visible = visible;
-        out.count("node_tests", tests);
+        out.stats.frustum = Some(FrustumStats { node_tests: tests });
         Ok(())
     }
 }

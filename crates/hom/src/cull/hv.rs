@@ -107,7 +107,8 @@
 //! The work is single-threaded.
 
 use super::coherence::{Coherence, Step, TemporalState, Vis};
-use super::{CullError, CullOutput, Culler};
+use super::{CullError, CullOutput, Culler, HvStats};
+use crate::experimental::HvPriming;
 use crate::geom::{object_to_clip, project_points, Containment, Eye, Footprint, Frustum, View};
 use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
 use crate::occlusion::details::{Dirty, ZDrawStats, ZTarget};
@@ -138,13 +139,10 @@ pub struct HvConfig {
     /// `Skip` also those of nodes visible last frame, leaves included). The
     /// visible set is exact in every mode: a skipped test only draws more.
     pub coherence: Coherence,
-    /// Temporal priming (Greene et al.'s temporal coherence): last frame's visible
-    /// nodes (and visible moving objects) are drawn first, so the traversal
-    /// tests nodes against a pyramid that already holds most of this frame's
-    /// occluders. Off by default: on the six built-in walks it saves 30-63 %
-    /// of the node tests but submits -15..+2 % triangles and makes 0-10 % more
-    /// sample tests (the octree's own front-to-back order leaves it little).
-    pub priming: bool,
+    /// Temporal priming (Greene et al.'s temporal coherence), when `Some`:
+    /// last frame's visible nodes (and visible moving objects) are drawn
+    /// first. Off by default; experimental: see [`HvPriming`] for why.
+    pub priming: Option<HvPriming>,
 }
 
 impl Default for HvConfig {
@@ -154,7 +152,7 @@ impl Default for HvConfig {
             triangle_tests: true,
             count_zbuffer: true,
             coherence: Coherence::Exact,
-            priming: false,
+            priming: None,
         }
     }
 }
@@ -523,7 +521,7 @@ impl Culler for HvCuller {
             ("triangle_tests", c.triangle_tests.to_string()),
             ("count_zbuffer", c.count_zbuffer.to_string()),
             ("coherence", c.coherence.to_string()),
-            ("priming", c.priming.to_string()),
+            ("priming", c.priming.is_some().to_string()),
         ]
     }
 
@@ -616,7 +614,7 @@ impl Culler for HvCuller {
             raster_s: 0.0,
             pyramid_s: 0.0,
         };
-        if config.priming {
+        if config.priming.is_some() {
             // Last frame's visible nodes and moving objects still in view,
             // then the pyramid once over what they changed.
             prime_nodes.retain(|&i| frustum.test_aabb(&octree.nodes()[i as usize].bounds) != Containment::Outside);
@@ -762,7 +760,7 @@ impl Culler for HvCuller {
             }
         });
         self.last_visible.clone_from(&visible);
-        if self.config.priming {
+        if self.config.priming.is_some() {
             // Next frame's priming: the nodes drawn whose box is not behind
             // the final pyramid (the others' triangles own no sample now).
             let (pyramid, octree, nodes) = (&self.pyramid, &self.octree, &mut self.prime_nodes);
@@ -785,31 +783,29 @@ impl Culler for HvCuller {
             .config
             .count_zbuffer
             .then(|| self.zbuffer_comparisons(scene, &frustum, &viewport));
-        out.count("nodes_visited", stats.nodes_visited);
-        out.count("node_tests", stats.node_tests);
-        out.count("object_tests", stats.dynamic_tested);
-        out.count("tests_skipped", stats.tests_skipped);
-        out.count("objects_primed", stats.objects_primed);
-        out.count("nodes_primed", stats.nodes_primed);
-        out.count("node_box_tests", stats.node_box_tests);
-        out.count("nodes_occluded", stats.nodes_occluded);
-        out.count("nodes_drawn", stats.nodes_drawn);
-        out.count("dynamic_tested", stats.dynamic_tested);
-        out.count("dynamic_occluded", stats.dynamic_occluded);
-        out.count("triangles_submitted", stats.triangles_submitted);
-        out.count("triangles_occluded", raster.triangles_occluded);
-        out.count("triangles_rasterized", raster.triangles_rasterized);
-        out.count("sample_tests", raster.sample_tests);
-        out.count("samples_written", raster.samples_written);
-        out.count("tile_tests", raster.tile_tests);
-        out.count("tiles_skipped", raster.tiles_skipped);
-        out.count("pyramid_texel_tests", zstats.texels);
-        out.count("pyramid_texels_updated", stats.texels_updated);
-        out.count("depth_comparisons", raster.sample_tests + zstats.texels);
-        if let Some(z) = zbuffer {
-            out.count("zbuffer_depth_comparisons", z);
-        }
-        out.count("objects_passing", self.passed.iter().filter(|&&p| p).count() as u64);
+        out.stats.hv = Some(HvStats {
+            nodes_visited: stats.nodes_visited,
+            node_tests: stats.node_tests,
+            tests_skipped: stats.tests_skipped,
+            objects_primed: stats.objects_primed,
+            nodes_primed: stats.nodes_primed,
+            node_box_tests: stats.node_box_tests,
+            nodes_occluded: stats.nodes_occluded,
+            nodes_drawn: stats.nodes_drawn,
+            dynamic_tested: stats.dynamic_tested,
+            dynamic_occluded: stats.dynamic_occluded,
+            triangles_submitted: stats.triangles_submitted,
+            triangles_occluded: raster.triangles_occluded,
+            triangles_rasterized: raster.triangles_rasterized,
+            sample_tests: raster.sample_tests,
+            samples_written: raster.samples_written,
+            tile_tests: raster.tile_tests,
+            tiles_skipped: raster.tiles_skipped,
+            pyramid_texel_tests: zstats.texels,
+            pyramid_texels_updated: stats.texels_updated,
+            zbuffer_depth_comparisons: zbuffer,
+            objects_passing: self.passed.iter().filter(|&&p| p).count() as u64,
+        });
         Ok(())
     }
 }
@@ -854,12 +850,12 @@ mod tests {
         hv.cull(&scene, &camera.to_view(), &mut out).unwrap();
         assert_eq!(out.visible, vec![near]);
         assert_eq!(out.occluded, vec![far]);
-        let c = |name: &str| out.counters.iter().find(|c| c.0 == name).map(|c| c.1).unwrap();
-        assert_eq!(c("depth_comparisons"), c("sample_tests") + c("pyramid_texel_tests"));
+        let s = out.stats.hv.unwrap();
+        assert_eq!(s.depth_comparisons(), s.sample_tests + s.pyramid_texel_tests);
         // The near wall covers the whole 64x48 frame: every sample tested once by
         // it; the far wall is culled before any of its samples is tested.
-        assert_eq!(c("sample_tests"), 64 * 48);
-        assert!(c("zbuffer_depth_comparisons") > c("sample_tests"));
+        assert_eq!(s.sample_tests, 64 * 48);
+        assert!(s.zbuffer_depth_comparisons.unwrap() > s.sample_tests);
         assert!(hv.items().iter().all(|&i| i == near));
     }
 }

@@ -3,7 +3,7 @@
 //! hierarchical visibility algorithms" (Journal of Visualization and
 //! Computer Animation 13, 2002), section "Visibility Propagation" and its
 //! part "Temporal Coherence". The tree is [`crate::spatial::kdtree`]; the
-//! option is [`Hierarchy::KdTree`] beside the default BVH.
+//! option is [`super::Hierarchy::KdTree`] (experimental: [`crate::experimental::KdTree`]) beside the default BVH.
 //!
 //! The traversal is the BVH one's ([`super::traversal`]): front to back,
 //! hierarchy updating and conservative hierarchy updating as
@@ -60,7 +60,7 @@
 
 use super::coherence::{combine, mix, Step, TemporalState, Vis};
 use super::model_db::{Change, ModelDb};
-use super::traversal::{Traversal, TraversalStats, Visit};
+use super::traversal::{Traversal, TraversalCounts, Visit};
 use crate::geom::{Containment, Footprint, ScreenRect};
 use crate::scene::Scene;
 use crate::spatial::kdtree::{front_faces, KdNode, KdTree, NONE};
@@ -72,31 +72,6 @@ pub const P_VP: f32 = 0.5;
 
 /// Most nodes the constrained search below a partially visible neighbour visits.
 pub const DFS_BUDGET: usize = 32;
-
-/// The hierarchy the occluder cullers traverse (the model database's).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Hierarchy {
-    /// The BVH over object boxes, refit when objects move. The default.
-    #[default]
-    Bvh,
-    /// A kD-tree with ropes over the static objects' boxes (dynamic and
-    /// added objects tested one by one); with `propagation`, visibility
-    /// propagation through the ropes (see the module docs).
-    KdTree {
-        /// Try to classify nodes invisible from their neighbours before testing them.
-        propagation: bool,
-    },
-}
-
-impl std::fmt::Display for Hierarchy {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Hierarchy::Bvh => write!(f, "bvh"),
-            Hierarchy::KdTree { propagation: false } => write!(f, "kd"),
-            Hierarchy::KdTree { propagation: true } => write!(f, "kd-propagate"),
-        }
-    }
-}
 
 /// How a node was classified this frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -280,7 +255,7 @@ impl Traversal<'_> {
         is_occluded: impl FnMut(&ScreenRect) -> bool,
         visible: &mut Vec<u32>,
         occluded: &mut Vec<u32>,
-    ) -> TraversalStats {
+    ) -> TraversalCounts {
         let (scene, f) = (self.scene, self.frame);
         let KdModel {
             tree,
@@ -301,7 +276,7 @@ impl Traversal<'_> {
             is_occluded,
             visible,
             occluded,
-            stats: TraversalStats::default(),
+            stats: TraversalCounts::default(),
         };
         let c = &mut KdVisit { v, marks };
         let propagation = *propagation;

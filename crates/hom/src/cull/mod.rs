@@ -8,27 +8,32 @@
 //! compare cullers on equal terms.
 
 mod coherence;
+mod culler_buffers;
 mod frustum;
 mod governor;
-mod hom;
 mod hv;
-mod hzb;
-mod kd_traversal;
+pub(crate) mod kd_traversal;
 mod model_db;
-mod otree;
+mod occluder_culler;
 mod pvs;
+mod stats;
 mod traversal;
 
 pub use crate::occluders::OccluderConfig;
 pub use coherence::{Coherence, PSkip, AUTO_P_SKIP_MAX};
+pub use culler_buffers::{
+    DepthMode, HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, Opacity, OtreeConfig,
+    OtreeCuller, TreeOptions,
+};
 pub use frustum::{FrustumCuller, NoCuller};
 pub use governor::MAX_REST;
-pub use hom::{DepthMode, HomConfig, HomCuller, Opacity};
 pub use hv::{HvConfig, HvCuller, NO_OBJECT};
-pub use hzb::{HzbConfig, HzbCuller, ZDepth};
-pub use kd_traversal::{Hierarchy, DFS_BUDGET, P_VP};
-pub use otree::{OtreeConfig, OtreeCuller};
+pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
+pub use stats::{
+    CullStats, FrustumStats, HvStats, MapStats, MemoryStats, OccluderStats, OtreeStats, PropagationStats, PvsStats,
+    TraversalStats,
+};
 
 use crate::geom::{View, ViewError};
 use crate::scene::Scene;
@@ -56,8 +61,9 @@ pub struct CullOutput {
     pub occluders: Vec<u32>,
     /// Milliseconds per stage, in execution order.
     pub stages: Vec<(&'static str, f64)>,
-    /// Named counters (node tests, levels visited, …).
-    pub counters: Vec<(&'static str, u64)>,
+    /// What the culler did, by concern ([`CullStats::counters`] names them
+    /// for reports).
+    pub stats: CullStats,
 }
 
 impl CullOutput {
@@ -67,7 +73,7 @@ impl CullOutput {
         self.occluded.clear();
         self.occluders.clear();
         self.stages.clear();
-        self.counters.clear();
+        self.stats = CullStats::default();
     }
 
     /// Runs `f`, recording its wall time as stage `name`.
@@ -81,14 +87,6 @@ impl CullOutput {
     /// Total milliseconds over all stages.
     pub fn total_ms(&self) -> f64 {
         self.stages.iter().map(|s| s.1).sum()
-    }
-
-    /// Adds `n` to counter `name` (created at 0).
-    pub fn count(&mut self, name: &'static str, n: u64) {
-        match self.counters.iter_mut().find(|c| c.0 == name) {
-            Some(c) => c.1 += n,
-            None => self.counters.push((name, n)),
-        }
     }
 }
 

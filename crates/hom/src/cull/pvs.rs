@@ -12,7 +12,7 @@
 //! object whose occluders the sets rely on is still static and present
 //! (checked again whenever the scene's revision moves).
 
-use super::{CullError, CullOutput, Culler};
+use super::{CullError, CullOutput, Culler, PvsStats};
 use crate::geom::View;
 use crate::pvs::{Pvs, PvsError};
 use crate::scene::{Revision, Scene};
@@ -125,9 +125,11 @@ impl Culler for PvsCuller {
         }
         out.stages
             .push(("pvs", lookup_ms + start.elapsed().as_secs_f64() * 1e3));
-        out.count("pvs_served", cell.is_some() as u64);
-        out.count("pvs_hidden", self.hidden.len() as u64);
-        out.count("pvs_culled", culled);
+        out.stats.pvs = Some(PvsStats {
+            served: cell.is_some(),
+            hidden: self.hidden.len() as u64,
+            culled,
+        });
         Ok(())
     }
 

@@ -433,15 +433,8 @@ fn occluder_cuts_follow_the_scene_they_were_built_for() {
         cut.cull(&scene, &view, &mut b).expect("culled");
         wrong.cull(&scene, &view, &mut c).expect("culled");
         assert_eq!(a.visible, c.visible);
-        assert_eq!(
-            c.counters.iter().find(|(k, _)| *k == "occluder_cuts").map(|kv| kv.1),
-            Some(0)
-        );
-        cuts += b
-            .counters
-            .iter()
-            .find(|(k, _)| *k == "occluder_cuts")
-            .map_or(0, |kv| kv.1);
+        assert_eq!(c.stats.occluders.and_then(|o| o.cuts), Some(0));
+        cuts += b.stats.occluders.and_then(|o| o.cuts).unwrap_or(0);
     }
     assert!(cuts > 0, "no occluder was drawn as its cut");
 }
