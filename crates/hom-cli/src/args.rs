@@ -1,8 +1,9 @@
 //! The command line: every clap type, and nothing that runs.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hom::cull::{Coherence, DepthMode, Hierarchy, PSkip};
+use hom::cull::{Coherence, Hierarchy, PSkip};
 use hom::occluders::{OccluderMeshes, SelectionMode};
+use hom::occlusion::DepthMode;
 use hom_walk::cullers;
 use std::path::PathBuf;
 

@@ -3,8 +3,9 @@
 
 use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
-use hom::cull::{Coherence, Culler, Opacity};
+use hom::cull::{Coherence, Culler};
 use hom::experimental::HvPriming;
+use hom::occlusion::Opacity;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};

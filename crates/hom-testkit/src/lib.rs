@@ -108,7 +108,7 @@ pub fn permissive_occluders() -> OccluderDbConfig {
 /// the configuration the cullers' conservativeness tests share.
 pub fn permissive_hom(budget: u32) -> HomConfig {
     let mut hom = HomConfig {
-        occluders: hom::cull::OccluderConfig {
+        occluders: hom::occluders::OccluderConfig {
             occluder_db: permissive_occluders(),
             ..Default::default()
         },

@@ -1,9 +1,10 @@
 //! HOM in conservative mode never culls an object the oracle sees: random
 //! scenes and cameras, plus the adversarial cases named in the HOM issue.
 
-use hom::cull::{CullOutput, Culler, DepthMode, HomConfig, HomCuller, Opacity};
+use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
+use hom::occlusion::{DepthMode, Opacity};
 use hom::occlusion::{HomBuffer, MapOptions};
 use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};

@@ -50,7 +50,7 @@ use super::model_db::ModelDb;
 
 /// Largest `p_skip` the adaptive rule reaches: a node visible for a long time
 /// is still tested about every tenth frame.
-pub const AUTO_P_SKIP_MAX: f32 = 0.9;
+pub(crate) const AUTO_P_SKIP_MAX: f32 = 0.9;
 
 /// How much of last frame's classification the occlusion traversal reuses.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -11,8 +11,6 @@ use crate::occlusion::{
     DEFAULT_NODE_CAP,
 };
 
-pub use crate::occlusion::{DepthMode, Opacity};
-
 /// The hierarchical occlusion map culler (Zhang et al. 1997): per frame,
 /// select occluders → draw them into a [`HomBuffer`] (coverage, opacity
 /// pyramid, depth estimation buffer or single Z plane) → traverse the BVH

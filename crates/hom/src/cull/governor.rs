@@ -23,7 +23,7 @@
 
 /// Longest rest between probes, in frames: occlusion that appears while
 /// resting is found within this many frames.
-pub const MAX_REST: u32 = 16;
+pub(crate) const MAX_REST: u32 = 16;
 /// First rest after occlusion stopped paying, in frames. Short, because
 /// occlusion comes back quickly where a walk enters a room or turns a corner
 /// (office walk, masked, 200 frames: speedup 1.42 with 4, 1.52 with 2; 1.49

@@ -19,15 +19,12 @@ mod pvs;
 mod stats;
 mod traversal;
 
-pub use crate::occluders::OccluderConfig;
-pub use coherence::{Coherence, PSkip, AUTO_P_SKIP_MAX};
+pub use coherence::{Coherence, PSkip};
 pub use culler_buffers::{
-    DepthMode, HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, Opacity, OtreeConfig,
-    OtreeCuller, TreeOptions,
+    HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, OtreeConfig, OtreeCuller, TreeOptions,
 };
 pub use frustum::{FrustumCuller, NoCuller};
-pub use governor::MAX_REST;
-pub use hv::{HvConfig, HvCuller, NO_OBJECT};
+pub use hv::{HvConfig, HvCuller};
 pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
 pub use stats::{

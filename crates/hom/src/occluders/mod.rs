@@ -8,7 +8,7 @@ mod selection;
 mod virtual_occluder;
 
 pub(crate) use cuts::OccluderCuts;
-pub use database::{MeshBake, Occluder, OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
+pub use database::{Occluder, OccluderDb, OccluderDbConfig, OccluderMeshes, Verdict};
 pub(crate) use draw::draw_occluders;
 pub(crate) use selection::{ObjectBoxes, OccluderSelector, SelectionStats};
 pub use selection::{SelectionConfig, SelectionMode};

@@ -7,5 +7,5 @@ pub(crate) mod kdtree;
 mod octree;
 
 pub(crate) use bvh::{Bvh, BvhConfig};
-pub use kdtree::KdConfig;
+pub(crate) use kdtree::KdConfig;
 pub use octree::{Octree, OctreeConfig, OctreeNode, TriRef};
