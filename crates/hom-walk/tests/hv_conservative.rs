@@ -137,7 +137,7 @@ fn random_scenes_are_really_culled() {
         occluded += out.occluded.len();
         let s = hv_stats(&out);
         nodes_occluded += s.nodes_occluded;
-        hv_cmp += s.sample_tests;
+        hv_cmp += s.draw.sample_tests;
         zb_cmp += s.zbuffer_depth_comparisons.unwrap_or(0);
     }
     assert!(occluded > 100, "only {occluded} objects occluded");

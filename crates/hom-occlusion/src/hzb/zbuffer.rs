@@ -67,7 +67,7 @@ pub(crate) fn tri_min_depth(t: &Tri, x0: u32, y0: u32, x1: u32, y1: u32) -> f32 
 }
 
 /// What [`ZTarget::draw`] did.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ZDrawStats {
     /// Triangles whose rectangle the pyramid proved hidden.
     pub triangles_occluded: u64,

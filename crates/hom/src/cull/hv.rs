@@ -795,12 +795,7 @@ impl Culler for HvCuller {
             dynamic_tested: stats.dynamic_tested,
             dynamic_occluded: stats.dynamic_occluded,
             triangles_submitted: stats.triangles_submitted,
-            triangles_occluded: raster.triangles_occluded,
-            triangles_rasterized: raster.triangles_rasterized,
-            sample_tests: raster.sample_tests,
-            samples_written: raster.samples_written,
-            tile_tests: raster.tile_tests,
-            tiles_skipped: raster.tiles_skipped,
+            draw: raster,
             pyramid_texel_tests: zstats.texels,
             pyramid_texels_updated: stats.texels_updated,
             zbuffer_depth_comparisons: zbuffer,
@@ -851,11 +846,11 @@ mod tests {
         assert_eq!(out.visible, vec![near]);
         assert_eq!(out.occluded, vec![far]);
         let s = out.stats.hv.unwrap();
-        assert_eq!(s.depth_comparisons(), s.sample_tests + s.pyramid_texel_tests);
+        assert_eq!(s.depth_comparisons(), s.draw.sample_tests + s.pyramid_texel_tests);
         // The near wall covers the whole 64x48 frame: every sample tested once by
         // it; the far wall is culled before any of its samples is tested.
-        assert_eq!(s.sample_tests, 64 * 48);
-        assert!(s.zbuffer_depth_comparisons.unwrap() > s.sample_tests);
+        assert_eq!(s.draw.sample_tests, 64 * 48);
+        assert!(s.zbuffer_depth_comparisons.unwrap() > s.draw.sample_tests);
         assert!(hv.items().iter().all(|&i| i == near));
     }
 }

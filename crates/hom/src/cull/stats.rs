@@ -4,6 +4,8 @@
 //! frames that do that work; [`CullStats::counters`] is the one place that
 //! names each field, under the counter names reports have always used.
 
+use crate::occlusion::details::ZDrawStats;
+
 /// One frame's statistics, by concern; `None` (or `false`) where the
 /// culler did not do that work this frame.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -165,18 +167,10 @@ pub struct HvStats {
     pub dynamic_occluded: u64,
     /// Triangles submitted (`triangles_submitted`).
     pub triangles_submitted: u64,
-    /// Triangles whose rectangle the pyramid proved hidden (`triangles_occluded`).
-    pub triangles_occluded: u64,
-    /// Triangles scanned sample by sample (`triangles_rasterized`).
-    pub triangles_rasterized: u64,
-    /// Samples depth-tested (`sample_tests`).
-    pub sample_tests: u64,
-    /// Samples written: nearer, or a tie that changed the owner (`samples_written`).
-    pub samples_written: u64,
-    /// Tiles tested against the pyramid (`tile_tests`).
-    pub tile_tests: u64,
-    /// Tiles the pyramid proved hidden (`tiles_skipped`).
-    pub tiles_skipped: u64,
+    /// What drawing into the pyramid did (`triangles_occluded`,
+    /// `triangles_rasterized`, `sample_tests`, `samples_written`,
+    /// `tile_tests`, `tiles_skipped`).
+    pub draw: ZDrawStats,
     /// Pyramid texels read by box tests (`pyramid_texel_tests`).
     pub pyramid_texel_tests: u64,
     /// Pyramid texels updated (`pyramid_texels_updated`).
@@ -191,7 +185,7 @@ pub struct HvStats {
 impl HvStats {
     /// Sample tests plus pyramid texel tests (`depth_comparisons`).
     pub fn depth_comparisons(&self) -> u64 {
-        self.sample_tests + self.pyramid_texel_tests
+        self.draw.sample_tests + self.pyramid_texel_tests
     }
 }
 
@@ -306,12 +300,12 @@ impl CullStats {
                 ("dynamic_tested", h.dynamic_tested),
                 ("dynamic_occluded", h.dynamic_occluded),
                 ("triangles_submitted", h.triangles_submitted),
-                ("triangles_occluded", h.triangles_occluded),
-                ("triangles_rasterized", h.triangles_rasterized),
-                ("sample_tests", h.sample_tests),
-                ("samples_written", h.samples_written),
-                ("tile_tests", h.tile_tests),
-                ("tiles_skipped", h.tiles_skipped),
+                ("triangles_occluded", h.draw.triangles_occluded),
+                ("triangles_rasterized", h.draw.triangles_rasterized),
+                ("sample_tests", h.draw.sample_tests),
+                ("samples_written", h.draw.samples_written),
+                ("tile_tests", h.draw.tile_tests),
+                ("tiles_skipped", h.draw.tiles_skipped),
                 ("pyramid_texel_tests", h.pyramid_texel_tests),
                 ("pyramid_texels_updated", h.pyramid_texels_updated),
                 ("depth_comparisons", h.depth_comparisons()),
