@@ -28,8 +28,8 @@
 //! # Ok::<(), hom::occlusion::OcclusionError>(())
 //! ```
 //!
-//! `crates/hom/examples/engine_loop.rs` is the same as a whole game-style
-//! loop (`cargo run --release --example engine_loop -p hom`).
+//! `crates/hom-occlusion/examples/engine_loop.rs` is the same as a whole game-style
+//! loop (`cargo run --release --example engine_loop -p hom-occlusion`).
 //!
 //! For a whole scene, the [`cull`] module's cullers do the rest: an engine
 //! keeps a [`scene::Scene`] in step with its world (add, move with

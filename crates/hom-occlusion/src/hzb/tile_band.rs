@@ -123,7 +123,7 @@ impl Band {
 
     /// Draws the triangles `bin` (indices into `tris`) into this band's tiles,
     /// testing each tile with `kernel`. Inlined into each backend's entry
-    /// point (`simd_tiles::render_band`), which compiles it with its features.
+    /// point (`hzb/simd.rs`'s `render_band`), which compiles it with its features.
     #[inline(always)]
     pub(crate) fn render(
         &self,

@@ -496,7 +496,7 @@ mod tests {
                     Box::new(move |s, x| k.masks(s, x)),
                 ));
             } else {
-                eprintln!("simd_masked: this CPU has no AVX2; its kernels are untested here");
+                eprintln!("masked::simd: this CPU has no AVX2; its kernels are untested here");
             }
         }
         v
@@ -553,7 +553,7 @@ mod tests {
         #[cfg(not(target_arch = "x86_64"))]
         let avx2: Option<Scalar> = None;
         let Some(avx2) = avx2 else {
-            eprintln!("simd_masked: this CPU has no AVX2; its tile update is untested here");
+            eprintln!("masked::simd: this CPU has no AVX2; its tile update is untested here");
             return;
         };
         let mut rng = hom_testkit::Rng::new(77);

@@ -39,7 +39,7 @@ pub enum DepthMode {
     /// occluder's farthest depth over the cell where it covers the whole
     /// cell, gathered during the coverage raster (the default: from the
     /// samples themselves, so long occluders such as street facades do not
-    /// push depth far away; `raster/coverage.rs` states the bound).
+    /// push depth far away; `occlusion_map/depth_cells.rs` states the bound).
     Rasterized(u32, u32),
     /// The paper's depth estimation buffer (section 5.2.2): each occluder's
     /// (each `render_*` call's) screen rectangle written with its farthest depth.
