@@ -219,7 +219,9 @@ pub struct View {
     /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP; a Quake 3 map walks its spawn points).
     #[arg(long)]
     pub scene: String,
-    /// Camera path JSON file (default: the scene's own walkthrough).
+    /// Camera path JSON file (default: the scene's own walkthrough: a built-in
+    /// scene's walk, NAME.path.json beside a NAME.obj/.gltf/.glb file, a Quake 3
+    /// map's spawn points, else an orbit around the bounds).
     #[arg(long)]
     pub camera_path: Option<PathBuf>,
     /// Image width (default: the path's).
@@ -539,6 +541,14 @@ pub struct BenchArgs {
     /// Comma-separated built-in scene names or files (default: every built-in scene).
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Camera path JSON file to walk the one scene of --scenes along (default:
+    /// the scene's own walkthrough, as `hom walk`'s --camera-path says).
+    #[arg(long)]
+    pub camera_path: Option<PathBuf>,
+    /// HOM, HZB, masked, otree: occluder polygon budget L (triangles per frame;
+    /// default 1 % of the scene's triangles, within 3,000–20,000).
+    #[arg(long)]
+    pub budget: Option<u32>,
     /// Comma-separated cullers to compare (default: frustum,hom).
     #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
     pub cullers: Vec<String>,

@@ -464,3 +464,17 @@ fn a_closed_output_pipe_is_not_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(out.status.success(), "{:?}: {err}", out.status);
 }
+
+#[test]
+fn bench_camera_path_walks_one_scene() {
+    let o = hom(&[
+        "bench",
+        "--scenes",
+        "spheres,office",
+        "--camera-path",
+        "path.json",
+        "--frames",
+        "1",
+    ]);
+    assert_clean_failure(&o, "--camera-path walks one scene; 2 were given");
+}

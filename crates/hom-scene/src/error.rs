@@ -55,4 +55,8 @@ pub enum LoadError {
         /// Comma-separated known names.
         known: String,
     },
+    /// The camera path file that comes with the scene (`NAME.path.json`
+    /// beside `NAME.obj`) is unusable.
+    #[error(transparent)]
+    CameraPath(#[from] crate::CameraPathError),
 }

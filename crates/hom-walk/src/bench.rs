@@ -13,10 +13,11 @@ use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
 use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
-use hom_scene::{CameraPathError, LoadError};
+use hom_scene::{CameraPath, CameraPathError, LoadError};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+use std::path::PathBuf;
 use thiserror::Error;
 
 /// Name of the pseudo-row that renders only the oracle's visible set.
@@ -54,6 +55,11 @@ pub struct BenchOptions {
     pub cuts: Option<usize>,
     /// Whether HV primes its pyramid with last frame's visible nodes.
     pub hv_priming: bool,
+    /// The camera path file to walk instead of the scene's own (one scene only).
+    pub camera_path: Option<PathBuf>,
+    /// HOM's occluder polygon budget (triangles per frame) for every occluder
+    /// culler, instead of the scene's default.
+    pub budget: Option<u32>,
 }
 
 impl Default for BenchOptions {
@@ -71,6 +77,8 @@ impl Default for BenchOptions {
             speed: None,
             cuts: None,
             hv_priming: false,
+            camera_path: None,
+            budget: None,
         }
     }
 }
@@ -169,6 +177,9 @@ pub enum BenchError {
         /// The known names, comma-separated.
         known: String,
     },
+    /// A camera path file was given with several scenes: it belongs to one.
+    #[error("--camera-path walks one scene; {0} were given")]
+    CameraPathForSeveralScenes(usize),
     /// Nothing to do: no scenes, no cullers, or zero frames.
     #[error("nothing to bench: {0}")]
     Empty(&'static str),
@@ -214,6 +225,9 @@ pub struct BenchScene {
     pub height: u32,
     /// Frames walked per culler.
     pub frames: usize,
+    /// The camera path walked ([`crate::PathSource`]: `built-in walk`,
+    /// `spawn points`, `orbit`, or the path file).
+    pub path: String,
     /// Σ frustum-only frame time ÷ Σ oracle-visible-set render time, over the
     /// frames of every culler's walk of this scene.
     pub oracle_speedup: Option<f64>,
@@ -226,6 +240,8 @@ pub struct BenchRow {
     pub scene: String,
     /// Culler name, or [`ORACLE_ROW`].
     pub culler: String,
+    /// The camera path walked, as [`BenchScene::path`].
+    pub path: String,
     /// The traversal's coherence ([`coherence_label`]) when the bench was
     /// given modes and the culler takes one.
     pub coherence: Option<String>,
@@ -319,6 +335,9 @@ pub fn run_bench(
     if options.frames == Some(0) {
         return Err(BenchError::Empty("zero frames"));
     }
+    if options.camera_path.is_some() && scenes.len() > 1 {
+        return Err(BenchError::CameraPathForSeveralScenes(scenes.len()));
+    }
     let unknown = |name: &str| BenchError::UnknownCuller {
         name: name.to_string(),
         known: cullers::names(),
@@ -347,7 +366,20 @@ pub fn run_bench(
             scene: spec.to_string(),
             source,
         };
-        let (mut scene, mut path, animation) = crate::open_scene(spec).map_err(scene_error)?;
+        let crate::OpenedScene {
+            mut scene,
+            mut path,
+            animation,
+            mut path_source,
+        } = crate::open_walk(spec).map_err(scene_error)?;
+        if let Some(file) = &options.camera_path {
+            path = CameraPath::load(file).map_err(|source| BenchError::Path {
+                scene: spec.to_string(),
+                source,
+            })?;
+            path_source = crate::PathSource::File(file.clone());
+        }
+        let path_label = path_source.to_string();
         if let Some(w) = options.width {
             path.width = w;
         }
@@ -425,6 +457,9 @@ pub fn run_bench(
                 settings.hom.occluders.occluder_db.meshes = m;
             }
             settings.hom.cost_model = options.cost_model;
+            if let Some(b) = options.budget {
+                settings.hom.occluders.selection.budget = b;
+            }
             settings.hv.priming = options.hv_priming.then_some(HvPriming);
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
             let result = crate::walk(
@@ -447,9 +482,11 @@ pub fn run_bench(
         for (name, mode, w) in &walks {
             report
                 .rows
-                .push(culler_row(scene.name(), name, mode, w, oracle_speedup));
+                .push(culler_row(scene.name(), &path_label, name, mode, w, oracle_speedup));
         }
-        report.rows.push(oracle_row(&scene, &walks, oracle_speedup));
+        report
+            .rows
+            .push(oracle_row(&scene, &path_label, &walks, oracle_speedup));
         report.scenes.push(BenchScene {
             spec: spec.to_string(),
             name: scene.name().to_string(),
@@ -459,6 +496,7 @@ pub fn run_bench(
             width: path.width,
             height: path.height,
             frames: frame_count,
+            path: path_label,
             oracle_speedup,
         });
     }
@@ -527,12 +565,20 @@ fn propagation(s: &CullStats) -> Option<PropagationStats> {
     s.traversal.and_then(|t| t.propagation)
 }
 
-fn culler_row(scene: &str, culler: &str, mode: &Mode, w: &WalkResult, oracle_speedup: Option<f64>) -> BenchRow {
+fn culler_row(
+    scene: &str,
+    path: &str,
+    culler: &str,
+    mode: &Mode,
+    w: &WalkResult,
+    oracle_speedup: Option<f64>,
+) -> BenchRow {
     let s: &Summary = &w.summary;
     let [hierarchy, occluders, coherence] = mode.labels();
     BenchRow {
         scene: scene.to_string(),
         culler: culler.to_string(),
+        path: path.to_string(),
         coherence,
         hierarchy,
         occluders,
@@ -576,6 +622,7 @@ fn share(speedup: Option<f64>, oracle_speedup: Option<f64>) -> Option<f64> {
 /// The pseudo-row: render only what the oracle saw, with a perfect zero-cost culler.
 fn oracle_row(
     scene: &hom::scene::Scene,
+    path: &str,
     walks: &[(String, Mode, WalkResult)],
     oracle_speedup: Option<f64>,
 ) -> BenchRow {
@@ -611,6 +658,7 @@ fn oracle_row(
     BenchRow {
         scene: scene.name().to_string(),
         culler: ORACLE_ROW.to_string(),
+        path: path.to_string(),
         coherence: None,
         hierarchy: None,
         occluders: None,
@@ -662,8 +710,8 @@ impl BenchReport {
         for sc in &self.scenes {
             let _ = writeln!(
                 s,
-                "scene {}: {} objects, {} triangles ({} dynamic), {}x{}, {} frames",
-                sc.name, sc.objects, sc.triangles, sc.dynamic_objects, sc.width, sc.height, sc.frames
+                "scene {}: {} objects, {} triangles ({} dynamic), {}x{}, {} frames, path {}",
+                sc.name, sc.objects, sc.triangles, sc.dynamic_objects, sc.width, sc.height, sc.frames, sc.path
             );
         }
         let _ = writeln!(

@@ -35,34 +35,101 @@ pub use walk::{walk, WalkError, WalkOptions, WalkResult};
 
 use hom::scene::Scene;
 use hom_scene::{Animation, CameraPath, LoadError};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Where a walk's camera path came from, as the bench names it (its `path`
+/// field).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum PathSource {
+    /// A built-in scene's own walk.
+    Builtin,
+    /// A Quake 3 map's walk from spawn point to spawn point.
+    SpawnPoints,
+    /// A camera path file: `NAME.path.json` beside the scene file
+    /// ([`path_file_of`]), or one given with `--camera-path`.
+    File(PathBuf),
+    /// An orbit around the bounds: a scene file with no path of its own.
+    Orbit,
+}
+
+impl std::fmt::Display for PathSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PathSource::Builtin => f.write_str("built-in walk"),
+            PathSource::SpawnPoints => f.write_str("spawn points"),
+            PathSource::File(p) => write!(f, "{}", p.display()),
+            PathSource::Orbit => f.write_str("orbit"),
+        }
+    }
+}
+
+/// A scene opened to be walked: [`open_walk`]'s answer.
+pub struct OpenedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Its default camera path.
+    pub path: CameraPath,
+    /// How its objects move (files do not move).
+    pub animation: Animation,
+    /// Where `path` came from.
+    pub path_source: PathSource,
+}
+
+/// The camera path file that comes with a scene file: `DIR/NAME.path.json`
+/// for `DIR/NAME.EXT`.
+pub fn path_file_of(scene_file: &Path) -> PathBuf {
+    scene_file.with_extension("path.json")
+}
 
 /// A scene, the camera path to walk it and how its objects move: a built-in
 /// scene name or a file (files do not move).
 ///
-/// Files get their own walkthrough where they have one (a Quake 3 map: spawn to
-/// spawn, see [`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3),
-/// else [`CameraPath::orbit`] around their bounds.
-pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath, Animation), LoadError> {
+/// Files get their own walkthrough where they have one: an OBJ or glTF file
+/// `DIR/NAME.EXT` the path in `DIR/NAME.path.json` beside it ([`path_file_of`];
+/// an unusable one is an error, not skipped), a Quake 3 map its spawn-to-spawn
+/// walk ([`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3);
+/// any other file an orbit around its bounds ([`CameraPath::orbit`]).
+pub fn open_walk(spec: &str) -> Result<OpenedScene, LoadError> {
     let builtins = || hom_scene::BUILTIN_SCENES.iter().chain(hom_scene::SCALE_SCENES);
     if builtins().any(|(n, _)| *n == spec) {
         let b = hom_scene::builtin(spec)?;
-        return Ok((b.scene, b.path, b.animation));
+        return Ok(OpenedScene {
+            scene: b.scene,
+            path: b.path,
+            animation: b.animation,
+            path_source: PathSource::Builtin,
+        });
     }
-    let path = Path::new(spec);
-    if !hom_scene::split_map_spec(path).0.exists() {
+    let file = Path::new(spec);
+    if !hom_scene::split_map_spec(file).0.exists() {
         let known: Vec<&str> = builtins().map(|(n, _)| *n).collect();
         return Err(LoadError::UnknownBuiltin {
             name: spec.to_string(),
             known: known.join(", "),
         });
     }
-    let loaded = hom_scene::load_with_path(path)?;
-    let walk = match loaded.path {
-        Some(p) => p,
-        None => CameraPath::orbit(&loaded.scene.bounds(), 120),
+    let loaded = hom_scene::load_with_path(file)?;
+    let beside = path_file_of(file);
+    let mesh_file = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| ["obj", "gltf", "glb"].contains(&e.to_ascii_lowercase().as_str()));
+    let (path, path_source) = match loaded.path {
+        Some(p) => (p, PathSource::SpawnPoints),
+        None if mesh_file && beside.exists() => (CameraPath::load(&beside)?, PathSource::File(beside)),
+        None => (CameraPath::orbit(&loaded.scene.bounds(), 120), PathSource::Orbit),
     };
-    Ok((loaded.scene, walk, Animation::none()))
+    Ok(OpenedScene {
+        scene: loaded.scene,
+        path,
+        animation: Animation::none(),
+        path_source,
+    })
+}
+
+/// [`open_walk`] as a tuple, for the callers that need no [`PathSource`].
+pub fn open_scene(spec: &str) -> Result<(Scene, CameraPath, Animation), LoadError> {
+    open_walk(spec).map(|o| (o.scene, o.path, o.animation))
 }
 
 /// The README's Rust examples, compiled as doc tests.

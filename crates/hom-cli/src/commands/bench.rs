@@ -30,6 +30,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
         hv_priming: a.hv_priming,
         speed: a.speed,
         cuts: a.cuts,
+        camera_path: a.camera_path.clone(),
+        budget: a.budget,
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());
