@@ -2,6 +2,8 @@
 //! default walk in `hom walk`, `hom render` and `hom bench`, and the bench's
 //! rows say which path they walked.
 
+use hom::glam::{Mat4, Vec3};
+use hom::scene::SceneBuilder;
 use hom_walk::bench::{run_bench, BenchError, BenchOptions};
 use hom_walk::{open_walk, path_file_of, PathSource};
 use std::path::{Path, PathBuf};
@@ -16,26 +18,13 @@ fn scratch(test: &str) -> PathBuf {
 
 /// Two unit cubes side by side, as OBJ.
 fn write_cubes(file: &Path) {
-    let mut obj = String::new();
-    for (o, x) in [0.0f32, 3.0].iter().enumerate() {
-        obj += &format!("o cube{o}\n");
-        for v in 0..8 {
-            let (dx, dy, dz) = ((v & 1) as f32, ((v >> 1) & 1) as f32, ((v >> 2) & 1) as f32);
-            obj += &format!("v {} {dy} {dz}\n", x + dx);
-        }
-        let b = 8 * o + 1;
-        for f in [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ] {
-            obj += &format!("f {} {} {} {}\n", b + f[0], b + f[1], b + f[2], b + f[3]);
-        }
+    let mut b = SceneBuilder::new("cubes");
+    let cube = b.add_mesh(hom_testkit::cube());
+    for (o, x) in [0.0f32, 3.0].into_iter().enumerate() {
+        b.add_object(format!("cube{o}"), cube, Mat4::from_translation(Vec3::new(x, 0.0, 0.0)))
+            .unwrap();
     }
-    std::fs::write(file, obj).unwrap();
+    hom_scene::export::write_obj(&b.build().unwrap(), file).unwrap();
 }
 
 /// A path of `n` frames looking at the cubes from in front.
