@@ -4,7 +4,7 @@
 //! and of their settings, and each one's diagnostic accessors.
 
 use super::occluder_culler::{CullerBuffer, OccluderCuller, OccluderCullerConfig};
-use super::{CullStats, MapStats, OtreeStats};
+use super::CullStats;
 use crate::occlusion::details::{find_worst_hole, worst_hole_of_coverage, Hole, Pyramid, TiledZBuffer};
 use crate::occlusion::{
     BufferOptions, HomBuffer, HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer, OcclusionError, OcclusionTree,
@@ -32,7 +32,7 @@ use crate::occlusion::{
 /// the camera the culler was given; occluder stand-in meshes that are not
 /// contained in the object they stand for; and transparent occluders.
 ///
-/// Statistics besides the shared ones: [`super::MapStats`] (the overlap
+/// Statistics besides the shared ones: [`crate::occlusion::details::OverlapStats`] (the overlap
 /// tests' work).
 pub type HomCuller = OccluderCuller<HomBuffer>;
 
@@ -111,7 +111,7 @@ pub type MaskedConfig = OccluderCullerConfig<()>;
 /// *in* leaves' triangles, [`OcclusionTree::coverage_bits`]) and searched
 /// ([`crate::occlusion::details::worst_hole_of_coverage`]).
 ///
-/// Statistics besides the shared ones: [`super::OtreeStats`], the tree's
+/// Statistics besides the shared ones: [`crate::occlusion::TreeStats`], the tree's
 /// size, the out leaves left out at the node cap, and the tests' classes.
 pub type OtreeCuller = OccluderCuller<OcclusionTree>;
 
@@ -165,11 +165,7 @@ impl CullerBuffer for HomBuffer {
     }
 
     fn frame_stats(&self, stats: &mut CullStats) {
-        let overlap = self.overlap_stats();
-        stats.map = Some(MapStats {
-            overlap_pixels: overlap.pixels,
-            levels_visited: overlap.levels,
-        });
+        stats.map = Some(self.overlap_stats());
     }
 }
 
@@ -235,15 +231,7 @@ impl CullerBuffer for OcclusionTree {
     }
 
     fn frame_stats(&self, stats: &mut CullStats) {
-        let s = self.last_tree_stats();
-        stats.otree = Some(OtreeStats {
-            nodes: s.nodes,
-            in_leaves: s.in_leaves,
-            dropped: s.leaves_dropped,
-            visible: s.visible,
-            partial: s.partial,
-            invisible: s.invisible,
-        });
+        stats.otree = Some(self.last_tree_stats());
     }
 }
 

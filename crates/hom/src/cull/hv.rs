@@ -209,25 +209,6 @@ enum Walk {
     Leave(u32),
 }
 
-/// Work counts of one frame.
-#[derive(Clone, Copy, Debug, Default)]
-struct Stats {
-    nodes_visited: u64,
-    /// Nodes classified by a test: outside the frustum, or against the pyramid.
-    node_tests: u64,
-    /// Nodes in view whose pyramid test coherence skipped.
-    tests_skipped: u64,
-    objects_primed: u64,
-    nodes_primed: u64,
-    node_box_tests: u64,
-    nodes_occluded: u64,
-    nodes_drawn: u64,
-    triangles_submitted: u64,
-    texels_updated: u64,
-    dynamic_tested: u64,
-    dynamic_occluded: u64,
-}
-
 /// Covered samples of a set-up triangle.
 fn covered_samples(t: &Tri) -> u64 {
     (u32::from(t.y0)..u32::from(t.y1))
@@ -245,7 +226,8 @@ struct Drawing<'a> {
     z: ZTarget<'a>,
     passed: &'a mut [bool],
     tris: &'a mut Vec<Tri>,
-    stats: Stats,
+    /// The frame's counts; the z-buffer's and the pyramid tests' are in `z`.
+    stats: HvStats,
     raster_s: f64,
     pyramid_s: f64,
 }
@@ -260,7 +242,7 @@ impl Drawing<'_> {
         let mid = Instant::now();
         self.raster_s += (mid - start).as_secs_f64();
         let d = std::mem::replace(&mut self.z.dirty, Dirty::NONE);
-        self.stats.texels_updated += self.z.pyramid.update_rect(d.x0, d.y0, d.x1, d.y1);
+        self.stats.pyramid_texels_updated += self.z.pyramid.update_rect(d.x0, d.y0, d.x1, d.y1);
         self.pyramid_s += mid.elapsed().as_secs_f64();
     }
 
@@ -610,7 +592,7 @@ impl Culler for HvCuller {
             },
             passed,
             tris,
-            stats: Stats::default(),
+            stats: HvStats::default(),
             raster_s: 0.0,
             pyramid_s: 0.0,
         };
@@ -784,22 +766,11 @@ impl Culler for HvCuller {
             .count_zbuffer
             .then(|| self.zbuffer_comparisons(scene, &frustum, &viewport));
         out.stats.hv = Some(HvStats {
-            nodes_visited: stats.nodes_visited,
-            node_tests: stats.node_tests,
-            tests_skipped: stats.tests_skipped,
-            objects_primed: stats.objects_primed,
-            nodes_primed: stats.nodes_primed,
-            node_box_tests: stats.node_box_tests,
-            nodes_occluded: stats.nodes_occluded,
-            nodes_drawn: stats.nodes_drawn,
-            dynamic_tested: stats.dynamic_tested,
-            dynamic_occluded: stats.dynamic_occluded,
-            triangles_submitted: stats.triangles_submitted,
             draw: raster,
             pyramid_texel_tests: zstats.texels,
-            pyramid_texels_updated: stats.texels_updated,
             zbuffer_depth_comparisons: zbuffer,
             objects_passing: self.passed.iter().filter(|&&p| p).count() as u64,
+            ..stats
         });
         Ok(())
     }

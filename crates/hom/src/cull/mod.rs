@@ -28,8 +28,7 @@ pub use hv::{HvConfig, HvCuller};
 pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
 pub use stats::{
-    CullStats, FrustumStats, HvStats, MapStats, MemoryStats, OccluderStats, OtreeStats, PropagationStats, PvsStats,
-    TraversalStats,
+    CullStats, FrustumStats, HvStats, MemoryStats, OccluderStats, PropagationStats, PvsStats, TraversalStats,
 };
 
 use crate::geom::{View, ViewError};

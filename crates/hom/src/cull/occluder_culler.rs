@@ -273,6 +273,7 @@ fn sized<'a, B: OcclusionBuffer>(
     }
     slot.as_mut().expect("made above")
 }
+
 /// The representation-independent state of an occluder-based culler.
 pub(crate) struct OccluderCulling {
     model: ModelDb,

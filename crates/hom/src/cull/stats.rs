@@ -4,7 +4,8 @@
 //! frames that do that work; [`CullStats::counters`] is the one place that
 //! names each field, under the counter names reports have always used.
 
-use crate::occlusion::details::ZDrawStats;
+use crate::occlusion::details::{OverlapStats, ZDrawStats};
+use crate::occlusion::TreeStats;
 
 /// One frame's statistics, by concern; `None` (or `false`) where the
 /// culler did not do that work this frame.
@@ -21,10 +22,13 @@ pub struct CullStats {
     pub occluders: Option<OccluderStats>,
     /// An occluder culler's memory.
     pub memory: Option<MemoryStats>,
-    /// HOM's overlap tests against the occlusion map.
-    pub map: Option<MapStats>,
-    /// The occlusion tree's size and its tests' classes.
-    pub otree: Option<OtreeStats>,
+    /// HOM's overlap tests against the occlusion map (`overlap_pixels`,
+    /// `levels_visited`).
+    pub map: Option<OverlapStats>,
+    /// The occlusion tree's size and its tests' classes (`otree_nodes`,
+    /// `otree_in_leaves`, `otree_dropped`, `otree_visible`, `otree_partial`,
+    /// `otree_invisible`; its triangles inserted are not reported).
+    pub otree: Option<TreeStats>,
     /// Hierarchical visibility's ([`super::HvCuller`]).
     pub hv: Option<HvStats>,
     /// A precomputed visibility set in front of a culler ([`super::PvsCuller`]).
@@ -112,32 +116,6 @@ pub struct MemoryStats {
     pub temporal_bytes: u64,
     /// The culler's own state, the buffer excluded (`state_bytes`).
     pub state_bytes: u64,
-}
-
-/// HOM's overlap tests against the occlusion pyramid.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct MapStats {
-    /// Pyramid pixels examined (`overlap_pixels`).
-    pub overlap_pixels: u64,
-    /// Level visits (`levels_visited`).
-    pub levels_visited: u64,
-}
-
-/// The occlusion tree's size and what its tests found.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct OtreeStats {
-    /// Nodes of the tree (`otree_nodes`).
-    pub nodes: u64,
-    /// Of those, *in* leaves (`otree_in_leaves`).
-    pub in_leaves: u64,
-    /// Leaves left out at the node cap (`otree_dropped`).
-    pub dropped: u64,
-    /// Tests that reached an unhidden leaf first (`otree_visible`).
-    pub visible: u64,
-    /// Tests that reached a hidden leaf, then an unhidden one (`otree_partial`).
-    pub partial: u64,
-    /// Tests hidden in every leaf they reached (`otree_invisible`).
-    pub invisible: u64,
 }
 
 /// Hierarchical visibility's work in one frame.
@@ -230,18 +208,6 @@ impl CullStats {
         if self.rested {
             c.push(("rested", 1));
         }
-        if let Some(o) = &self.occluders {
-            if let Some(cuts) = o.cuts {
-                c.push(("occluder_cuts", cuts));
-            }
-            c.extend([
-                ("occluder_triangles_drawn", o.triangles_drawn),
-                ("occluder_setup_us", o.setup_us),
-                ("occluder_raster_us", o.raster_us),
-                ("occluder_tiles_drawn", o.tiles_drawn),
-                ("occluder_tiles_rejected", o.tiles_rejected),
-            ]);
-        }
         if let Some(t) = &self.traversal {
             c.extend([
                 ("box_tests", t.box_tests()),
@@ -257,6 +223,9 @@ impl CullStats {
             }
         }
         if let Some(o) = &self.occluders {
+            if let Some(cuts) = o.cuts {
+                c.push(("occluder_cuts", cuts));
+            }
             c.extend([
                 ("occluders", o.selected),
                 ("occluder_triangles", o.triangles),
@@ -265,22 +234,24 @@ impl CullStats {
                 ("occluder_originals", o.originals),
                 ("budget", o.budget),
                 ("candidates", o.candidates),
+                ("occluder_triangles_drawn", o.triangles_drawn),
+                ("occluder_setup_us", o.setup_us),
+                ("occluder_raster_us", o.raster_us),
+                ("occluder_tiles_drawn", o.tiles_drawn),
+                ("occluder_tiles_rejected", o.tiles_rejected),
             ]);
         }
         if let Some(m) = &self.memory {
             c.extend([("temporal_bytes", m.temporal_bytes), ("state_bytes", m.state_bytes)]);
         }
         if let Some(m) = &self.map {
-            c.extend([
-                ("overlap_pixels", m.overlap_pixels),
-                ("levels_visited", m.levels_visited),
-            ]);
+            c.extend([("overlap_pixels", m.pixels), ("levels_visited", m.levels)]);
         }
         if let Some(t) = &self.otree {
             c.extend([
                 ("otree_nodes", t.nodes),
                 ("otree_in_leaves", t.in_leaves),
-                ("otree_dropped", t.dropped),
+                ("otree_dropped", t.leaves_dropped),
                 ("otree_visible", t.visible),
                 ("otree_partial", t.partial),
                 ("otree_invisible", t.invisible),
@@ -343,8 +314,8 @@ mod tests {
                 ..OccluderStats::default()
             }),
             memory: Some(MemoryStats::default()),
-            map: Some(MapStats::default()),
-            otree: Some(OtreeStats::default()),
+            map: Some(OverlapStats::default()),
+            otree: Some(TreeStats::default()),
             pvs: Some(PvsStats::default()),
             ..CullStats::default()
         };
