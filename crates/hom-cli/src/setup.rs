@@ -31,10 +31,16 @@ impl Walkthrough {
 
 /// The scene and the path to walk, with the viewport overridden where asked.
 pub fn open(view: &View) -> Result<Walkthrough> {
-    let (scene, mut path, animation) = hom_walk::open_scene(&view.scene)?;
+    let mut opened = hom_walk::open_walk(&view.scene)?;
     if let Some(file) = &view.camera_path {
-        path = CameraPath::load(file)?;
+        opened = opened.along(file)?;
     }
+    let hom_walk::OpenedScene {
+        scene,
+        mut path,
+        animation,
+        ..
+    } = opened;
     adjust_path(view, &mut path);
     path.validate(&view.scene)?;
     Ok(Walkthrough { scene, path, animation })

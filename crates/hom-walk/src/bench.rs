@@ -13,7 +13,7 @@ use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
 use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
-use hom_scene::{CameraPath, CameraPathError, LoadError};
+use hom_scene::{CameraPathError, LoadError};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -366,19 +366,19 @@ pub fn run_bench(
             scene: spec.to_string(),
             source,
         };
+        let mut opened = crate::open_walk(spec).map_err(scene_error)?;
+        if let Some(file) = &options.camera_path {
+            opened = opened.along(file).map_err(|source| BenchError::Path {
+                scene: spec.to_string(),
+                source,
+            })?;
+        }
         let crate::OpenedScene {
             mut scene,
             mut path,
             animation,
-            mut path_source,
-        } = crate::open_walk(spec).map_err(scene_error)?;
-        if let Some(file) = &options.camera_path {
-            path = CameraPath::load(file).map_err(|source| BenchError::Path {
-                scene: spec.to_string(),
-                source,
-            })?;
-            path_source = crate::PathSource::File(file.clone());
-        }
+            path_source,
+        } = opened;
         let path_label = path_source.to_string();
         if let Some(w) = options.width {
             path.width = w;

@@ -34,7 +34,7 @@ pub use walk::summarize;
 pub use walk::{walk, WalkError, WalkOptions, WalkResult};
 
 use hom::scene::Scene;
-use hom_scene::{Animation, CameraPath, LoadError};
+use hom_scene::{Animation, CameraPath, CameraPathError, LoadError};
 use std::path::{Path, PathBuf};
 
 /// Where a walk's camera path came from, as the bench names it (its `path`
@@ -73,6 +73,16 @@ pub struct OpenedScene {
     pub animation: Animation,
     /// Where `path` came from.
     pub path_source: PathSource,
+}
+
+impl OpenedScene {
+    /// The same scene walked along the camera path in `file` instead of its
+    /// own (`--camera-path`).
+    pub fn along(mut self, file: &Path) -> Result<OpenedScene, CameraPathError> {
+        self.path = CameraPath::load(file)?;
+        self.path_source = PathSource::File(file.to_path_buf());
+        Ok(self)
+    }
 }
 
 /// The camera path file that comes with a scene file: `DIR/NAME.path.json`
