@@ -220,6 +220,97 @@ pub trait OcclusionBuffer {
 
     /// What the buffer did since the last clear.
     fn stats(&self) -> BufferStats;
+
+    /// Draws what is queued, then lends the buffer for tests through `&self`:
+    /// a [`SharedBuffer`] is `Copy`, `Send` and `Sync`, so an engine's job
+    /// threads can test their objects at once (as Masked Occlusion Culling's
+    /// `TestRect` allows). Its answers equal this buffer's `test_*` answers;
+    /// they are not counted in [`OcclusionBuffer::stats`]. The borrow ends
+    /// before the next draw.
+    fn share(&mut self) -> SharedBuffer<'_>;
+}
+
+/// A drawn buffer lent for tests through `&self` ([`OcclusionBuffer::share`]).
+///
+/// ```
+/// use hom_occlusion::{BufferOptions, FaceCull, MaskedBuffer, OcclusionBuffer, Sampling, Visibility};
+/// use hom_occlusion::glam::{Mat4, Vec2, Vec3};
+///
+/// // Exact sampling: the wall's two triangles leave no sample between them.
+/// let options = BufferOptions { sampling: Sampling::Exact, ..BufferOptions::default() };
+/// let mut buffer = MaskedBuffer::new(64, 64, options)?;
+/// // A wall across the whole view at depth 0.5 (clip space: the identity).
+/// let wall = [Vec3::new(-2.0, -2.0, 0.5), Vec3::new(2.0, -2.0, 0.5), Vec3::new(2.0, 2.0, 0.5), Vec3::new(-2.0, 2.0, 0.5)];
+/// buffer.render_triangles(&wall, &[[0, 1, 2], [0, 2, 3]], &Mat4::IDENTITY, FaceCull::None)?;
+/// let shared = buffer.share();
+/// let answers: Vec<Visibility> = std::thread::scope(|s| {
+///     let jobs: Vec<_> = [0.3f32, 0.7]
+///         .map(|z| s.spawn(move || shared.test_rect(Vec2::splat(-0.5), Vec2::splat(0.5), z)))
+///         .into_iter()
+///         .collect();
+///     jobs.into_iter().map(|j| j.join().unwrap()).collect()
+/// });
+/// assert_eq!(answers, [Visibility::Visible, Visibility::Occluded]);
+/// # Ok::<(), hom_occlusion::OcclusionError>(())
+/// ```
+#[derive(Clone, Copy)]
+pub struct SharedBuffer<'a> {
+    buffer: &'a (dyn SharedTest + Sync),
+}
+
+impl std::fmt::Debug for SharedBuffer<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let front = self.buffer.front();
+        f.debug_struct("SharedBuffer")
+            .field("width", &front.width)
+            .field("height", &front.height)
+            .finish()
+    }
+}
+
+impl SharedBuffer<'_> {
+    /// [`OcclusionBuffer::test_aabb`] through `&self`.
+    pub fn test_aabb(&self, aabb: &Aabb, model_to_clip: &Mat4) -> Visibility {
+        self.decide(self.buffer.front().place_aabb(aabb, model_to_clip))
+    }
+
+    /// [`OcclusionBuffer::test_obb`] through `&self`.
+    pub fn test_obb(&self, obb: &Obb, model_to_clip: &Mat4) -> Visibility {
+        self.decide(self.buffer.front().place_obb(obb, model_to_clip))
+    }
+
+    /// [`OcclusionBuffer::test_rect`] through `&self`.
+    pub fn test_rect(&self, min: Vec2, max: Vec2, nearest_depth: f32) -> Visibility {
+        self.decide(self.buffer.front().place_rect(min, max, nearest_depth))
+    }
+
+    /// Whether every sample of `r` is hidden ([`RectTest::rect_is_occluded`] through `&self`).
+    pub fn rect_is_occluded(&self, r: &ScreenRect) -> bool {
+        r.is_empty() || self.buffer.is_behind_shared(r)
+    }
+
+    fn decide(&self, p: Placement) -> Visibility {
+        match p {
+            Placement::ViewCulled => Visibility::ViewCulled,
+            Placement::Visible => Visibility::Visible,
+            Placement::Rect(r) if self.rect_is_occluded(&r) => Visibility::Occluded,
+            Placement::Rect(_) => Visibility::Visible,
+        }
+    }
+}
+
+impl<'a> SharedBuffer<'a> {
+    /// Lends `buffer`, drawn.
+    pub(crate) fn new(buffer: &'a (dyn SharedTest + Sync)) -> SharedBuffer<'a> {
+        SharedBuffer { buffer }
+    }
+}
+
+/// What a drawn buffer lends a [`SharedBuffer`]: its placement and its
+/// rectangle test through `&self` (the buffers' own `is_behind_shared`).
+pub(crate) trait SharedTest {
+    fn front(&self) -> &Front;
+    fn is_behind_shared(&self, r: &ScreenRect) -> bool;
 }
 
 /// Depth margin (clip z / w): an occludee must be this much farther than the
@@ -564,6 +655,21 @@ macro_rules! occlusion_buffer {
 
             fn stats(&self) -> $crate::BufferStats {
                 self.front.stats
+            }
+
+            fn share(&mut self) -> $crate::SharedBuffer<'_> {
+                <Self as $crate::OcclusionBuffer>::flush(self);
+                $crate::SharedBuffer::new(self)
+            }
+        }
+
+        impl $crate::buffer::SharedTest for $buffer {
+            fn front(&self) -> &$crate::Front {
+                &self.front
+            }
+
+            fn is_behind_shared(&self, r: &$crate::geom::ScreenRect) -> bool {
+                <$buffer>::is_behind_shared(self, r)
             }
         }
 

@@ -678,6 +678,25 @@ impl OcclusionTree {
     /// The constrained depth-first search of the module docs: whether every
     /// sample of `r` is hidden.
     fn is_behind(&mut self, r: &ScreenRect) -> bool {
+        let (mut stack, mut spans, mut tree) = (
+            std::mem::take(&mut self.stack),
+            std::mem::take(&mut self.spans),
+            self.tree,
+        );
+        let behind = self.search(r, &mut stack, &mut spans, &mut tree);
+        (self.stack, self.spans, self.tree) = (stack, spans, tree);
+        behind
+    }
+
+    /// [`Self::is_behind`] through `&self` ([`crate::SharedBuffer`]): the
+    /// same answer, with scratch of its own, its outcome not counted.
+    fn is_behind_shared(&self, r: &ScreenRect) -> bool {
+        self.search(r, &mut Vec::new(), &mut Vec::new(), &mut TreeStats::default())
+    }
+
+    /// The search of [`Self::is_behind`] with the scratch `stack` and
+    /// `spans`, counting its outcome in `tree`.
+    fn search(&self, r: &ScreenRect, stack: &mut Vec<Step>, spans: &mut Vec<Span>, tree: &mut TreeStats) -> bool {
         let (w, h) = (self.front.width, self.front.height);
         let bx = SampleBox {
             x0: r.x0,
@@ -690,18 +709,18 @@ impl OcclusionTree {
         }
         let z = r.z_near;
         let mut hidden_some = false;
-        self.stack.clear();
-        self.spans.clear();
-        self.spans.extend((bx.y0..bx.y1).map(|_| [bx.x0, bx.x1]));
-        self.stack.push(Step {
+        stack.clear();
+        spans.clear();
+        spans.extend((bx.y0..bx.y1).map(|_| [bx.x0, bx.x1]));
+        stack.push(Step {
             node: 0,
             bx,
             off: 0,
             path_len: 0,
             constraint: None,
         });
-        while let Some(s) = self.stack.pop() {
-            self.spans.truncate(s.end());
+        while let Some(s) = stack.pop() {
+            spans.truncate(s.end());
             let seen = match self.nodes[s.node as usize] {
                 Node::Out => true,
                 Node::In(t) => {
@@ -733,10 +752,10 @@ impl OcclusionTree {
                 } => {
                     // Only sides holding samples of the rectangle; the outside
                     // pushed last, on the stack's top: out leaves end the search.
-                    let sides = split_region(&mut self.spans, &s, line);
+                    let sides = split_region(spans, &s, line);
                     for (side, child) in sides.into_iter().zip([inside, outside]) {
                         if let Some((bx, off)) = side {
-                            self.stack.push(Step {
+                            stack.push(Step {
                                 node: child,
                                 bx,
                                 off,
@@ -750,15 +769,15 @@ impl OcclusionTree {
             };
             if seen {
                 if hidden_some {
-                    self.tree.partial += 1;
+                    tree.partial += 1;
                 } else {
-                    self.tree.visible += 1;
+                    tree.visible += 1;
                 }
                 return false;
             }
             hidden_some = true;
         }
-        self.tree.invisible += 1;
+        tree.invisible += 1;
         true
     }
 }

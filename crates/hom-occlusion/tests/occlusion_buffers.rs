@@ -723,3 +723,67 @@ fn stand_in_triangles_are_sampled_conservatively_in_every_buffer() {
         + check(|o| Box::new(OcclusionTree::new(61, 43, o).unwrap()));
     assert!(differs > 0);
 }
+
+/// The world's boxes answered through [`OcclusionBuffer::share`] by `threads`
+/// threads at once, each taking every `threads`-th box, in the boxes' order.
+fn shared_answers(buf: &mut impl OcclusionBuffer, w: &World, view_proj: &Mat4, threads: usize) -> Vec<Visibility> {
+    let shared = buf.share();
+    let mut out = vec![Visibility::Visible; w.boxes.len()];
+    std::thread::scope(|s| {
+        let jobs: Vec<_> = (0..threads)
+            .map(|k| {
+                s.spawn(move || {
+                    let mine = w.boxes.iter().enumerate().skip(k).step_by(threads);
+                    mine.map(|(i, b)| (i, shared.test_aabb(b, view_proj)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for job in jobs {
+            for (i, v) in job.join().expect("a test thread panicked") {
+                out[i] = v;
+            }
+        }
+    });
+    out
+}
+
+/// The world's answers through the buffer's own `test_aabb`, checked equal
+/// to those through a [`OcclusionBuffer::share`] of it from one and from
+/// four threads.
+fn own_and_shared_agree(name: &str, buf: &mut impl OcclusionBuffer, w: &World, vp: &Mat4) -> Vec<Visibility> {
+    let own = answers(buf, w, vp);
+    for threads in [1, 4] {
+        answers(buf, w, vp);
+        assert_eq!(shared_answers(buf, w, vp, threads), own, "{name}, {threads} threads");
+    }
+    own
+}
+
+#[test]
+fn tests_through_a_shared_buffer_answer_as_the_buffer_does() {
+    let (mut occluded, mut total) = (0, 0);
+    let clip = ClipConvention::ZeroToOne;
+    for seed in 0..6 {
+        let cam = Cam {
+            eye: Vec3::new(0.0, 0.5, 0.0),
+            target: Vec3::new(0.1, 0.4, -1.0),
+            ortho: false,
+            width: 96,
+            height: 64,
+        };
+        let (w, vp) = (world(seed, 14, 6, 200, &cam), cam.view_proj(clip));
+        let (width, height, o) = (cam.width, cam.height, options(clip));
+        for own in [
+            own_and_shared_agree("hzb", &mut HzBuffer::new(width, height, o).unwrap(), &w, &vp),
+            own_and_shared_agree("hom", &mut HomBuffer::new(width, height, o).unwrap(), &w, &vp),
+            own_and_shared_agree("masked", &mut MaskedBuffer::new(width, height, o).unwrap(), &w, &vp),
+            own_and_shared_agree("otree", &mut OcclusionTree::new(width, height, o).unwrap(), &w, &vp),
+        ] {
+            occluded += own.iter().filter(|&&v| v == Visibility::Occluded).count();
+            total += own.len();
+        }
+    }
+    // The answers compared include occluded ones, not only visible ones.
+    assert!(occluded * 20 > total, "{occluded} of {total} answers occluded");
+}

@@ -79,6 +79,11 @@ impl HzBuffer {
     fn is_behind(&self, r: &ScreenRect) -> bool {
         self.zbuffer.is_behind(r)
     }
+
+    /// [`Self::is_behind`], for [`crate::SharedBuffer`].
+    fn is_behind_shared(&self, r: &ScreenRect) -> bool {
+        self.is_behind(r)
+    }
 }
 
 occlusion_buffer!(HzBuffer);

@@ -280,7 +280,21 @@ impl HomBuffer {
     }
 
     fn is_behind(&mut self, r: &ScreenRect) -> bool {
-        self.depth_behind(r) && rect_covered(&self.pyramid, &self.thresholds, r, &mut self.overlap)
+        let mut overlap = std::mem::take(&mut self.overlap);
+        let behind = self.behind(r, &mut overlap);
+        self.overlap = overlap;
+        behind
+    }
+
+    /// [`Self::is_behind`] through `&self` ([`crate::SharedBuffer`]): the
+    /// same answer, its overlap tests not counted.
+    fn is_behind_shared(&self, r: &ScreenRect) -> bool {
+        self.behind(r, &mut OverlapStats::default())
+    }
+
+    /// Whether `r` is hidden: behind the depth estimate and covered by the map.
+    fn behind(&self, r: &ScreenRect, overlap: &mut OverlapStats) -> bool {
+        self.depth_behind(r) && rect_covered(&self.pyramid, &self.thresholds, r, overlap)
     }
 }
 
