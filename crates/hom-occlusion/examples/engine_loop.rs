@@ -3,7 +3,9 @@
 //! box buildings and many small props; a camera walks down a street with a
 //! reversed-Z, infinite-far projection, as modern engines use. Every frame:
 //! clear the buffer, draw the nearest buildings as occluders, test every
-//! building and prop, count what would not be drawn.
+//! building and prop on all threads at once (a [`hom_occlusion::SharedBuffer`]
+//! answers through `&self`, as an engine's job threads would ask), count what
+//! would not be drawn.
 //!
 //! `cargo run --release --example engine_loop -p hom-occlusion`
 
@@ -12,6 +14,7 @@ use hom_occlusion::glam::camera::rh::proj::directx::perspective_infinite_reverse
 use hom_occlusion::glam::camera::rh::view::look_at_mat4;
 use hom_occlusion::glam::{Mat4, Vec3};
 use hom_occlusion::{BufferOptions, ClipConvention, HzBuffer, OcclusionBuffer, Visibility};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// A unit cube's corners and its 12 triangles.
@@ -103,15 +106,18 @@ fn main() -> Result<(), hom_occlusion::OcclusionError> {
         for &(_, k) in near.iter().take(24) {
             buf.render_convex_stand_in(&unit, &tris, &(view_proj * buildings[k].model))?;
         }
-        // Test everything; what is not visible is not drawn.
-        let (mut visible, mut occluded, mut outside) = (0, 0, 0);
-        for b in buildings.iter().chain(&props) {
-            match buf.test_aabb(&b.bounds, &view_proj) {
-                Visibility::Visible => visible += 1,
-                Visibility::Occluded => occluded += 1,
-                Visibility::ViewCulled => outside += 1,
-            }
-        }
+        // Test everything, on every thread; what is not visible is not drawn.
+        let shared = buf.share();
+        let count = |v: Visibility| match v {
+            Visibility::Visible => (1, 0, 0),
+            Visibility::Occluded => (0, 1, 0),
+            Visibility::ViewCulled => (0, 0, 1),
+        };
+        let (visible, occluded, outside) = buildings
+            .par_iter()
+            .chain(&props)
+            .map(|b| count(shared.test_aabb(&b.bounds, &view_proj)))
+            .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
         cull_ms += start.elapsed().as_secs_f64() * 1e3;
         drawn_total += visible;
         tested_total += visible + occluded + outside;
