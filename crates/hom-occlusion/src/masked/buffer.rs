@@ -69,7 +69,7 @@ impl MaskedBuffer {
         }
         let s = self.raster.render(&self.front.tris, &mut self.zbuffer);
         self.front.stats.tiles_drawn += s.tiles_drawn;
-        self.front.stats.tiles_rejected += s.tiles_rejected + s.blocks_rejected;
+        self.front.stats.tiles_rejected += s.tiles_rejected + s.rows_rejected;
     }
 
     fn is_behind(&self, r: &ScreenRect) -> bool {

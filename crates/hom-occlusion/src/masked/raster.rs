@@ -4,20 +4,16 @@
 //! conservative depth per triangle and 8×4 subtile.
 //!
 //! Coverage comes from edge events per scan line, not per-sample edge
-//! functions: [`crate::raster::scanline`] steps each row's span exactly from the row
-//! before, so a row's span is exactly the one [`Tri::row_span`] computes
-//! (the renderer's coverage, or the inner rule's when the triangle was set
-//! up with it). The eight rows of a tile row step together as eight `i32`
-//! lanes ([`TileRows`], vector kernels in [`super::simd`]); a
-//! triangle with few rows left steps them one at a time ([`Stepper`]), and a
-//! box of at most 8×8 samples takes the per-sample edge test
-//! ([`row_masks`]), which needs no division. A tile row's masks are then
-//! two shifts of its spans.
+//! functions: each row's first and last covered column straight from the
+//! edge functions ([`crate::raster::scanline::RowBounds`], eight rows in
+//! `f64` lanes, exact), so a row's span is exactly the one [`Tri::row_span`]
+//! computes (the renderer's coverage, or the inner rule's when the triangle
+//! was set up with it). A tile row's masks are then two shifts of its spans.
 //!
-//! Depth: per triangle and subtile, the farthest value of the triangle's
-//! plane over the covered part of the subtile, plus rounding slack
-//! ([`Tri::far_depth_grid`]), so at least the depth the renderer computes at
-//! any sample the triangle covers there ([`Tri::depth_at`]).
+//! Depth: per triangle and subtile, the plane's farthest value over the
+//! subtile's part of the tile row's covered rectangle (at its far corner),
+//! plus rounding slack, so at least the depth the renderer computes at any
+//! sample the triangle covers there ([`Tri::depth_at`]).
 //!
 //! Bands of tile rows are independent and each sees its triangles in order,
 //! so the result does not depend on the thread count or on how bands are
@@ -101,7 +97,7 @@ impl MaskedRasterizer {
             .reduce(MaskedStats::default, |a, b| MaskedStats {
                 tiles_drawn: a.tiles_drawn + b.tiles_drawn,
                 tiles_rejected: a.tiles_rejected + b.tiles_rejected,
-                blocks_rejected: a.blocks_rejected + b.blocks_rejected,
+                rows_rejected: a.rows_rejected + b.rows_rejected,
             });
         zb.build_blocks();
         stats
@@ -261,8 +257,9 @@ mod tests {
         let mut zb = MaskedZBuffer::default();
         zb.clear(100, 40);
         let stats = MaskedRasterizer::default().render(&tris, &mut zb);
-        // The far quad's two triangles are skipped whole in both bands.
-        assert_eq!(stats.blocks_rejected, 4, "{stats:?}");
+        // The far quad's two triangles are skipped in each of the five tile
+        // rows, before any span is made.
+        assert_eq!(stats.rows_rejected, 10, "{stats:?}");
         let rect = |z: f32| crate::geom::ScreenRect {
             x0: 3,
             y0: 5,

@@ -17,7 +17,7 @@
 
 use super::group::{draw_group, GroupParts, MaskedStats, RowKernel, Scalar};
 use crate::masked::zbuffer::{MaskTile, SUBTILES};
-use crate::raster::scanline::{LaneSpans, TileRows, LANES};
+use crate::raster::scanline::{LaneSpans, RowBounds, TileRows, LANES};
 use crate::raster::setup::Tri;
 use crate::raster::simd::RasterBackend;
 
@@ -43,8 +43,7 @@ pub(crate) fn render_group(backend: RasterBackend, tris: &[Tri], parts: GroupPar
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x86 {
     use super::{
-        draw_group, GroupParts, LaneSpans, MaskTile, MaskedStats, RasterBackend, RowKernel, TileRows, Tri, LANES,
-        SUBTILES,
+        draw_group, GroupParts, LaneSpans, MaskTile, MaskedStats, RowBounds, RowKernel, TileRows, Tri, LANES, SUBTILES,
     };
     use crate::raster::scanline::EMPTY;
     use std::arch::x86_64::*;
@@ -92,12 +91,16 @@ pub(crate) mod x86 {
     }
 
     impl RowKernel for Avx2 {
-        const BACKEND: RasterBackend = RasterBackend::Avx2;
-
         #[inline(always)]
         fn next(self, rows: &mut TileRows, ja: u32, jb: u32) -> LaneSpans {
             // SAFETY: an `Avx2` exists only where the CPU has AVX2.
             unsafe { next_avx2(rows, ja, jb) }
+        }
+
+        #[inline(always)]
+        fn next_direct(self, rows: &mut RowBounds, ja: u32, jb: u32) -> LaneSpans {
+            // SAFETY: as above.
+            unsafe { next_direct_avx2(rows, ja, jb) }
         }
 
         #[inline(always)]
@@ -126,12 +129,15 @@ pub(crate) mod x86 {
     }
 
     impl RowKernel for Sse41 {
-        const BACKEND: RasterBackend = RasterBackend::Sse41;
-
         #[inline(always)]
         fn next(self, rows: &mut TileRows, ja: u32, jb: u32) -> LaneSpans {
             // SAFETY: an `Sse41` exists only where the CPU has SSE4.1.
             unsafe { next_sse41(rows, ja, jb) }
+        }
+
+        #[inline(always)]
+        fn next_direct(self, rows: &mut RowBounds, ja: u32, jb: u32) -> LaneSpans {
+            rows.next_scalar(ja, jb)
         }
 
         #[inline(always)]
@@ -216,6 +222,82 @@ pub(crate) mod x86 {
             rows.row += LANES as u32;
             out
         }
+    }
+
+    /// [`RowBounds::next_scalar`] in two vectors of four `f64` lanes per
+    /// edge: the same products, sums, ceilings and corrections lane by lane
+    /// (no fused multiply-add, as the scalar code has none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn next_direct_avx2(b: &mut RowBounds, ja: u32, jb: u32) -> LaneSpans {
+        let (j_lo, j_hi) = (_mm256_setr_pd(0.0, 1.0, 2.0, 3.0), _mm256_setr_pd(4.0, 5.0, 6.0, 7.0));
+        let one = _mm256_set1_pd(1.0);
+        let (mut lo, mut neg_hi) = ([_mm256_setzero_pd(); 2], [_mm256_set1_pd(-b.last); 2]);
+        for i in 0..3 {
+            let (x0, s, d, inv) = (
+                _mm256_set1_pd(b.x[i]),
+                _mm256_set1_pd(b.s[i]),
+                _mm256_set1_pd(b.d[i]),
+                _mm256_set1_pd(b.inv[i]),
+            );
+            let ceil_div = |j: __m256d| {
+                let x = _mm256_add_pd(x0, _mm256_mul_pd(s, j));
+                let c = _mm256_round_pd::<{ _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC }>(_mm256_mul_pd(x, inv));
+                let r = _mm256_sub_pd(_mm256_mul_pd(c, d), x);
+                let up = _mm256_and_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(r, _mm256_setzero_pd()), one);
+                let down = _mm256_and_pd(_mm256_cmp_pd::<_CMP_GE_OQ>(r, d), one);
+                _mm256_sub_pd(_mm256_add_pd(c, up), down)
+            };
+            let c = [ceil_div(j_lo), ceil_div(j_hi)];
+            let acc = if b.left[i] { &mut lo } else { &mut neg_hi };
+            for h in 0..2 {
+                acc[h] = _mm256_max_pd(acc[h], c[h]);
+            }
+            b.x[i] += b.s[i] * LANES as f64;
+        }
+        let (last1, zero) = (_mm256_set1_pd(b.last + 1.0), _mm256_setzero_pd());
+        let to_i32 = |v: [__m256d; 2]| _mm256_set_m128i(_mm256_cvttpd_epi32(v[1]), _mm256_cvttpd_epi32(v[0]));
+        let l = to_i32([_mm256_min_pd(lo[0], last1), _mm256_min_pd(lo[1], last1)]);
+        let h = to_i32([
+            _mm256_max_pd(_mm256_sub_pd(one, neg_hi[0]), zero),
+            _mm256_max_pd(_mm256_sub_pd(one, neg_hi[1]), zero),
+        ]);
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        let in_rows = _mm256_and_si256(
+            _mm256_cmpgt_epi32(lane, _mm256_set1_epi32(ja as i32 - 1)),
+            _mm256_cmpgt_epi32(_mm256_set1_epi32(jb as i32), lane),
+        );
+        let live = _mm256_and_si256(in_rows, _mm256_cmpgt_epi32(h, l));
+        let lo = _mm256_blendv_epi8(_mm256_set1_epi32(EMPTY), l, live);
+        let hi = _mm256_blendv_epi8(_mm256_set1_epi32(-EMPTY), h, live);
+        spans_of(lo, hi)
+    }
+
+    /// The spans with lanes `lo` and `hi`, their `any` and `all`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn spans_of(lo: __m256i, hi: __m256i) -> LaneSpans {
+        let mut out = LaneSpans {
+            lo: [0; LANES],
+            hi: [0; LANES],
+            any: (0, 0),
+            all: (0, 0),
+        };
+        // SAFETY: unaligned stores of `[i32; 8]` arrays.
+        unsafe {
+            _mm256_storeu_si256(out.lo.as_mut_ptr().cast(), lo);
+            _mm256_storeu_si256(out.hi.as_mut_ptr().cast(), hi);
+        }
+        let (lo_a, lo_b) = (_mm256_castsi256_si128(lo), _mm256_extracti128_si256::<1>(lo));
+        let (hi_a, hi_b) = (_mm256_castsi256_si128(hi), _mm256_extracti128_si256::<1>(hi));
+        let (min_lo, max_lo) = min_max_128(_mm_min_epi32(lo_a, lo_b), _mm_max_epi32(lo_a, lo_b));
+        let (min_hi, max_hi) = min_max_128(_mm_min_epi32(hi_a, hi_b), _mm_max_epi32(hi_a, hi_b));
+        out.any = (min_lo, max_hi);
+        out.all = (max_lo, min_hi);
+        out
     }
 
     /// [`LaneSpans::masks`] with `vpsllvd`, which shifts in zeros for counts of 32 or more.
@@ -537,6 +619,47 @@ mod tests {
                             prop_assert_eq!(masks(&got, xt), want_masks(&got, xt), "{} masks at {}", name, xt);
                         }
                         y += 8;
+                    }
+                }
+            }
+        }
+    }
+
+    proptest! {
+        /// Each kernel's direct bounds ([`RowKernel::next_direct`]) equal
+        /// [`RowBounds::next_scalar`] lane for lane, and leave the bounds
+        /// where it leaves them, tile row after tile row.
+        #[test]
+        fn direct_kernels_equal_the_scalar_bounds(seed in any::<u64>(), w in 1u32..400, h in 1u32..200, inner in any::<bool>()) {
+            #[cfg(target_arch = "x86_64")]
+            let kernels: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = {
+                let mut v: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = Vec::new();
+                if let Some(k) = x86::Sse41::new() {
+                    v.push(("sse41", Box::new(move |r, a, b| k.next_direct(r, a, b))));
+                }
+                if let Some(k) = x86::Avx2::new() {
+                    v.push(("avx2", Box::new(move |r, a, b| k.next_direct(r, a, b))));
+                }
+                v
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let kernels: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = Vec::new();
+            for t in soup(seed, 30, w, h, inner) {
+                let (ya, yb) = crate::raster::scanline::row_limits(&t);
+                if ya >= yb {
+                    continue;
+                }
+                let first = ya / 8 * 8;
+                let Some(start) = RowBounds::new(&t, first, yb) else {
+                    continue;
+                };
+                for (name, next) in &kernels {
+                    let (mut want_b, mut got_b) = (start, start);
+                    for y in (first..yb).step_by(8) {
+                        let (ja, jb) = (ya.max(y) - y, yb.min(y + 8) - y);
+                        let (want, got) = (want_b.next_scalar(ja, jb), next(&mut got_b, ja, jb));
+                        prop_assert_eq!(got, want, "{} at row {} of {:?}", name, y, t);
+                        prop_assert_eq!(got_b.x.map(f64::to_bits), want_b.x.map(f64::to_bits), "{} bounds after row {}", name, y);
                     }
                 }
             }

@@ -55,24 +55,15 @@ impl ScanEdges {
         };
         let mut slopes = [none; 4];
         let (mut left, mut right) = (0, 2);
-        let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
+        let mut rows = row_limits(t);
         for i in 0..3 {
             let (d, step) = (t.a[i] * ONE, t.b[i] * ONE);
             if d == 0 {
-                // Covered rows: e0 + k·step >= 0 at row y0 + k.
-                let e0 = t.edges_at_row(u32::from(t.y0))[i];
-                let (k_lo, k_hi) = match step.signum() {
-                    1 => ((-e0).div_euclid(step) + i64::from((-e0).rem_euclid(step) > 0), i64::MAX),
-                    -1 => (0, e0.div_euclid(-step) + 1),
-                    _ if e0 >= 0 => (0, i64::MAX),
-                    _ => (0, 0),
-                };
-                ya = ya.max(i64::from(t.y0).saturating_add(k_lo));
-                yb = yb.min(i64::from(t.y0).saturating_add(k_hi));
+                // Only limits the rows (above).
             } else if (d > 0 && left == 2) || (d < 0 && right == 4) {
                 // Impossible for a triangle (the `a` sum to zero); dropping
                 // an occluder stays on the safe side.
-                yb = ya;
+                rows = (0, 0);
             } else if d > 0 {
                 // n = -e falls by step per row.
                 let (sq, sr) = div_rem(-step, d);
@@ -94,8 +85,33 @@ impl ScanEdges {
                 right += 1;
             }
         }
-        let rows = if ya < yb { (ya as u32, yb as u32) } else { (0, 0) };
         ScanEdges { rows, slopes }
+    }
+}
+
+/// The rows `rows.0..rows.1` (absolute) of `t`'s box that its horizontal
+/// edges allow (the whole box when it has none); empty `(0, 0)` when they
+/// allow none. A division per horizontal edge.
+pub(crate) fn row_limits(t: &Tri) -> (u32, u32) {
+    let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
+    for i in 0..3 {
+        if t.a[i] == 0 {
+            // Covered rows: e0 + k·step >= 0 at row y0 + k.
+            let (e0, step) = (t.edges_at_row(u32::from(t.y0))[i], t.b[i] * ONE);
+            let (k_lo, k_hi) = match step.signum() {
+                1 => ((-e0).div_euclid(step) + i64::from((-e0).rem_euclid(step) > 0), i64::MAX),
+                -1 => (0, e0.div_euclid(-step) + 1),
+                _ if e0 >= 0 => (0, i64::MAX),
+                _ => (0, 0),
+            };
+            ya = ya.max(i64::from(t.y0).saturating_add(k_lo));
+            yb = yb.min(i64::from(t.y0).saturating_add(k_hi));
+        }
+    }
+    if ya < yb {
+        (ya as u32, yb as u32)
+    } else {
+        (0, 0)
     }
 }
 
@@ -226,7 +242,7 @@ impl LaneSpans {
 
     /// The lanes with their `any` and `all`.
     #[inline(always)]
-    fn reduced(lo: [i32; LANES], hi: [i32; LANES]) -> LaneSpans {
+    pub(crate) fn reduced(lo: [i32; LANES], hi: [i32; LANES]) -> LaneSpans {
         let (mut any, mut all) = ((EMPTY, -EMPTY), (-EMPTY, EMPTY));
         for j in 0..LANES {
             any = (any.0.min(lo[j]), any.1.max(hi[j]));
@@ -348,6 +364,113 @@ impl TileRows {
     }
 }
 
+/// A triangle's covered columns eight rows at a time, exactly, without a
+/// division per triangle or a stepped remainder: each row's bound straight
+/// from its edge function in `f64`. With `x = −E` at the box's first column
+/// and `d = |a|·ONE`, an edge with `a > 0` bounds a row from the left at
+/// column offset `ceil(x / d)`, one with `a < 0` from the right at
+/// `−ceil(x / d)`. `f64` holds every `x` over the rows exactly below `2^53`
+/// ([`RowBounds::new`] refuses a triangle whose `x` leave `±2^51`); the
+/// quotient estimated with `d`'s reciprocal is off by less than one, and
+/// the exact product `c·d` says which way. So a row's span is exactly
+/// [`Tri::row_span`]'s, like [`TileRows`]'s, for a few multiply-adds per
+/// edge and row where `TileRows` keeps 64 stepped `i32` per triangle.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RowBounds {
+    /// Per edge, `x` at the next tile row's first row.
+    pub x: [f64; 3],
+    /// Per edge, the change of `x` per row.
+    pub s: [f64; 3],
+    /// Per edge, `d` (1 for a horizontal edge, whose `x` is 0: it never binds).
+    pub d: [f64; 3],
+    /// Per edge, `1 / d`.
+    pub inv: [f64; 3],
+    /// Per edge, whether it bounds from the left (a horizontal one counts as left).
+    pub left: [bool; 3],
+    /// The last column offset in the box.
+    pub last: f64,
+}
+
+impl RowBounds {
+    /// `t`'s bounds at rows `row..row + 8`, to be moved down to rows below
+    /// `end`; `None` where `f64` cannot hold them exactly.
+    #[inline(always)]
+    pub fn new(t: &Tri, row: u32, end: u32) -> Option<RowBounds> {
+        const EXACT: f64 = (1u64 << 51) as f64;
+        let e = t.edges_at_row(row);
+        let rows = f64::from(end.saturating_sub(row) + 2 * LANES as u32);
+        let mut b = RowBounds {
+            x: [0.0; 3],
+            s: [0.0; 3],
+            d: [1.0; 3],
+            inv: [1.0; 3],
+            left: [true; 3],
+            last: f64::from(t.x1 - t.x0) - 1.0,
+        };
+        for (i, (&a, &e)) in t.a.iter().zip(&e).enumerate() {
+            if a == 0 {
+                continue; // limits the rows only (`row_limits`)
+            }
+            // Finite: both come from integers.
+            let (x, s) = ((-e) as f64, (-t.b[i] * ONE) as f64);
+            if x.abs() + rows * s.abs() >= EXACT {
+                return None;
+            }
+            let d = (a.abs() * ONE) as f64;
+            (b.x[i], b.s[i], b.d[i], b.inv[i], b.left[i]) = (x, s, d, 1.0 / d, a > 0);
+        }
+        Some(b)
+    }
+
+    /// The bounds moved down a tile row, as [`RowBounds::next_scalar`] moves them.
+    #[inline(always)]
+    pub fn skip_tile_row(&mut self) {
+        for i in 0..3 {
+            self.x[i] += self.s[i] * LANES as f64;
+        }
+    }
+
+    /// The spans of the next eight rows, lanes outside `ja..jb` empty, then
+    /// the bounds moved down a tile row. Scalar; the semantics of the vector
+    /// kernels.
+    #[inline(always)]
+    pub fn next_scalar(&mut self, ja: u32, jb: u32) -> LaneSpans {
+        // Per lane: the left bound, and the largest −(right bound).
+        let (mut lo, mut neg_hi) = ([0.0f64; LANES], [-self.last; LANES]);
+        for i in 0..3 {
+            let (x0, s, d, inv) = (self.x[i], self.s[i], self.d[i], self.inv[i]);
+            let c: [f64; LANES] = std::array::from_fn(|j| {
+                let x = x0 + s * j as f64;
+                let c = (x * inv).ceil();
+                // ceil(x / d) is the c with (c − 1)·d < x <= c·d; the estimate is off by at most one.
+                let r = c * d - x;
+                if r < 0.0 {
+                    c + 1.0
+                } else if r >= d {
+                    c - 1.0
+                } else {
+                    c
+                }
+            });
+            if self.left[i] {
+                lo = std::array::from_fn(|j| lo[j].max(c[j]));
+            } else {
+                neg_hi = std::array::from_fn(|j| neg_hi[j].max(c[j]));
+            }
+        }
+        self.skip_tile_row();
+        let (mut a, mut b) = ([EMPTY; LANES], [-EMPTY; LANES]);
+        for j in 0..LANES {
+            // Both within 0..=last + 1 before the conversion.
+            let (l, h) = (lo[j].min(self.last + 1.0), (1.0 - neg_hi[j]).max(0.0));
+            if (ja..jb).contains(&(j as u32)) && l < h {
+                (a[j], b[j]) = (l as i32, h as i32);
+            }
+        }
+        LaneSpans::reduced(a, b)
+    }
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -381,6 +504,43 @@ pub(crate) mod tests {
         let mut out = Vec::new();
         q.set_up(&Viewport::new(w, h), inner, &mut out);
         out
+    }
+
+    proptest! {
+        /// `RowBounds` gives every row's exact span, `Tri::row_span`, tile
+        /// row after tile row (some skipped), for every triangle it holds.
+        #[test]
+        fn row_bounds_are_the_exact_row_spans(seed in any::<u64>(), w in 1u32..400, h in 1u32..300, inner in any::<bool>()) {
+            let tris = soup(seed, 40, w, h, inner);
+            let mut held = 0;
+            for t in &tris {
+                let (ya, yb) = row_limits(t);
+                if ya >= yb {
+                    continue;
+                }
+                let first = ya / LANES as u32 * LANES as u32;
+                let Some(mut b) = RowBounds::new(t, first, yb) else { continue };
+                held += 1;
+                for (k, y) in (first..yb).step_by(LANES).enumerate() {
+                    if (seed >> (k % 64)) & 3 == 0 {
+                        b.skip_tile_row();
+                        continue;
+                    }
+                    let spans = b.next_scalar(0, LANES as u32);
+                    for j in 0..LANES {
+                        let py = y + j as u32;
+                        let want = if (ya..yb).contains(&py) { t.row_span(py).unwrap_or((0, 0)) } else { (0, 0) };
+                        let got = spans.span(j, u32::from(t.x0));
+                        // Rows outside the horizontal edges' limits are never asked for.
+                        if (ya..yb).contains(&py) {
+                            prop_assert_eq!(got, want, "row {} of {:?}", py, t);
+                        }
+                    }
+                }
+            }
+            // Only triangles far beyond the screen are left to the i64 forms.
+            prop_assert!(held * 10 >= tris.len() * 7 || tris.len() < 5, "{} of {} held", held, tris.len());
+        }
     }
 
     proptest! {

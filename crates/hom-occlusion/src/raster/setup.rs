@@ -160,6 +160,14 @@ impl Tri {
         (low.max(0.0), high.max(0.0))
     }
 
+    /// The slack [`Tri::depth_bounds`] adds over a rectangle whose farthest
+    /// corner from the box's first sample is `(xb, yb)`.
+    #[inline]
+    pub fn depth_slack(&self, xb: u32, yb: u32) -> f32 {
+        let (dxb, dyb) = ((xb - u32::from(self.x0)) as f32, (yb - u32::from(self.y0)) as f32);
+        (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * DEPTH_SLACK
+    }
+
     /// The farthest bound of [`Tri::depth_bounds`] over each cell of a grid,
     /// columns `cols[i]` by rows `rows[j]` (inclusive, within the box), as
     /// entry `4·j + i`; at least as far as `depth_bounds` of the cell (the
