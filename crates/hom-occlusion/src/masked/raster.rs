@@ -71,8 +71,14 @@ impl MaskedRasterizer {
         // A few groups per thread, so stealing evens out unequal bands; but
         // every group walks every triangle and sets up again the ones that
         // cross into it, so many triangles get one group per thread.
-        let per_thread = if tris.len() > MANY_TRIANGLES { 1 } else { 3 };
-        let groups = (rayon::current_num_threads() as u32 * per_thread).clamp(1, bands);
+        // One thread has nothing to even out: one group, every triangle read once.
+        let threads = rayon::current_num_threads() as u32;
+        let per_thread = if tris.len() > MANY_TRIANGLES || threads == 1 {
+            1
+        } else {
+            3
+        };
+        let groups = (threads * per_thread).clamp(1, bands);
         let group_bands = bands.div_ceil(groups);
         self.rows.clear();
         self.rows.extend(tris.iter().map(|t| (t.y0, t.y1)));

@@ -252,9 +252,10 @@ pub(crate) mod x86 {
                 _mm256_sub_pd(_mm256_add_pd(c, up), down)
             };
             let c = [ceil_div(j_lo), ceil_div(j_hi)];
-            let acc = if b.left[i] { &mut lo } else { &mut neg_hi };
+            let (to_left, to_right) = (_mm256_set1_pd(b.to_left[i]), _mm256_set1_pd(b.to_right[i]));
             for h in 0..2 {
-                acc[h] = _mm256_max_pd(acc[h], c[h]);
+                lo[h] = _mm256_max_pd(lo[h], _mm256_add_pd(c[h], to_left));
+                neg_hi[h] = _mm256_max_pd(neg_hi[h], _mm256_add_pd(c[h], to_right));
             }
             b.x[i] += b.s[i] * LANES as f64;
         }

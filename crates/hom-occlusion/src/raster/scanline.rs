@@ -385,8 +385,11 @@ pub(crate) struct RowBounds {
     pub d: [f64; 3],
     /// Per edge, `1 / d`.
     pub inv: [f64; 3],
-    /// Per edge, whether it bounds from the left (a horizontal one counts as left).
-    pub left: [bool; 3],
+    /// Per edge, what its bound adds before it joins the left bounds (0) or
+    /// the right ones (−∞): the lanes take every edge the same way, no branch.
+    pub to_left: [f64; 3],
+    /// See `to_left`: −∞ for a left bound, 0 for a right one.
+    pub to_right: [f64; 3],
     /// The last column offset in the box.
     pub last: f64,
 }
@@ -404,7 +407,8 @@ impl RowBounds {
             s: [0.0; 3],
             d: [1.0; 3],
             inv: [1.0; 3],
-            left: [true; 3],
+            to_left: [0.0; 3],
+            to_right: [f64::NEG_INFINITY; 3],
             last: f64::from(t.x1 - t.x0) - 1.0,
         };
         for (i, (&a, &e)) in t.a.iter().zip(&e).enumerate() {
@@ -417,7 +421,10 @@ impl RowBounds {
                 return None;
             }
             let d = (a.abs() * ONE) as f64;
-            (b.x[i], b.s[i], b.d[i], b.inv[i], b.left[i]) = (x, s, d, 1.0 / d, a > 0);
+            (b.x[i], b.s[i], b.d[i], b.inv[i]) = (x, s, d, 1.0 / d);
+            if a < 0 {
+                (b.to_left[i], b.to_right[i]) = (f64::NEG_INFINITY, 0.0);
+            }
         }
         Some(b)
     }
@@ -452,11 +459,8 @@ impl RowBounds {
                     c
                 }
             });
-            if self.left[i] {
-                lo = std::array::from_fn(|j| lo[j].max(c[j]));
-            } else {
-                neg_hi = std::array::from_fn(|j| neg_hi[j].max(c[j]));
-            }
+            lo = std::array::from_fn(|j| lo[j].max(c[j] + self.to_left[i]));
+            neg_hi = std::array::from_fn(|j| neg_hi[j].max(c[j] + self.to_right[i]));
         }
         self.skip_tile_row();
         let (mut a, mut b) = ([EMPTY; LANES], [-EMPTY; LANES]);
