@@ -110,11 +110,13 @@ pub(crate) fn draw_group<K: RowKernel>(k: K, tris: &[Tri], parts: GroupParts) ->
     let tiles_y = tiles.len() as u32 / tiles_x.max(1);
     let (gy0, gy1) = (ty0 * MASK_TILE_H, (ty0 + tiles_y) * MASK_TILE_H);
     let mut stats = MaskedStats::default();
+    let far = tiles.iter().map(MaskTile::far).collect();
     let mut group = Group {
         ty0,
         tiles_x,
         tiles,
         outside,
+        far,
     };
     for (t, &(ya, yb)) in tris.iter().zip(rows) {
         if u32::from(yb) <= gy0 || u32::from(ya) >= gy1 {
@@ -196,6 +198,11 @@ struct Group<'a> {
     tiles: &'a mut [MaskTile],
     /// Per tile, the bits of samples outside the viewport.
     outside: &'a [[u32; 8]],
+    /// Per tile, its farthest reference depth ([`MaskTile::far`]), side by
+    /// side: a tile row's tiles in one or two cache lines for the test that
+    /// skips it (the tiles' own lie 100 bytes apart: `large_100k` at 1080p,
+    /// 25.4–26.0 against 27.8–29.3 ms, three alternating runs, 2026-12-06).
+    far: Vec<f32>,
 }
 
 impl Group<'_> {
@@ -225,15 +232,21 @@ impl Group<'_> {
         stats: &mut MaskedStats,
     ) {
         let (x0, y0, x1) = (u32::from(t.x0), u32::from(t.y0), u32::from(t.x1));
+        // `Tri::depth_bounds`' nearest over the box's part of a tile row, made
+        // per row from its column term and the whole box's slack (at least
+        // each row's, so never farther).
+        let near_x = (t.dzdx * 0.0).min(t.dzdx * (x1 - 1 - x0) as f32);
+        let box_slack = t.depth_slack(x1 - 1, u32::from(t.y1) - 1);
         for ty in ya / MASK_TILE_H..=(yb - 1) / MASK_TILE_H {
             let y_tile0 = ty * MASK_TILE_H;
             let (ra, rb) = (ya.max(y_tile0), yb.min(y_tile0 + MASK_TILE_H));
             let row = ((ty - self.ty0) * self.tiles_x) as usize;
             // Behind every tile of the box's part of the row: skipped before any span is made.
-            let nearest = t.depth_bounds(x0, x1 - 1, ra, rb - 1).0;
-            if self.tiles[row + (x0 / MASK_TILE_W) as usize..=row + ((x1 - 1) / MASK_TILE_W) as usize]
+            let near_y = if t.dzdy > 0.0 { ra } else { rb - 1 };
+            let nearest = (t.zref + near_x + t.dzdy * (near_y - y0) as f32 - box_slack).max(0.0);
+            if self.far[row + (x0 / MASK_TILE_W) as usize..=row + ((x1 - 1) / MASK_TILE_W) as usize]
                 .iter()
-                .all(|tile| nearest >= tile.far())
+                .all(|&far| nearest >= far)
             {
                 stats.rows_rejected += 1;
                 src.skip(k);
@@ -265,7 +278,7 @@ impl Group<'_> {
                 stats.tiles_drawn += 1;
                 // Never farther than any subtile's far depth below: a tile
                 // whose every reference depth is nearer than it learns nothing.
-                if nearest >= self.tiles[k_tile].far() {
+                if nearest >= self.far[k_tile] {
                     stats.tiles_rejected += 1;
                     continue;
                 }
@@ -285,7 +298,9 @@ impl Group<'_> {
                     let m = k.masks(&spans, x_tile0 as i32 - x0 as i32);
                     k.insert(tile, &m, &zt, &self.outside[k_tile])
                 };
-                if !told {
+                if told {
+                    self.far[k_tile] = self.tiles[k_tile].far();
+                } else {
                     stats.tiles_rejected += 1;
                 }
             }

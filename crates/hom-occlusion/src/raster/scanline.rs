@@ -92,7 +92,11 @@ impl ScanEdges {
 /// The rows `rows.0..rows.1` (absolute) of `t`'s box that its horizontal
 /// edges allow (the whole box when it has none); empty `(0, 0)` when they
 /// allow none. A division per horizontal edge.
+#[inline]
 pub(crate) fn row_limits(t: &Tri) -> (u32, u32) {
+    if t.a.iter().all(|&a| a != 0) {
+        return (u32::from(t.y0), u32::from(t.y1));
+    }
     let (mut ya, mut yb) = (i64::from(t.y0), i64::from(t.y1));
     for i in 0..3 {
         if t.a[i] == 0 {
