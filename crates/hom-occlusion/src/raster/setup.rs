@@ -168,22 +168,6 @@ impl Tri {
         (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * DEPTH_SLACK
     }
 
-    /// The farthest bound of [`Tri::depth_bounds`] over each cell of a grid,
-    /// columns `cols[i]` by rows `rows[j]` (inclusive, within the box), as
-    /// entry `4·j + i`; at least as far as `depth_bounds` of the cell (the
-    /// plane is separable: six corner terms serve eight cells, and the
-    /// slack is the whole grid's).
-    #[inline]
-    pub fn far_depth_grid(&self, cols: &[(u32, u32); 4], rows: &[(u32, u32); 2]) -> [f32; 8] {
-        let (x0, y0) = (u32::from(self.x0), u32::from(self.y0));
-        let fx = cols.map(|(a, b)| (self.dzdx * (a - x0) as f32).max(self.dzdx * (b - x0) as f32));
-        let fy = rows.map(|(a, b)| (self.dzdy * (a - y0) as f32).max(self.dzdy * (b - y0) as f32));
-        let dxb = cols.iter().map(|c| c.1).max().unwrap_or(x0) - x0;
-        let dyb = rows.iter().map(|r| r.1).max().unwrap_or(y0) - y0;
-        let slack = (self.zref.abs() + self.dzdx.abs() * dxb as f32 + self.dzdy.abs() * dyb as f32) * DEPTH_SLACK;
-        std::array::from_fn(|k| (self.zref + fx[k % 4] + fy[k / 4] + slack).max(0.0))
-    }
-
     /// [`Tri::depth_at`] given the row's `zr = depth_row(py)` and the column
     /// offset `dx = px − x0`, for loops that compute the row once.
     #[inline(always)]
@@ -793,9 +777,7 @@ mod tests {
     }
 
     /// Random triangles and random cells of their boxes: every covered
-    /// sample's depth lies within `depth_bounds` of its cell, and within
-    /// `far_depth_grid` of a grid of cells, which is never nearer than the
-    /// cell's own far bound.
+    /// sample's depth lies within `depth_bounds` of its cell.
     #[test]
     fn depth_bounds_hold_every_covered_sample() {
         let mut rng = Rng::new(41);
@@ -822,10 +804,8 @@ mod tests {
                 };
                 let cols: [(u32, u32); 4] = std::array::from_fn(|_| pick(x0, x1));
                 let rows: [(u32, u32); 2] = std::array::from_fn(|_| pick(y0, y1));
-                let grid = t.far_depth_grid(&cols, &rows);
-                for (k, (&(xa, xb), &(ya, yb))) in (0..8).map(|k| (&cols[k % 4], &rows[k / 4])).enumerate() {
+                for (&(xa, xb), &(ya, yb)) in (0..8).map(|k| (&cols[k % 4], &rows[k / 4])) {
                     let (near, far) = t.depth_bounds(xa, xb, ya, yb);
-                    assert!(grid[k] >= far, "{t:?}: grid cell {k} {} nearer than {far}", grid[k]);
                     for y in ya..=yb {
                         for x in xa..=xb {
                             if t.covers(x, y) {
