@@ -303,14 +303,13 @@ impl Group<'_> {
             // Per subtile, the plane's farthest over its part of the covered
             // rectangle `lo..hi` × `ra..=rb`: at the far corner, clamped into it
             // (a linear function, and rounding is monotone: the farthest of
-            // `Tri::depth_bounds` there), with the whole rectangle's slack.
+            // `Tri::depth_bounds` there), with the box's slack (at least the
+            // rectangle's). The row's `nearest` above is never farther.
             let (cx, cy) = (u32::from(t.dzdx > 0.0), u32::from(t.dzdy > 0.0));
             let fy: [f32; 2] = std::array::from_fn(|sy| {
                 let corner = y_tile0 + sy as u32 * SUB_H + cy * (SUB_H - 1);
                 t.dzdy * (corner.clamp(ra, rb) - y0) as f32
             });
-            let slack = t.depth_slack(hi - 1, rb);
-            let nearest = t.depth_bounds(lo, hi - 1, ra, rb).0;
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
                 let x_tile0 = tx * MASK_TILE_W;
                 let k_tile = row + tx as usize;
@@ -325,7 +324,8 @@ impl Group<'_> {
                     let corner = x_tile0 + sx as u32 * SUB_W + cx * (SUB_W - 1);
                     t.dzdx * (corner.clamp(lo, hi - 1) - x0) as f32
                 });
-                let zt: [f32; SUBTILES] = std::array::from_fn(|s| (t.zref + fx[s % 4] + fy[s / 4] + slack).max(0.0));
+                let zt: [f32; SUBTILES] =
+                    std::array::from_fn(|s| (t.zref + fx[s % 4] + fy[s / 4] + box_slack).max(0.0));
                 let tile = &mut self.tiles[k_tile];
                 if !k.nearer(tile, &zt) {
                     stats.tiles_rejected += 1;
