@@ -62,14 +62,23 @@ impl MaskedBuffer {
         }
     }
 
-    fn draw(&mut self) {
+    /// Sets the queue up and draws it, each chunk of it set up on a thread
+    /// of its own and drawn from where it lies.
+    fn draw_queue(&mut self) {
         if self.cleared {
             self.zbuffer.clear(self.front.width, self.front.height);
             self.cleared = false;
         }
-        let s = self.raster.render(&self.front.tris, &mut self.zbuffer);
-        self.front.stats.tiles_drawn += s.tiles_drawn;
-        self.front.stats.tiles_rejected += s.tiles_rejected + s.rows_rejected;
+        let setup = self.front.queue_setup();
+        let r = self
+            .raster
+            .set_up_and_render(&self.front.queue, &setup, &mut self.zbuffer);
+        let stats = &mut self.front.stats;
+        stats.triangles_drawn += r.triangles as u64;
+        stats.setup_ms += r.set_up_ms;
+        stats.raster_ms += r.draw_ms;
+        stats.tiles_drawn += r.stats.tiles_drawn;
+        stats.tiles_rejected += r.stats.tiles_rejected + r.stats.rows_rejected;
     }
 
     fn is_behind(&self, r: &ScreenRect) -> bool {
@@ -82,4 +91,4 @@ impl MaskedBuffer {
     }
 }
 
-occlusion_buffer!(MaskedBuffer);
+occlusion_buffer!(MaskedBuffer, draw_queue);

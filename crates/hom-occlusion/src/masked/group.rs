@@ -9,6 +9,7 @@
 //! Akenine-Möller 2016, section 3). A tile row whose tiles all lie nearer
 //! than the triangle there is skipped before its spans are made.
 
+use crate::masked::raster::SetUp;
 use crate::masked::zbuffer::{MaskTile, MASK_TILE_H, MASK_TILE_W, SUBTILES, SUB_H, SUB_W};
 use crate::raster::scanline::{row_limits, LaneSpans, RowBounds, ScanEdges, Stepper, TileRows, LANES};
 use crate::raster::setup::Tri;
@@ -89,11 +90,9 @@ pub(crate) struct MaskedStats {
     pub rows_rejected: u64,
 }
 
-/// A group of bands to draw: the triangles' rows, the group's first tile
-/// row, tiles across, and its tiles with their bits past the viewport's edge.
+/// A group of bands to draw: the group's first tile row, tiles across, and
+/// its tiles with their bits past the viewport's edge.
 pub(crate) struct GroupParts<'a> {
-    /// Per triangle, its rows `y0..y1`.
-    pub rows: &'a [(u16, u16)],
     /// The group's first tile row.
     pub ty0: u32,
     /// Tiles across.
@@ -104,12 +103,11 @@ pub(crate) struct GroupParts<'a> {
     pub outside: &'a [[u32; 8]],
 }
 
-/// The triangles of `tris` that overlap the group's tile rows, in order,
+/// The triangles of `chunks` that overlap the group's tile rows, in order,
 /// with kernels `k`.
 #[inline(always)]
-pub(crate) fn draw_group<K: RowKernel>(k: K, tris: &[Tri], parts: GroupParts) -> MaskedStats {
+pub(crate) fn draw_group<K: RowKernel>(k: K, chunks: &[SetUp], parts: GroupParts) -> MaskedStats {
     let GroupParts {
-        rows,
         ty0,
         tiles_x,
         tiles,
@@ -133,11 +131,13 @@ pub(crate) fn draw_group<K: RowKernel>(k: K, tris: &[Tri], parts: GroupParts) ->
         blocks_x,
         block_far,
     };
-    for (t, &(ya, yb)) in tris.iter().zip(rows) {
-        if u32::from(yb) <= gy0 || u32::from(ya) >= gy1 {
-            continue;
+    for c in chunks {
+        for (t, &(ya, yb)) in c.tris.iter().zip(&c.rows) {
+            if u32::from(yb) <= gy0 || u32::from(ya) >= gy1 {
+                continue;
+            }
+            group.draw(k, t, (gy0, gy1), &mut stats);
         }
-        group.draw(k, t, (gy0, gy1), &mut stats);
     }
     stats
 }

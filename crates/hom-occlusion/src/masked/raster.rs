@@ -22,9 +22,11 @@
 use super::group::{GroupParts, MaskedStats, BAND_TILES};
 use super::simd::render_group;
 use crate::masked::zbuffer::MaskedZBuffer;
+use crate::raster::queue::{QueueSetup, TriangleQueue};
 use crate::raster::setup::Tri;
 use crate::raster::simd::RasterBackend;
 use rayon::prelude::*;
+use std::time::Instant;
 
 /// Above this many triangles a frame's bands are split into one group per
 /// thread, not three: on the 100k MOC inputs at two threads 36.5 against
@@ -36,10 +38,42 @@ const MANY_TRIANGLES: usize = 16_384;
 /// Draws set-up triangles into a [`MaskedZBuffer`]; keeps its scratch between frames.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct MaskedRasterizer {
-    /// Per triangle, its rows `y0..y1`: what a group of bands reads to skip
-    /// the triangles outside it.
-    rows: Vec<(u16, u16)>,
+    /// The triangles set up, one list per chunk of the queue, in order
+    /// (each set up on a thread of its own, drawn where they lie: no copy
+    /// into one list).
+    chunks: Vec<SetUp>,
     backend: RasterBackend,
+}
+
+/// One chunk of the queue set up.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SetUp {
+    /// The triangles.
+    pub tris: Vec<Tri>,
+    /// Per triangle, its rows `y0..y1`: what a group of tile rows reads to
+    /// skip the triangles outside it without touching them.
+    pub rows: Vec<(u16, u16)>,
+}
+
+impl SetUp {
+    /// Fills `rows` from `tris`.
+    fn index_rows(&mut self) {
+        self.rows.clear();
+        self.rows.extend(self.tris.iter().map(|t| (t.y0, t.y1)));
+    }
+}
+
+/// What [`MaskedRasterizer::set_up_and_render`] did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct MaskedRender {
+    /// The raster's work.
+    pub stats: MaskedStats,
+    /// Triangles set up (after clipping, face culling and empty boxes).
+    pub triangles: usize,
+    /// Time setting up, ms.
+    pub set_up_ms: f64,
+    /// Time drawing, ms.
+    pub draw_ms: f64,
 }
 
 impl MaskedRasterizer {
@@ -53,36 +87,71 @@ impl MaskedRasterizer {
             "raster backend {backend:?} is not supported by this CPU"
         );
         MaskedRasterizer {
-            rows: Vec::new(),
+            chunks: Vec::new(),
             backend,
+        }
+    }
+
+    /// Sets up `queue` as `setup` says, its chunks in parallel, each into a
+    /// list of its own, then draws them in order into `zb` (as
+    /// [`MaskedRasterizer::render`] draws one list).
+    pub fn set_up_and_render(
+        &mut self,
+        queue: &TriangleQueue,
+        setup: &QueueSetup,
+        zb: &mut MaskedZBuffer,
+    ) -> MaskedRender {
+        let start = Instant::now();
+        self.chunks.resize_with(queue.chunks(), SetUp::default);
+        self.chunks.par_iter_mut().enumerate().for_each(|(k, c)| {
+            c.tris.clear();
+            queue.set_up_chunk(k, setup, &mut c.tris);
+            c.index_rows();
+        });
+        let set_up_ms = start.elapsed().as_secs_f64() * 1e3;
+        let stats = self.draw(zb);
+        MaskedRender {
+            stats,
+            triangles: self.chunks.iter().map(|c| c.tris.len()).sum(),
+            set_up_ms,
+            draw_ms: start.elapsed().as_secs_f64() * 1e3 - set_up_ms,
         }
     }
 
     /// Draws `tris` (set up for `zb`'s viewport) into `zb`, which keeps what
     /// it holds, and builds its blocks. Uses the current rayon pool; the
     /// result does not depend on its size.
+    #[cfg(test)]
+    pub fn render(&mut self, tris: &[Tri], zb: &mut MaskedZBuffer) -> MaskedStats {
+        self.chunks.resize_with(1, SetUp::default);
+        self.chunks[0].tris.clear();
+        self.chunks[0].tris.extend_from_slice(tris);
+        self.chunks[0].index_rows();
+        self.draw(zb)
+    }
+
+    /// Draws the chunks into `zb` and builds its blocks.
     ///
     /// Work is split into groups of bands of tile rows; each group walks the
     /// whole triangle list in order (streaming it, where a bin of indices per
     /// band would jump through memory) and draws what overlaps its bands.
-    pub fn render(&mut self, tris: &[Tri], zb: &mut MaskedZBuffer) -> MaskedStats {
+    fn draw(&mut self, zb: &mut MaskedZBuffer) -> MaskedStats {
         let (tiles_x, tiles_y) = zb.tiles();
         let bands = tiles_y.div_ceil(BAND_TILES);
+        let triangles: usize = self.chunks.iter().map(|c| c.tris.len()).sum();
         // A few groups per thread, so stealing evens out unequal bands; but
         // every group walks every triangle and sets up again the ones that
         // cross into it, so many triangles get one group per thread.
         // One thread has nothing to even out: one group, every triangle read once.
         let threads = rayon::current_num_threads() as u32;
-        let per_thread = if tris.len() > MANY_TRIANGLES || threads == 1 {
+        let per_thread = if triangles > MANY_TRIANGLES || threads == 1 {
             1
         } else {
             3
         };
         let groups = (threads * per_thread).clamp(1, bands);
         let group_bands = bands.div_ceil(groups);
-        self.rows.clear();
-        self.rows.extend(tris.iter().map(|t| (t.y0, t.y1)));
-        let rows = &self.rows;
+        let chunks = &self.chunks;
         let (tiles, outside, _) = zb.rows_mut();
         let group_tiles = (tiles_x * BAND_TILES * group_bands) as usize;
         let backend = self.backend;
@@ -92,13 +161,12 @@ impl MaskedRasterizer {
             .enumerate()
             .map(|(g, (tiles, outside))| {
                 let parts = GroupParts {
-                    rows,
                     ty0: g as u32 * group_bands * BAND_TILES,
                     tiles_x,
                     tiles,
                     outside,
                 };
-                render_group(backend, tris, parts)
+                render_group(backend, chunks, parts)
             })
             .reduce(MaskedStats::default, |a, b| MaskedStats {
                 tiles_drawn: a.tiles_drawn + b.tiles_drawn,
@@ -280,6 +348,38 @@ mod tests {
             for x in 0..100 {
                 assert!(zb.bound(x, y) < 0.31, "sample {x},{y}: {}", zb.bound(x, y));
             }
+        }
+    }
+
+    /// The queue set up chunk by chunk and drawn from the chunks gives the
+    /// buffer and the work that its one set-up list drawn at once gives.
+    #[test]
+    fn chunks_draw_what_one_list_draws() {
+        let (w, h) = (301, 203);
+        for (seed, n) in [(5, 700), (6, 2600)] {
+            let queue = crate::raster::scanline::tests::soup_queue(seed, n);
+            let setup = QueueSetup {
+                backend: RasterBackend::active(),
+                viewport: Viewport::new(w, h),
+                inner: false,
+            };
+            assert!(queue.chunks() > 1, "{n} triangles make one chunk");
+            let mut tris = Vec::new();
+            queue.set_up_with(&setup, &mut tris);
+            let bounds = |zb: &MaskedZBuffer| -> Vec<u32> {
+                (0..h)
+                    .flat_map(|y| (0..w).map(move |x| (x, y)))
+                    .map(|(x, y)| zb.bound(x, y).to_bits())
+                    .collect()
+            };
+            let (mut one, mut chunked) = (MaskedZBuffer::default(), MaskedZBuffer::default());
+            one.clear(w, h);
+            chunked.clear(w, h);
+            let want = MaskedRasterizer::default().render(&tris, &mut one);
+            let got = MaskedRasterizer::default().set_up_and_render(&queue, &setup, &mut chunked);
+            assert_eq!(got.stats, want, "seed {seed}");
+            assert_eq!(got.triangles, tris.len());
+            assert!(bounds(&chunked) == bounds(&one), "seed {seed}: the buffers differ");
         }
     }
 

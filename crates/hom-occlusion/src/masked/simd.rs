@@ -16,15 +16,15 @@
 //! | [`RasterBackend::Avx512`] | as AVX2 (a tile row is eight lanes) | as AVX2 | as AVX2 |
 
 use super::group::{draw_group, GroupParts, MaskedStats, RowKernel, Scalar};
+use super::raster::SetUp;
 use crate::masked::zbuffer::{MaskTile, SUBTILES};
 use crate::raster::scanline::{LaneSpans, RowBounds, TileRows, LANES};
-use crate::raster::setup::Tri;
 use crate::raster::simd::RasterBackend;
 
 /// Draws a group of bands with the kernels of `backend` (the scalar ones
 /// where the CPU lacks it). The vector entry points compile the whole group
 /// loop with their target feature, so the kernels inline into it.
-pub(crate) fn render_group(backend: RasterBackend, tris: &[Tri], parts: GroupParts) -> MaskedStats {
+pub(crate) fn render_group(backend: RasterBackend, tris: &[SetUp], parts: GroupParts) -> MaskedStats {
     match backend {
         #[cfg(target_arch = "x86_64")]
         RasterBackend::Avx2 | RasterBackend::Avx512 if std::arch::is_x86_feature_detected!("avx2") => {
@@ -43,7 +43,8 @@ pub(crate) fn render_group(backend: RasterBackend, tris: &[Tri], parts: GroupPar
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod x86 {
     use super::{
-        draw_group, GroupParts, LaneSpans, MaskTile, MaskedStats, RowBounds, RowKernel, TileRows, Tri, LANES, SUBTILES,
+        draw_group, GroupParts, LaneSpans, MaskTile, MaskedStats, RowBounds, RowKernel, SetUp, TileRows, LANES,
+        SUBTILES,
     };
     use crate::raster::scanline::EMPTY;
     use std::arch::x86_64::*;
@@ -77,7 +78,7 @@ pub(crate) mod x86 {
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn group_avx2(tris: &[Tri], parts: GroupParts) -> MaskedStats {
+    pub(super) unsafe fn group_avx2(tris: &[SetUp], parts: GroupParts) -> MaskedStats {
         draw_group(Avx2(()), tris, parts)
     }
 
@@ -86,7 +87,7 @@ pub(crate) mod x86 {
     /// # Safety
     /// The CPU must support SSE4.1.
     #[target_feature(enable = "sse4.1")]
-    pub(super) unsafe fn group_sse41(tris: &[Tri], parts: GroupParts) -> MaskedStats {
+    pub(super) unsafe fn group_sse41(tris: &[SetUp], parts: GroupParts) -> MaskedStats {
         draw_group(Sse41(()), tris, parts)
     }
 

@@ -491,6 +491,13 @@ pub(crate) mod tests {
     /// Random clip-space triangles, tiny to screen-filling, some crossing the
     /// near plane or the screen edges, at spread depths.
     pub(crate) fn soup(seed: u64, n: usize, w: u32, h: u32, inner: bool) -> Vec<Tri> {
+        let mut out = Vec::new();
+        soup_queue(seed, n).set_up(&Viewport::new(w, h), inner, &mut out);
+        out
+    }
+
+    /// The clip-space triangles of [`soup`], queued.
+    pub(crate) fn soup_queue(seed: u64, n: usize) -> TriangleQueue {
         let mut rng = Rng::new(seed);
         let mut v = Vec::new();
         let mut t = Vec::new();
@@ -509,9 +516,7 @@ pub(crate) mod tests {
         }
         let mut q = TriangleQueue::default();
         q.push_clip(&v, &t, |v| v, FaceCull::None).unwrap();
-        let mut out = Vec::new();
-        q.set_up(&Viewport::new(w, h), inner, &mut out);
-        out
+        q
     }
 
     proptest! {
