@@ -627,25 +627,31 @@ mod tests {
         }
     }
 
+    /// A backend's name and its direct-bounds kernel, as a closure.
+    type DirectKernel = (&'static str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>);
+
+    /// Every vector kernel of [`RowKernel::next_direct`] this CPU has.
+    fn direct_kernels() -> Vec<DirectKernel> {
+        let mut v: Vec<DirectKernel> = Vec::new();
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(k) = x86::Sse41::new() {
+                v.push(("sse41", Box::new(move |r, a, b| k.next_direct(r, a, b))));
+            }
+            if let Some(k) = x86::Avx2::new() {
+                v.push(("avx2", Box::new(move |r, a, b| k.next_direct(r, a, b))));
+            }
+        }
+        v
+    }
+
     proptest! {
         /// Each kernel's direct bounds ([`RowKernel::next_direct`]) equal
         /// [`RowBounds::next_scalar`] lane for lane, and leave the bounds
         /// where it leaves them, tile row after tile row.
         #[test]
         fn direct_kernels_equal_the_scalar_bounds(seed in any::<u64>(), w in 1u32..400, h in 1u32..200, inner in any::<bool>()) {
-            #[cfg(target_arch = "x86_64")]
-            let kernels: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = {
-                let mut v: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = Vec::new();
-                if let Some(k) = x86::Sse41::new() {
-                    v.push(("sse41", Box::new(move |r, a, b| k.next_direct(r, a, b))));
-                }
-                if let Some(k) = x86::Avx2::new() {
-                    v.push(("avx2", Box::new(move |r, a, b| k.next_direct(r, a, b))));
-                }
-                v
-            };
-            #[cfg(not(target_arch = "x86_64"))]
-            let kernels: Vec<(&str, Box<dyn Fn(&mut RowBounds, u32, u32) -> LaneSpans>)> = Vec::new();
+            let kernels = direct_kernels();
             for t in soup(seed, 30, w, h, inner) {
                 let (ya, yb) = crate::raster::scanline::row_limits(&t);
                 if ya >= yb {
