@@ -9,7 +9,6 @@
 //! Akenine-Möller 2016, section 3). A tile row whose tiles all lie nearer
 //! than the triangle there is skipped before its spans are made.
 
-use crate::masked::raster::SetUp;
 use crate::masked::zbuffer::{MaskTile, MASK_TILE_H, MASK_TILE_W, SUBTILES, SUB_H, SUB_W};
 use crate::raster::scanline::{row_limits, LaneSpans, RowBounds, ScanEdges, Stepper, TileRows, LANES};
 use crate::raster::setup::Tri;
@@ -88,6 +87,24 @@ pub(crate) struct MaskedStats {
     /// Triangle and tile-row pairs skipped whole, before any coverage,
     /// because the triangle lies behind every tile of its box there.
     pub rows_rejected: u64,
+}
+
+/// One chunk of the queue set up.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct SetUp {
+    /// The triangles.
+    pub tris: Vec<Tri>,
+    /// Per triangle, its rows `y0..y1`: what a group of tile rows reads to
+    /// skip the triangles outside it without touching them.
+    pub rows: Vec<(u16, u16)>,
+}
+
+impl SetUp {
+    /// Fills `rows` from `tris`.
+    pub(crate) fn index_rows(&mut self) {
+        self.rows.clear();
+        self.rows.extend(self.tris.iter().map(|t| (t.y0, t.y1)));
+    }
 }
 
 /// A group of bands to draw: the group's first tile row, tiles across, and

@@ -6,23 +6,24 @@
 //! Coverage comes from edge events per scan line, not per-sample edge
 //! functions: each row's first and last covered column straight from the
 //! edge functions ([`crate::raster::scanline::RowBounds`], eight rows in
-//! `f64` lanes, exact), so a row's span is exactly the one [`Tri::row_span`]
+//! `f64` lanes, exact), so a row's span is exactly the one [`Tri::row_span`](crate::raster::setup::Tri::row_span)
 //! computes (the renderer's coverage, or the inner rule's when the triangle
 //! was set up with it). A tile row's masks are then two shifts of its spans.
 //!
 //! Depth: per triangle and subtile, the plane's farthest value over the
 //! subtile's part of the tile row's covered rectangle (at its far corner),
 //! plus rounding slack, so at least the depth the renderer computes at any
-//! sample the triangle covers there ([`Tri::depth_at`]).
+//! sample the triangle covers there ([`Tri::depth_at`](crate::raster::setup::Tri::depth_at)).
 //!
 //! Bands of tile rows are independent and each sees its triangles in order,
 //! so the result does not depend on the thread count or on how bands are
 //! grouped.
 
-use super::group::{GroupParts, MaskedStats, BAND_TILES};
+use super::group::{GroupParts, MaskedStats, SetUp, BAND_TILES};
 use super::simd::render_group;
 use crate::masked::zbuffer::MaskedZBuffer;
 use crate::raster::queue::{QueueSetup, TriangleQueue};
+#[cfg(test)]
 use crate::raster::setup::Tri;
 use crate::raster::simd::RasterBackend;
 use rayon::prelude::*;
@@ -43,24 +44,6 @@ pub(crate) struct MaskedRasterizer {
     /// into one list).
     chunks: Vec<SetUp>,
     backend: RasterBackend,
-}
-
-/// One chunk of the queue set up.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct SetUp {
-    /// The triangles.
-    pub tris: Vec<Tri>,
-    /// Per triangle, its rows `y0..y1`: what a group of tile rows reads to
-    /// skip the triangles outside it without touching them.
-    pub rows: Vec<(u16, u16)>,
-}
-
-impl SetUp {
-    /// Fills `rows` from `tris`.
-    fn index_rows(&mut self) {
-        self.rows.clear();
-        self.rows.extend(self.tris.iter().map(|t| (t.y0, t.y1)));
-    }
 }
 
 /// What [`MaskedRasterizer::set_up_and_render`] did.

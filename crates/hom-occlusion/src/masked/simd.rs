@@ -15,8 +15,7 @@
 //! | [`RasterBackend::Avx2`] | one vector of eight | `vpsllvd`: eight rows at once | one vector of eight subtiles |
 //! | [`RasterBackend::Avx512`] | as AVX2 (a tile row is eight lanes) | as AVX2 | as AVX2 |
 
-use super::group::{draw_group, GroupParts, MaskedStats, RowKernel, Scalar};
-use super::raster::SetUp;
+use super::group::{draw_group, GroupParts, MaskedStats, RowKernel, Scalar, SetUp};
 use crate::masked::zbuffer::{MaskTile, SUBTILES};
 use crate::raster::scanline::{LaneSpans, RowBounds, TileRows, LANES};
 use crate::raster::simd::RasterBackend;
