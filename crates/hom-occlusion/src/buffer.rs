@@ -37,6 +37,20 @@ pub enum Sampling {
     Exact,
 }
 
+/// Where a buffer sets up and draws its triangles. Tests run where they are
+/// called (and from many threads at once through [`OcclusionBuffer::share`]).
+/// Both give the same buffer, bit for bit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Threads {
+    /// On the rayon pool the call runs in: rayon's global pool, or an
+    /// engine's own when it calls inside `pool.install(|| ..)`.
+    #[default]
+    Pool,
+    /// On the calling thread alone: no thread pool is asked for anything,
+    /// for an engine that runs the cull inside one of its own jobs.
+    CallingThread,
+}
+
 /// Options shared by both buffers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BufferOptions {
@@ -48,6 +62,8 @@ pub struct BufferOptions {
     /// (AVX2 where the CPU has it, else the widest it has; or `HOM_RASTER_BACKEND` / `HOM_FORCE_SCALAR`).
     /// Every backend gives the same answers.
     pub backend: Option<RasterBackend>,
+    /// Where the buffer sets up and draws.
+    pub threads: Threads,
 }
 
 /// Why a buffer refused a call.
@@ -487,6 +503,7 @@ impl Front {
             backend: self.backend,
             viewport: Viewport::new(self.width, self.height),
             inner: self.options.sampling == Sampling::Conservative,
+            parallel: self.options.threads == Threads::Pool,
         }
     }
 

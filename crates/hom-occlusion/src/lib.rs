@@ -128,7 +128,9 @@ mod otree;
 mod raster;
 mod weld;
 
-pub use buffer::{BufferOptions, BufferStats, OcclusionBuffer, OcclusionError, Sampling, SharedBuffer, Visibility};
+pub use buffer::{
+    BufferOptions, BufferStats, OcclusionBuffer, OcclusionError, Sampling, SharedBuffer, Threads, Visibility,
+};
 pub use closed_mesh::ClosedMesh;
 pub use geom::ClipConvention;
 pub use glam;

@@ -13,7 +13,7 @@ use hom_occlusion::glam::camera::rh::view::look_at_mat4;
 use hom_occlusion::glam::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use hom_occlusion::{
     BufferOptions, ClipConvention, FaceCull, HomBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, OcclusionError,
-    OcclusionTree, Sampling, Visibility,
+    OcclusionTree, Sampling, Threads, Visibility,
 };
 use hom_testkit::Rng;
 use proptest::prelude::*;
@@ -786,4 +786,95 @@ fn tests_through_a_shared_buffer_answer_as_the_buffer_does() {
     }
     // The answers compared include occluded ones, not only visible ones.
     assert!(occluded * 20 > total, "{occluded} of {total} answers occluded");
+}
+
+/// A world and a camera for the thread tests: enough triangles to make
+/// several setup chunks (512 triangles each) and several bands.
+fn busy_world(seed: u64) -> (World, Mat4, Cam) {
+    let cam = Cam {
+        eye: Vec3::new(0.0, 0.5, 0.0),
+        target: Vec3::new(0.1, 0.4, -1.0),
+        ortho: false,
+        width: 160,
+        height: 120,
+    };
+    let w = world(seed, 700, 20, 300, &cam);
+    let vp = cam.view_proj(ClipConvention::ZeroToOne);
+    (w, vp, cam)
+}
+
+/// Every buffer with `threads`.
+fn all_buffers(cam: &Cam, threads: Threads) -> (HzBuffer, HomBuffer, MaskedBuffer, OcclusionTree) {
+    let o = BufferOptions {
+        threads,
+        ..options(ClipConvention::ZeroToOne)
+    };
+    (
+        HzBuffer::new(cam.width, cam.height, o).unwrap(),
+        HomBuffer::new(cam.width, cam.height, o).unwrap(),
+        MaskedBuffer::new(cam.width, cam.height, o).unwrap(),
+        OcclusionTree::new(cam.width, cam.height, o).unwrap(),
+    )
+}
+
+#[test]
+fn the_calling_thread_alone_draws_what_the_pool_draws() {
+    for seed in 0..3 {
+        let (w, vp, cam) = busy_world(seed);
+        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::Pool);
+        let pool = [
+            answers(&mut a, &w, &vp),
+            answers(&mut b, &w, &vp),
+            answers(&mut c, &w, &vp),
+            answers(&mut d, &w, &vp),
+        ];
+        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::CallingThread);
+        let alone = [
+            answers(&mut a, &w, &vp),
+            answers(&mut b, &w, &vp),
+            answers(&mut c, &w, &vp),
+            answers(&mut d, &w, &vp),
+        ];
+        assert_eq!(alone, pool, "seed {seed}");
+        assert!(pool[0].contains(&Visibility::Occluded), "seed {seed}: nothing occluded");
+    }
+}
+
+/// With every thread of rayon's global pool blocked, buffers made with
+/// `Threads::CallingThread` still set up, draw and answer: nothing of theirs
+/// waits for a pool thread. (With `Threads::Pool` the draw would wait until
+/// the pool is released.)
+#[test]
+fn the_calling_thread_alone_needs_no_pool_thread() {
+    use std::sync::{mpsc, Arc, Barrier};
+    use std::time::Duration;
+    let (w, vp, cam) = busy_world(7);
+    let n = rayon::current_num_threads();
+    let release = Arc::new(Barrier::new(n + 1));
+    let (started, all_started) = mpsc::channel();
+    for _ in 0..n {
+        let (release, started) = (Arc::clone(&release), started.clone());
+        rayon::spawn(move || {
+            started.send(()).unwrap();
+            release.wait();
+        });
+    }
+    for _ in 0..n {
+        all_started.recv().unwrap();
+    }
+    let (done, answered) = mpsc::channel();
+    let drawer = std::thread::spawn(move || {
+        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::CallingThread);
+        let got = [
+            answers(&mut a, &w, &vp),
+            answers(&mut b, &w, &vp),
+            answers(&mut c, &w, &vp),
+            answers(&mut d, &w, &vp),
+        ];
+        done.send(got.iter().map(Vec::len).sum::<usize>()).unwrap();
+    });
+    let got = answered.recv_timeout(Duration::from_secs(60));
+    release.wait();
+    drawer.join().unwrap();
+    assert_eq!(got, Ok(4 * 300), "the buffers waited for the blocked pool");
 }

@@ -71,7 +71,8 @@ impl HzBuffer {
             self.zbuffer.clear(self.front.width, self.front.height);
             self.cleared = false;
         }
-        let s = self.raster.render(&self.front.tris, &mut self.zbuffer);
+        let parallel = self.front.options.threads == crate::Threads::Pool;
+        let s = self.raster.render_with(&self.front.tris, &mut self.zbuffer, parallel);
         self.front.stats.tiles_drawn += s.tiles_drawn;
         self.front.stats.tiles_rejected += s.tiles_rejected + s.blocks_rejected;
     }

@@ -39,6 +39,9 @@ pub struct TiledRasterizer {
     backend: RasterBackend,
 }
 
+/// A band's samples, tile maxima and touched flags, as the band split hands them out.
+type BandSlices<'a> = ((&'a mut [f32], &'a mut [f32]), &'a mut [bool]);
+
 impl TiledRasterizer {
     /// An empty rasterizer using [`RasterBackend::active`].
     #[cfg(test)]
@@ -64,7 +67,14 @@ impl TiledRasterizer {
     /// Renders `tris` (set up for `zb`'s viewport) into `zb`, which keeps
     /// what it holds (clear it first for a new frame), and builds its
     /// pyramid. Uses the current rayon pool; the result does not depend on its size.
+    #[cfg(test)]
     pub fn render(&mut self, tris: &[Tri], zb: &mut TiledZBuffer) -> TiledStats {
+        self.render_with(tris, zb, true)
+    }
+
+    /// Renders `tris` as `render` does, on the current rayon pool where
+    /// `parallel`, else on the calling thread: the same result.
+    pub fn render_with(&mut self, tris: &[Tri], zb: &mut TiledZBuffer, parallel: bool) -> TiledStats {
         let (tiles_x, tiles_y) = zb.tiles();
         let (width, height) = (zb.width(), zb.height());
         let bands = tiles_y.div_ceil(BAND_TILES) as usize;
@@ -89,21 +99,27 @@ impl TiledRasterizer {
             .zip(touched.chunks_mut(band_tiles))
             .enumerate()
             .collect();
-        let stats = costliest_first(bands, |band| bins[band].len())
-            .map(|(band, ((samples, maxima), touched))| {
-                let bin = &bins[band];
-                let band = Band {
-                    ty0: band as u32 * BAND_TILES,
-                    tiles_x,
-                    width,
-                    height,
-                };
-                render_band(backend, &band, bin, (samples, maxima, touched))
-            })
-            .reduce(TiledStats::default, |mut a, b| {
-                a += b;
-                a
-            });
+        let draw = |(band, ((samples, maxima), touched)): (usize, BandSlices)| {
+            let bin = &bins[band];
+            let band = Band {
+                ty0: band as u32 * BAND_TILES,
+                tiles_x,
+                width,
+                height,
+            };
+            render_band(backend, &band, bin, (samples, maxima, touched))
+        };
+        let sum = |mut a: TiledStats, b: TiledStats| {
+            a += b;
+            a
+        };
+        let stats = if parallel {
+            costliest_first(bands, |band| bins[band].len())
+                .map(draw)
+                .reduce(TiledStats::default, sum)
+        } else {
+            bands.into_iter().map(draw).fold(TiledStats::default(), sum)
+        };
         zb.build_pyramid();
         TiledStats {
             triangles: tris.len() as u64,

@@ -13,7 +13,7 @@ use crate::raster::setup::{Tri, HALF, ONE};
 /// Tiles per block side: blocks are a band's tile rows × `BLOCK_TILES` tiles.
 const BLOCK_TILES: u32 = 8;
 
-/// Work done by [`super::raster::TiledRasterizer::render`].
+/// Work done by [`super::raster::TiledRasterizer::render_with`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TiledStats {
     /// Triangles set up (after clipping and face culling).

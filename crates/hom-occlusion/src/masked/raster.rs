@@ -21,7 +21,7 @@
 
 use super::group::{GroupParts, MaskedStats, SetUp, BAND_TILES};
 use super::simd::render_group;
-use crate::masked::zbuffer::MaskedZBuffer;
+use crate::masked::zbuffer::{MaskTile, MaskedZBuffer};
 use crate::raster::queue::{QueueSetup, TriangleQueue};
 #[cfg(test)]
 use crate::raster::setup::Tri;
@@ -86,13 +86,18 @@ impl MaskedRasterizer {
     ) -> MaskedRender {
         let start = Instant::now();
         self.chunks.resize_with(queue.chunks(), SetUp::default);
-        self.chunks.par_iter_mut().enumerate().for_each(|(k, c)| {
+        let set_up = |(k, c): (usize, &mut SetUp)| {
             c.tris.clear();
             queue.set_up_chunk(k, setup, &mut c.tris);
             c.index_rows();
-        });
+        };
+        if setup.parallel {
+            self.chunks.par_iter_mut().enumerate().for_each(set_up);
+        } else {
+            self.chunks.iter_mut().enumerate().for_each(set_up);
+        }
         let set_up_ms = start.elapsed().as_secs_f64() * 1e3;
-        let stats = self.draw(zb);
+        let stats = self.draw(zb, setup.parallel);
         MaskedRender {
             stats,
             triangles: self.chunks.iter().map(|c| c.tris.len()).sum(),
@@ -110,15 +115,16 @@ impl MaskedRasterizer {
         self.chunks[0].tris.clear();
         self.chunks[0].tris.extend_from_slice(tris);
         self.chunks[0].index_rows();
-        self.draw(zb)
+        self.draw(zb, true)
     }
 
-    /// Draws the chunks into `zb` and builds its blocks.
+    /// Draws the chunks into `zb` and builds its blocks: on the current
+    /// rayon pool where `parallel`, else on the calling thread.
     ///
     /// Work is split into groups of bands of tile rows; each group walks the
     /// whole triangle list in order (streaming it, where a bin of indices per
     /// band would jump through memory) and draws what overlaps its bands.
-    fn draw(&mut self, zb: &mut MaskedZBuffer) -> MaskedStats {
+    fn draw(&mut self, zb: &mut MaskedZBuffer, parallel: bool) -> MaskedStats {
         let (tiles_x, tiles_y) = zb.tiles();
         let bands = tiles_y.div_ceil(BAND_TILES);
         let triangles: usize = self.chunks.iter().map(|c| c.tris.len()).sum();
@@ -126,7 +132,11 @@ impl MaskedRasterizer {
         // every group walks every triangle and sets up again the ones that
         // cross into it, so many triangles get one group per thread.
         // One thread has nothing to even out: one group, every triangle read once.
-        let threads = rayon::current_num_threads() as u32;
+        let threads = if parallel {
+            rayon::current_num_threads() as u32
+        } else {
+            1
+        };
         let per_thread = if triangles > MANY_TRIANGLES || threads == 1 {
             1
         } else {
@@ -138,24 +148,35 @@ impl MaskedRasterizer {
         let (tiles, outside, _) = zb.rows_mut();
         let group_tiles = (tiles_x * BAND_TILES * group_bands) as usize;
         let backend = self.backend;
-        let stats = tiles
-            .par_chunks_mut(group_tiles)
-            .zip(outside.par_chunks(group_tiles))
-            .enumerate()
-            .map(|(g, (tiles, outside))| {
-                let parts = GroupParts {
-                    ty0: g as u32 * group_bands * BAND_TILES,
-                    tiles_x,
-                    tiles,
-                    outside,
-                };
-                render_group(backend, chunks, parts)
-            })
-            .reduce(MaskedStats::default, |a, b| MaskedStats {
-                tiles_drawn: a.tiles_drawn + b.tiles_drawn,
-                tiles_rejected: a.tiles_rejected + b.tiles_rejected,
-                rows_rejected: a.rows_rejected + b.rows_rejected,
-            });
+        let group = |(g, (tiles, outside)): (usize, (&mut [MaskTile], &[[u32; 8]]))| {
+            let parts = GroupParts {
+                ty0: g as u32 * group_bands * BAND_TILES,
+                tiles_x,
+                tiles,
+                outside,
+            };
+            render_group(backend, chunks, parts)
+        };
+        let sum = |a: MaskedStats, b: MaskedStats| MaskedStats {
+            tiles_drawn: a.tiles_drawn + b.tiles_drawn,
+            tiles_rejected: a.tiles_rejected + b.tiles_rejected,
+            rows_rejected: a.rows_rejected + b.rows_rejected,
+        };
+        let stats = if parallel {
+            tiles
+                .par_chunks_mut(group_tiles)
+                .zip(outside.par_chunks(group_tiles))
+                .enumerate()
+                .map(group)
+                .reduce(MaskedStats::default, sum)
+        } else {
+            tiles
+                .chunks_mut(group_tiles)
+                .zip(outside.chunks(group_tiles))
+                .enumerate()
+                .map(group)
+                .fold(MaskedStats::default(), sum)
+        };
         zb.build_blocks();
         stats
     }
@@ -345,6 +366,7 @@ mod tests {
                 backend: RasterBackend::active(),
                 viewport: Viewport::new(w, h),
                 inner: false,
+                parallel: true,
             };
             assert!(queue.chunks() > 1, "{n} triangles make one chunk");
             let mut tris = Vec::new();

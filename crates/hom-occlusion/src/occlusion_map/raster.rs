@@ -191,18 +191,27 @@ impl CoverageRasterizer {
             queue.set_up_chunk(k, &setup, &mut out.tris);
             draw.bin(&out.tris, &mut out.bins);
         };
-        let helpers = rayon::current_num_threads()
-            .saturating_sub(1)
-            .min(chunks.max(draw.bands));
+        let helpers = if setup.parallel {
+            rayon::current_num_threads()
+                .saturating_sub(1)
+                .min(chunks.max(draw.bands))
+        } else {
+            0
+        };
         let mut set_up_ms = 0.0;
-        rayon::scope(|s| {
-            for _ in 0..helpers {
-                s.spawn(|_| {
-                    region.run(&set_up, &draw);
-                });
-            }
+        if helpers == 0 {
+            // No scope: entering one from outside the pool would run it on a pool thread.
             set_up_ms = region.run(&set_up, &draw);
-        });
+        } else {
+            rayon::scope(|s| {
+                for _ in 0..helpers {
+                    s.spawn(|_| {
+                        region.run(&set_up, &draw);
+                    });
+                }
+                set_up_ms = region.run(&set_up, &draw);
+            });
+        }
         let triangles = self.chunks[..chunks]
             .iter()
             .map(|c| c.read().map_or(0, |c| c.tris.len()))
@@ -808,7 +817,7 @@ mod tests {
                     q.push_model(&o.positions, &o.triangles, &mvp, FaceCull::None).unwrap();
                 }
             }
-            let setup = QueueSetup { backend: RasterBackend::active(), viewport: Viewport::new(w, h), inner };
+            let setup = QueueSetup { backend: RasterBackend::active(), viewport: Viewport::new(w, h), inner, parallel: true };
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
             let draw = |fused: bool| {
                 let mut cov = CoverageBuffer::default();

@@ -54,6 +54,9 @@ pub(crate) struct QueueSetup {
     /// The inner rule for every triangle (conservative sampling), else
     /// for the batches that ask for it.
     pub inner: bool,
+    /// Whether the work may go to the current rayon pool's threads (else
+    /// all of it runs on the calling thread: [`crate::Threads`]).
+    pub parallel: bool,
 }
 
 /// Clip-space triangles in submission order, with their face culling; see the module docs.
@@ -227,6 +230,7 @@ impl TriangleQueue {
             backend: RasterBackend::active(),
             viewport: *vp,
             inner,
+            parallel: true,
         };
         self.set_up_with(&setup, out);
     }
@@ -235,14 +239,16 @@ impl TriangleQueue {
     /// first): the [`TriangleQueue::set_up_chunk`]s in order, set up in parallel.
     pub fn set_up_with(&self, setup: &QueueSetup, out: &mut Vec<Tri>) {
         out.clear();
-        let chunks: Vec<Vec<Tri>> = (0..self.chunks())
-            .into_par_iter()
-            .map(|k| {
-                let mut out = Vec::new();
-                self.set_up_chunk(k, setup, &mut out);
-                out
-            })
-            .collect();
+        let chunk = |k| {
+            let mut out = Vec::new();
+            self.set_up_chunk(k, setup, &mut out);
+            out
+        };
+        let chunks: Vec<Vec<Tri>> = if setup.parallel {
+            (0..self.chunks()).into_par_iter().map(chunk).collect()
+        } else {
+            (0..self.chunks()).map(chunk).collect()
+        };
         for c in chunks {
             out.extend(c);
         }
@@ -260,6 +266,7 @@ impl TriangleQueue {
             backend,
             viewport: ref vp,
             inner,
+            ..
         } = *setup;
         let (verts, batches) = (&self.verts, &self.batches);
         let first = k * SETUP_CHUNK;

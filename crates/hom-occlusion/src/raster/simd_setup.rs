@@ -419,6 +419,7 @@ mod tests {
                     backend,
                     viewport: vp,
                     inner,
+                    parallel: true,
                 };
                 q.set_up_with(&setup, &mut out);
                 out.iter().map(|t| format!("{t:?}")).collect::<Vec<_>>()
