@@ -113,3 +113,31 @@ fn an_empty_scene_culls_to_nothing_and_fills_up() {
         assert_eq!(out.visible, vec![small], "{}", culler.name());
     }
 }
+
+/// The occluder cullers with their buffers on the calling thread alone
+/// (`Threads::CallingThread`) cull exactly as with the pool, frame after frame.
+#[test]
+fn occluder_cullers_on_the_calling_thread_cull_as_on_the_pool() {
+    let scene = random_scene(11, 40, false);
+    let mut hom = permissive_hom(200);
+    let mut pool = occluder_cullers(&scene, &hom);
+    hom.threads = hom::occlusion::Threads::CallingThread;
+    let mut alone = occluder_cullers(&scene, &hom);
+    let mut occluded = 0;
+    for camera in hom_testkit::cut_camera_path(3, 24, 8) {
+        let view = camera.to_view();
+        for (a, b) in pool.iter_mut().zip(&mut alone) {
+            let (mut want, mut got) = (CullOutput::default(), CullOutput::default());
+            a.cull(&scene, &view, &mut want).unwrap();
+            b.cull(&scene, &view, &mut got).unwrap();
+            assert_eq!(
+                (&got.visible, &got.occluded),
+                (&want.visible, &want.occluded),
+                "{}",
+                a.name()
+            );
+            occluded += want.occluded.len();
+        }
+    }
+    assert!(occluded > 0, "nothing was occluded on the walk");
+}

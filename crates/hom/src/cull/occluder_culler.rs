@@ -39,7 +39,7 @@ use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
 use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderCuts, OccluderDb, OccluderSelector, SelectionStats};
 use crate::occlusion::details::{Hole, RectTest};
-use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling};
+use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling, Threads};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
 
@@ -107,6 +107,12 @@ pub struct OccluderCullerConfig<O> {
     pub hierarchy: Hierarchy,
     /// The buffer's own options.
     pub buffer: O,
+    /// Where the buffer sets up and draws the occluders: the rayon pool the
+    /// cull runs in (default), or the calling thread alone. The culler's own
+    /// stages (selection, queueing, traversal) run on the calling thread
+    /// either way, so [`Threads::CallingThread`] keeps a frame's whole cull
+    /// there (building and rebuilding the occluder database still use the pool).
+    pub threads: Threads,
 }
 
 impl<O: Default> Default for OccluderCullerConfig<O> {
@@ -118,6 +124,7 @@ impl<O: Default> Default for OccluderCullerConfig<O> {
             cost_model: true,
             hierarchy: Hierarchy::Bvh,
             buffer: O::default(),
+            threads: Threads::Pool,
         }
     }
 }
@@ -141,6 +148,7 @@ impl<O> OccluderCullerConfig<O> {
             cost_model: self.cost_model,
             hierarchy: self.hierarchy,
             buffer,
+            threads: self.threads,
         }
     }
 }
@@ -218,9 +226,9 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
             last.as_ref().and_then(|b| b.worst_hole(hole_opacity))
         })?;
         // 2. The occluders into the buffer (timed as `raster`).
-        let options = &self.config.buffer;
+        let (options, threads) = (&self.config.buffer, self.config.threads);
         let buffer = sized(&mut self.buffer, view, |w, h| {
-            B::make(w, h, culler_buffer_options(), options)
+            B::make(w, h, culler_buffer_options(threads), options)
         });
         let common = &mut self.common;
         let drawn = common.draw(scene, &frame, buffer, out);
@@ -252,10 +260,11 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
 }
 
 /// The buffer options of the occluder cullers: hom's own clip convention and
-/// the reference renderer's exact sampling (the oracle draws with it).
-fn culler_buffer_options() -> BufferOptions {
+/// the reference renderer's exact sampling (the oracle draws with it), on `threads`.
+fn culler_buffer_options(threads: Threads) -> BufferOptions {
     BufferOptions {
         sampling: Sampling::Exact,
+        threads,
         ..BufferOptions::default()
     }
 }
