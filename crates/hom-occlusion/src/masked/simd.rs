@@ -189,28 +189,7 @@ pub(crate) mod x86 {
             let lo = _mm256_max_epi32(_mm256_max_epi32(left(0), left(1)), zero);
             let right = _mm256_min_epi32(_mm256_min_epi32(ld(&q[2]), ld(&q[3])), _mm256_set1_epi32(rows.last));
             let hi = _mm256_add_epi32(right, _mm256_set1_epi32(1));
-            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-            let in_rows = _mm256_and_si256(
-                _mm256_cmpgt_epi32(lane, _mm256_set1_epi32(ja as i32 - 1)),
-                _mm256_cmpgt_epi32(_mm256_set1_epi32(jb as i32), lane),
-            );
-            let live = _mm256_and_si256(in_rows, _mm256_cmpgt_epi32(hi, lo));
-            let lo = _mm256_blendv_epi8(_mm256_set1_epi32(EMPTY), lo, live);
-            let hi = _mm256_blendv_epi8(_mm256_set1_epi32(-EMPTY), hi, live);
-            let mut out = LaneSpans {
-                lo: [0; LANES],
-                hi: [0; LANES],
-                any: (0, 0),
-                all: (0, 0),
-            };
-            _mm256_storeu_si256(out.lo.as_mut_ptr().cast(), lo);
-            _mm256_storeu_si256(out.hi.as_mut_ptr().cast(), hi);
-            let (lo_a, lo_b) = (_mm256_castsi256_si128(lo), _mm256_extracti128_si256::<1>(lo));
-            let (hi_a, hi_b) = (_mm256_castsi256_si128(hi), _mm256_extracti128_si256::<1>(hi));
-            let (min_lo, max_lo) = min_max_128(_mm_min_epi32(lo_a, lo_b), _mm_max_epi32(lo_a, lo_b));
-            let (min_hi, max_hi) = min_max_128(_mm_min_epi32(hi_a, hi_b), _mm_max_epi32(hi_a, hi_b));
-            out.any = (min_lo, max_hi);
-            out.all = (max_lo, min_hi);
+            let out = spans_of(lo, hi, ja, jb);
             for k in 0..4 {
                 let t = _mm256_add_epi32(ld(&rows.r[k]), _mm256_set1_epi32(rows.r8[k]));
                 let carry = _mm256_cmpgt_epi32(t, _mm256_set1_epi32(rows.d[k] - 1));
@@ -257,8 +236,8 @@ pub(crate) mod x86 {
                 lo[h] = _mm256_max_pd(lo[h], _mm256_add_pd(c[h], to_left));
                 neg_hi[h] = _mm256_max_pd(neg_hi[h], _mm256_add_pd(c[h], to_right));
             }
-            b.x[i] += b.s[i] * LANES as f64;
         }
+        b.skip_tile_row();
         let (last1, zero) = (_mm256_set1_pd(b.last + 1.0), _mm256_setzero_pd());
         let to_i32 = |v: [__m256d; 2]| _mm256_set_m128i(_mm256_cvttpd_epi32(v[1]), _mm256_cvttpd_epi32(v[0]));
         let l = to_i32([_mm256_min_pd(lo[0], last1), _mm256_min_pd(lo[1], last1)]);
@@ -266,21 +245,23 @@ pub(crate) mod x86 {
             _mm256_max_pd(_mm256_sub_pd(one, neg_hi[0]), zero),
             _mm256_max_pd(_mm256_sub_pd(one, neg_hi[1]), zero),
         ]);
+        spans_of(l, h, ja, jb)
+    }
+
+    /// The spans with lanes `lo..hi` where the lane is a row `ja..jb` and
+    /// not empty (else `(EMPTY, -EMPTY)`), with their `any` and `all`: the
+    /// tail both kinds of row bounds share.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn spans_of(lo: __m256i, hi: __m256i, ja: u32, jb: u32) -> LaneSpans {
         let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         let in_rows = _mm256_and_si256(
             _mm256_cmpgt_epi32(lane, _mm256_set1_epi32(ja as i32 - 1)),
             _mm256_cmpgt_epi32(_mm256_set1_epi32(jb as i32), lane),
         );
-        let live = _mm256_and_si256(in_rows, _mm256_cmpgt_epi32(h, l));
-        let lo = _mm256_blendv_epi8(_mm256_set1_epi32(EMPTY), l, live);
-        let hi = _mm256_blendv_epi8(_mm256_set1_epi32(-EMPTY), h, live);
-        spans_of(lo, hi)
-    }
-
-    /// The spans with lanes `lo` and `hi`, their `any` and `all`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn spans_of(lo: __m256i, hi: __m256i) -> LaneSpans {
+        let live = _mm256_and_si256(in_rows, _mm256_cmpgt_epi32(hi, lo));
+        let lo = _mm256_blendv_epi8(_mm256_set1_epi32(EMPTY), lo, live);
+        let hi = _mm256_blendv_epi8(_mm256_set1_epi32(-EMPTY), hi, live);
         let mut out = LaneSpans {
             lo: [0; LANES],
             hi: [0; LANES],

@@ -154,7 +154,7 @@ impl Tri {
         let (dya, dyb) = ((ya - y0) as f32, (yb - y0) as f32);
         let (ax, bx) = (self.dzdx * dxa, self.dzdx * dxb);
         let (ay, by) = (self.dzdy * dya, self.dzdy * dyb);
-        let slack = (self.zref.abs() + self.dzdx.abs() * dxb + self.dzdy.abs() * dyb) * DEPTH_SLACK;
+        let slack = self.depth_slack(xb, yb);
         let low = self.zref + ax.min(bx) + ay.min(by) - slack;
         let high = self.zref + ax.max(bx) + ay.max(by) + slack;
         (low.max(0.0), high.max(0.0))
