@@ -306,12 +306,7 @@ impl SharedBuffer<'_> {
     }
 
     fn decide(&self, p: Placement) -> Visibility {
-        match p {
-            Placement::ViewCulled => Visibility::ViewCulled,
-            Placement::Visible => Visibility::Visible,
-            Placement::Rect(r) if self.rect_is_occluded(&r) => Visibility::Occluded,
-            Placement::Rect(_) => Visibility::Visible,
-        }
+        p.answer(|r| self.rect_is_occluded(r))
     }
 }
 
@@ -351,6 +346,19 @@ pub(crate) enum Placement {
     Visible,
     /// A rectangle of samples and the nearest depth (hom's convention).
     Rect(ScreenRect),
+}
+
+impl Placement {
+    /// The answer: the image, asked through `occluded`, decides only rectangles.
+    #[inline]
+    pub(crate) fn answer(self, occluded: impl FnOnce(&ScreenRect) -> bool) -> Visibility {
+        match self {
+            Placement::ViewCulled => Visibility::ViewCulled,
+            Placement::Visible => Visibility::Visible,
+            Placement::Rect(r) if occluded(&r) => Visibility::Occluded,
+            Placement::Rect(_) => Visibility::Visible,
+        }
+    }
 }
 
 /// The placement of a box's eight corners under `to_clip` (hom's convention).
@@ -694,18 +702,7 @@ macro_rules! occlusion_buffer {
             /// Answers a placement: the image decides only rectangles.
             #[inline]
             fn decide(&mut self, p: $crate::Placement) -> $crate::Visibility {
-                use $crate::{Placement, Visibility};
-                let v = match p {
-                    Placement::ViewCulled => Visibility::ViewCulled,
-                    Placement::Visible => Visibility::Visible,
-                    Placement::Rect(r) => {
-                        if <Self as $crate::RectTest>::rect_is_occluded(self, &r) {
-                            Visibility::Occluded
-                        } else {
-                            Visibility::Visible
-                        }
-                    }
-                };
+                let v = p.answer(|r| <Self as $crate::RectTest>::rect_is_occluded(self, r));
                 self.front.answer(v)
             }
         }
