@@ -690,13 +690,7 @@ fn stand_in_triangles_are_sampled_conservatively_in_every_buffer() {
         };
         let mut differs = 0;
         for seed in 0..12 {
-            let cam = Cam {
-                eye: Vec3::new(0.0, 0.5, 0.0),
-                target: Vec3::new(0.1, 0.4, -1.0),
-                ortho: false,
-                width: 61,
-                height: 43,
-            };
+            let cam = forward_cam(61, 43);
             let w = world(seed, 14, 0, 60, &cam);
             let vp = cam.view_proj(ClipConvention::ZeroToOne);
             let run = |buf: &mut Box<dyn OcclusionBuffer>, stand_in: bool| -> Vec<Visibility> {
@@ -765,13 +759,7 @@ fn tests_through_a_shared_buffer_answer_as_the_buffer_does() {
     let (mut occluded, mut total) = (0, 0);
     let clip = ClipConvention::ZeroToOne;
     for seed in 0..6 {
-        let cam = Cam {
-            eye: Vec3::new(0.0, 0.5, 0.0),
-            target: Vec3::new(0.1, 0.4, -1.0),
-            ortho: false,
-            width: 96,
-            height: 64,
-        };
+        let cam = forward_cam(96, 64);
         let (w, vp) = (world(seed, 14, 6, 200, &cam), cam.view_proj(clip));
         let (width, height, o) = (cam.width, cam.height, options(clip));
         for own in [
@@ -788,53 +776,47 @@ fn tests_through_a_shared_buffer_answer_as_the_buffer_does() {
     assert!(occluded * 20 > total, "{occluded} of {total} answers occluded");
 }
 
-/// A world and a camera for the thread tests: enough triangles to make
-/// several setup chunks (512 triangles each) and several bands.
-fn busy_world(seed: u64) -> (World, Mat4, Cam) {
-    let cam = Cam {
+/// A perspective camera near the origin looking down −z, a little down.
+fn forward_cam(width: u32, height: u32) -> Cam {
+    Cam {
         eye: Vec3::new(0.0, 0.5, 0.0),
         target: Vec3::new(0.1, 0.4, -1.0),
         ortho: false,
-        width: 160,
-        height: 120,
-    };
+        width,
+        height,
+    }
+}
+
+/// A world and a camera for the thread tests: enough triangles to make
+/// several setup chunks (512 triangles each) and several bands.
+fn busy_world(seed: u64) -> (World, Mat4, Cam) {
+    let cam = forward_cam(160, 120);
     let w = world(seed, 700, 20, 300, &cam);
     let vp = cam.view_proj(ClipConvention::ZeroToOne);
     (w, vp, cam)
 }
 
-/// Every buffer with `threads`.
-fn all_buffers(cam: &Cam, threads: Threads) -> (HzBuffer, HomBuffer, MaskedBuffer, OcclusionTree) {
+/// The world's answers from every buffer made with `threads`.
+fn all_answers(cam: &Cam, threads: Threads, w: &World, vp: &Mat4) -> [Vec<Visibility>; 4] {
     let o = BufferOptions {
         threads,
         ..options(ClipConvention::ZeroToOne)
     };
-    (
-        HzBuffer::new(cam.width, cam.height, o).unwrap(),
-        HomBuffer::new(cam.width, cam.height, o).unwrap(),
-        MaskedBuffer::new(cam.width, cam.height, o).unwrap(),
-        OcclusionTree::new(cam.width, cam.height, o).unwrap(),
-    )
+    let (width, height) = (cam.width, cam.height);
+    [
+        answers(&mut HzBuffer::new(width, height, o).unwrap(), w, vp),
+        answers(&mut HomBuffer::new(width, height, o).unwrap(), w, vp),
+        answers(&mut MaskedBuffer::new(width, height, o).unwrap(), w, vp),
+        answers(&mut OcclusionTree::new(width, height, o).unwrap(), w, vp),
+    ]
 }
 
 #[test]
 fn the_calling_thread_alone_draws_what_the_pool_draws() {
     for seed in 0..3 {
         let (w, vp, cam) = busy_world(seed);
-        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::Pool);
-        let pool = [
-            answers(&mut a, &w, &vp),
-            answers(&mut b, &w, &vp),
-            answers(&mut c, &w, &vp),
-            answers(&mut d, &w, &vp),
-        ];
-        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::CallingThread);
-        let alone = [
-            answers(&mut a, &w, &vp),
-            answers(&mut b, &w, &vp),
-            answers(&mut c, &w, &vp),
-            answers(&mut d, &w, &vp),
-        ];
+        let pool = all_answers(&cam, Threads::Pool, &w, &vp);
+        let alone = all_answers(&cam, Threads::CallingThread, &w, &vp);
         assert_eq!(alone, pool, "seed {seed}");
         assert!(pool[0].contains(&Visibility::Occluded), "seed {seed}: nothing occluded");
     }
@@ -864,13 +846,7 @@ fn the_calling_thread_alone_needs_no_pool_thread() {
     }
     let (done, answered) = mpsc::channel();
     let drawer = std::thread::spawn(move || {
-        let (mut a, mut b, mut c, mut d) = all_buffers(&cam, Threads::CallingThread);
-        let got = [
-            answers(&mut a, &w, &vp),
-            answers(&mut b, &w, &vp),
-            answers(&mut c, &w, &vp),
-            answers(&mut d, &w, &vp),
-        ];
+        let got = all_answers(&cam, Threads::CallingThread, &w, &vp);
         done.send(got.iter().map(Vec::len).sum::<usize>()).unwrap();
     });
     let got = answered.recv_timeout(Duration::from_secs(60));
