@@ -52,8 +52,9 @@ pub struct OccluderDbConfig {
     /// Drop an object whose surface fills less than this fraction of its box's
     /// surface (a diagonal pipe, a sparse frame): its box badly overstates what it hides.
     pub min_fill: f32,
-    /// Drop an object whose box lies inside a kept occluder's box grown by this
-    /// margin (metres) — a clock on a wall hides nothing the wall does not.
+    /// Drop an object whose box lies inside a kept closed occluder's box grown
+    /// by this margin (metres) — a clock on a solid wall hides nothing the
+    /// wall does not. An open mesh's box never drops anything.
     pub redundancy_margin: f32,
     /// Original meshes or virtual occluders.
     pub meshes: OccluderMeshes,
@@ -85,7 +86,7 @@ pub enum Verdict {
     TooCostly,
     /// It fills too little of its box.
     IllShaped,
-    /// A kept occluder's box already holds it.
+    /// A kept closed occluder's box already holds it.
     Redundant,
     /// The scene marks it as never an occluder ([`crate::scene::Object::occluder`]
     /// is false: glass, grates, foliage, liquids), whatever its shape.
@@ -287,8 +288,9 @@ impl OccluderDb {
                 }
             }
         }
-        mark_redundant(scene, config.redundancy_margin, &mut verdicts);
+        // Shells first: only a closed occluder's box makes another redundant.
         let shells = check_shells(scene, &verdicts, shells);
+        mark_redundant(scene, config.redundancy_margin, &shells, &mut verdicts);
         let occluders = verdicts
             .iter()
             .enumerate()
@@ -490,8 +492,14 @@ impl OccluderDb {
     }
 }
 
-/// Marks static kept objects whose box sits inside a larger static kept box.
-fn mark_redundant(scene: &Scene, margin: f32, verdicts: &mut [Verdict]) {
+/// Marks static kept objects whose box sits inside the box of a larger,
+/// static, kept and closed occluder (`shells`, by mesh id). Only a closed
+/// mesh's box stands for what it hides: the box of an open one (terrain, a
+/// road, a level's floor, a sky) holds everything standing on or under it
+/// and hides none of it (ctf_inyard, cut into objects of at most 64
+/// triangles: 438 of 2,803 objects were absorbed, every one by an open
+/// mesh's box; HOM efficiency 82.2 -> 84.6 %).
+fn mark_redundant(scene: &Scene, margin: f32, shells: &[Shell], verdicts: &mut [Verdict]) {
     let objects = scene.objects();
     let mut kept: Vec<u32> = (0..objects.len() as u32)
         .filter(|&i| verdicts[i as usize] == Verdict::Kept && !objects[i as usize].is_dynamic())
@@ -503,6 +511,10 @@ fn mark_redundant(scene: &Scene, margin: f32, verdicts: &mut [Verdict]) {
         vb.total_cmp(&va).then(a.cmp(&b))
     });
     let boxes: Vec<Aabb> = kept.iter().map(|&i| objects[i as usize].aabb).collect();
+    let closed: Vec<bool> = kept
+        .iter()
+        .map(|&i| matches!(shells.get(objects[i as usize].mesh as usize), Some(Shell::Closed(_))))
+        .collect();
     let bvh = crate::spatial::Bvh::build(&boxes, &crate::spatial::BvhConfig::default());
     let mut absorbed = vec![false; kept.len()];
     let mut hits = Vec::new();
@@ -512,7 +524,7 @@ fn mark_redundant(scene: &Scene, margin: f32, verdicts: &mut [Verdict]) {
         bvh.overlapping(&Aabb::new(b.min - margin, b.max + margin), &mut hits);
         let inside_bigger = hits.iter().any(|&j| {
             let j = j as usize;
-            j < k && !absorbed[j] && Aabb::new(boxes[j].min - margin, boxes[j].max + margin).contains(&b)
+            j < k && !absorbed[j] && closed[j] && Aabb::new(boxes[j].min - margin, boxes[j].max + margin).contains(&b)
         });
         if inside_bigger {
             absorbed[k] = true;
@@ -549,6 +561,44 @@ mod tests {
             .unwrap();
         assert!(b.set_occluder(1, false));
         b.build().unwrap()
+    }
+
+    /// A unit cube's triangles, outward, without the top two when `open`.
+    fn cube(open: bool) -> crate::scene::Mesh {
+        let p = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .collect();
+        // Two triangles a face; the top (y = 1) last.
+        let faces = [
+            [[0, 2, 1], [1, 2, 3]], // z = 0
+            [[4, 5, 6], [5, 7, 6]], // z = 1
+            [[0, 1, 4], [1, 5, 4]], // y = 0
+            [[0, 4, 2], [2, 4, 6]], // x = 0
+            [[1, 3, 5], [3, 7, 5]], // x = 1
+            [[2, 6, 3], [3, 6, 7]], // y = 1
+        ];
+        let kept = if open { 5 } else { 6 };
+        let t = faces[..kept].concat();
+        crate::scene::Mesh::new("cube", p, t).unwrap()
+    }
+
+    /// Only a closed occluder's box makes the objects inside it redundant:
+    /// an open mesh (a courtyard's walls, terrain, a sky) hides nothing by
+    /// holding it.
+    #[test]
+    fn only_closed_boxes_make_others_redundant() {
+        for open in [false, true] {
+            let mut b = SceneBuilder::new("boxes");
+            let big = b.add_mesh(cube(open));
+            let small = b.add_mesh(cube(false));
+            b.add_object("big", big, Mat4::from_scale(Vec3::splat(10.0))).unwrap();
+            b.add_object("small", small, Mat4::from_translation(Vec3::splat(4.0)))
+                .unwrap();
+            let scene = b.build().unwrap();
+            let db = OccluderDb::build(&scene, &OccluderDbConfig::default());
+            let inner = if open { Verdict::Kept } else { Verdict::Redundant };
+            assert_eq!(db.verdicts(), &[Verdict::Kept, inner], "open: {open}");
+        }
     }
 
     #[test]
