@@ -94,6 +94,8 @@
 //! matrices and boxes. The crate `hom` builds whole-scene cullers on it
 //! (re-exported there as `hom::occlusion` and `hom::geom`).
 //! - [`geom`]: boxes, planes, the frustum, cameras and views, screen rectangles.
+//! - [`clusters`]: a mesh's triangles cut into clusters, to cull parts of
+//!   big meshes (index ranges with their bounds).
 //! - `raster/`: the one triangle setup and sampling rule shared with the
 //!   reference renderer (`raster/setup.rs`), exact scan-line spans, the
 //!   triangle queue, and the row-coverage kernels with their backend choice
@@ -116,6 +118,8 @@
 mod buffer;
 #[forbid(unsafe_code)]
 mod closed_mesh;
+#[forbid(unsafe_code)]
+pub mod clusters;
 #[forbid(unsafe_code)]
 pub mod details;
 #[forbid(unsafe_code)]

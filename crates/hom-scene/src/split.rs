@@ -4,23 +4,24 @@
 //!
 //! Many real files are one big mesh (a Quake 3 world, an OBJ file with one
 //! group). A culler works per object, so such a mesh is split into objects of a
-//! bounded size: the *pieces* (triangles, or the faces of a BSP map) are split
-//! recursively at the median of their centroids along the longest axis of the
-//! centroids' bounding box until a group holds at most
-//! [`SplitOptions::max_triangles`] triangles and its pieces' centroids lie within
-//! [`SplitOptions::max_extent`] on every axis (or it is a single piece). The
-//! centroids, not the pieces' full bounds, so that one long triangle (a floor)
-//! does not shatter everything around it into single pieces.
+//! bounded size: its *pieces* (triangles, or the faces of a BSP map) are cut
+//! into clusters ([`hom::clusters`]: at the median of their centroids, at most
+//! [`SplitOptions::max_triangles`] triangles and [`SplitOptions::max_extent`]
+//! metres each, by default cluster-sized), and each cluster becomes an object.
 //!
-//! **Order (the object ids):** groups come out in depth-first order of the split
-//! tree, the half with the smaller coordinates first; within a group the pieces
+//! **Order (the object ids):** the clusters' order: depth-first over the cut,
+//! the half with the smaller coordinates first; within a group the pieces
 //! keep their input order. The result is a pure function of the input.
 
 use glam::Vec3;
+use hom::clusters::{self, ClusterOptions};
 use hom::geom::Aabb;
 use hom::scene::{Mesh, SceneError};
 
-/// How big the objects made from an unstructured mesh may be.
+pub use hom::clusters::Piece;
+
+/// How big the objects made from an unstructured mesh may be: clusters
+/// ([`hom::clusters`]), whose defaults they share.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SplitOptions {
     /// Split at all? When false, a mesh stays one object.
@@ -34,63 +35,31 @@ pub struct SplitOptions {
 
 impl Default for SplitOptions {
     fn default() -> Self {
+        let c = ClusterOptions::default();
         SplitOptions {
             enabled: true,
-            max_triangles: 512,
-            max_extent: 16.0,
+            max_triangles: c.max_triangles as usize,
+            max_extent: c.max_extent,
         }
     }
 }
 
-/// One unit the splitter never cuts: its bounds and how many triangles it holds.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Piece {
-    /// Bounds of the piece's triangles.
-    pub bounds: Aabb,
-    /// Triangles in the piece.
-    pub triangles: usize,
-}
-
-/// Groups `pieces` into spatially coherent groups (indices into `pieces`), in
-/// the documented order. With splitting disabled, or one piece, one group holds all.
-/// An empty input gives no groups.
+/// Groups `pieces` into spatially coherent groups (indices into `pieces`) by
+/// [`hom::clusters::group_pieces`], in its order. With splitting disabled,
+/// or one piece, one group holds all. An empty input gives no groups.
 pub fn group_pieces(pieces: &[Piece], options: &SplitOptions) -> Vec<Vec<u32>> {
-    if pieces.is_empty() {
-        return Vec::new();
-    }
-    let all: Vec<u32> = (0..pieces.len() as u32).collect();
     if !options.enabled {
-        return vec![all];
-    }
-    let centroid = |i: u32| pieces[i as usize].bounds.center();
-    let mut out = Vec::new();
-    // Explicit stack (right pushed first so the left half comes out first).
-    let mut stack = vec![all];
-    while let Some(mut group) = stack.pop() {
-        let triangles: usize = group.iter().map(|&i| pieces[i as usize].triangles).sum();
-        let cbounds = Aabb::from_points(group.iter().map(|&i| centroid(i)));
-        let e = cbounds.extent();
-        let small = triangles <= options.max_triangles.max(1) && e.max_element() <= options.max_extent;
-        if group.len() <= 1 || small {
-            group.sort_unstable();
-            out.push(group);
-            continue;
-        }
-        let axis = if e.x >= e.y && e.x >= e.z {
-            0
-        } else if e.y >= e.z {
-            1
+        return if pieces.is_empty() {
+            Vec::new()
         } else {
-            2
+            vec![(0..pieces.len() as u32).collect()]
         };
-        let key = |i: u32| centroid(i)[axis];
-        let mid = group.len() / 2;
-        group.select_nth_unstable_by(mid, |&a, &b| key(a).total_cmp(&key(b)).then(a.cmp(&b)));
-        let right = group.split_off(mid);
-        stack.push(right);
-        stack.push(group);
     }
-    out
+    let cut = ClusterOptions {
+        max_triangles: u32::try_from(options.max_triangles).unwrap_or(u32::MAX),
+        max_extent: options.max_extent,
+    };
+    clusters::group_pieces(pieces, &cut)
 }
 
 /// Splits `mesh` into meshes of at most `options.max_triangles` triangles and

@@ -199,8 +199,13 @@ fn tiny_map_geometry_flags_and_units() {
 #[test]
 fn patch_tessellation_level_sets_the_triangle_count() {
     for level in [1u32, 3, 8] {
+        // Objects big enough to hold the face and the whole patch together.
         let options = BspOptions {
             tessellation: level,
+            split: hom_scene::split::SplitOptions {
+                max_triangles: 512,
+                ..Default::default()
+            },
             ..BspOptions::default()
         };
         let m = bsp::parse(&Map::tiny().bytes(), "t", &options).unwrap();

@@ -97,6 +97,9 @@ pub use glam;
 /// The engine crate, `hom-occlusion`: occlusion buffers filled with your own
 /// triangles and matrices. Its [`occlusion::geom`] is hom's [`geom`].
 pub use hom_occlusion as occlusion;
+/// Meshes cut into clusters, the unit of culling for parts of big meshes
+/// (Scene-free: positions and indices in, index ranges with bounds out).
+pub use hom_occlusion::clusters;
 pub use hom_occlusion::geom;
 
 pub(crate) use hom_occlusion::details::vec_bytes;

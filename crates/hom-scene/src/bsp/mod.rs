@@ -806,7 +806,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             .iter()
             .map(|(_, _, tr)| Piece {
                 bounds: Aabb::from_points(triangles[tr.clone()].iter().flatten().map(|&i| positions[i as usize])),
-                triangles: tr.len(),
+                triangles: tr.len() as u32,
             })
             .collect();
         for group in group_pieces(&pieces, &options.split) {
