@@ -60,10 +60,11 @@ pub struct ClusterOptions {
     pub max_extent: f32,
 }
 
-/// 64 triangles and 3 m: on twelve Quake 3 maps, objects of at most 64
-/// triangles and 3 m gave HOM 0.99–1.45× frustum-only culling where objects
-/// of 512 and 16 m gave 0.94–1.06×, and 32 and 2 m did no better than 64
-/// and 3 m (`docs/decisions/clusters.md`).
+/// 64 triangles and 3 m: on fifteen real levels, objects of that size gave
+/// HOM 0.92–1.54× frustum-only culling (above 1 on twelve) where objects of
+/// 512 triangles and 16 m gave 0.96–1.06×; 32 and 2 m were within ±0.1 of
+/// it on ten of twelve maps with up to 1.5× the objects
+/// (`docs/decisions/clusters.md`).
 impl Default for ClusterOptions {
     fn default() -> Self {
         ClusterOptions {
