@@ -538,7 +538,7 @@ pub struct BenchArgs {
     /// raster: comma-separated thread counts to render with.
     #[arg(long, value_delimiter = ',', default_value = "1,2")]
     pub raster_threads: Vec<usize>,
-    /// Comma-separated built-in scene names or files (default: every built-in scene).
+    /// Comma-separated built-in scene names or files (default: every built-in scene); `FILE.pk3:*` is every map in the archive.
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     /// Camera path JSON file to walk the one scene of --scenes along (default:

@@ -52,6 +52,31 @@ pub fn split_map_spec(spec: &Path) -> (PathBuf, Option<String>) {
     (spec.to_path_buf(), None)
 }
 
+/// Every map a spec names: `FILE.pk3:*` is each map in the archive
+/// (`FILE.pk3:MAP`, sorted by name); any other spec is itself. An archive
+/// that holds no map is an error, not an empty list.
+pub fn expand_map_specs(spec: &str) -> Result<Vec<String>, LoadError> {
+    let Some(file) = spec.strip_suffix(":*") else {
+        return Ok(vec![spec.to_owned()]);
+    };
+    if !file.to_ascii_lowercase().ends_with(".pk3") {
+        return Err(LoadError::Malformed {
+            path: spec.to_owned(),
+            line: None,
+            message: "':*' (every map) follows a .pk3 archive only".to_owned(),
+        });
+    }
+    let maps = bsp::pk3_maps(Path::new(file))?;
+    if maps.is_empty() {
+        return Err(LoadError::Malformed {
+            path: file.to_owned(),
+            line: None,
+            message: "the archive holds no map (no maps/NAME.bsp)".to_owned(),
+        });
+    }
+    Ok(maps.into_iter().map(|m| format!("{file}:{m}")).collect())
+}
+
 /// Loads a scene file, choosing the format by extension (`.obj`, `.gltf`, `.glb`,
 /// `.bsp`, `.pk3`; a pk3 with several maps needs `FILE.pk3:MAP`, see [`split_map_spec`]).
 /// Default options everywhere; see [`load_with_path`] for the file's own camera path.

@@ -789,6 +789,36 @@ fn pk3_chooses_the_map() {
     ));
 }
 
+/// `FILE.pk3:*` names every map of the archive; anything else only itself.
+#[test]
+fn pk3_star_expands_to_every_map() {
+    let dir = std::env::temp_dir().join(format!("hom-pk3-star-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let map = Map::tiny().bytes();
+    let two = dir.join("two.pk3");
+    std::fs::write(
+        &two,
+        pk3(&[("maps/b.bsp", &map), ("maps/a.bsp", &map), ("maps/sub/c.bsp", &map)]),
+    )
+    .unwrap();
+    let none = dir.join("none.pk3");
+    std::fs::write(&none, pk3(&[("readme.txt", b"hi")])).unwrap();
+    let t = two.display().to_string();
+    assert_eq!(
+        hom_scene::expand_map_specs(&format!("{t}:*")).unwrap(),
+        vec![format!("{t}:a"), format!("{t}:b")]
+    );
+    for plain in ["city", "x.obj", &format!("{t}:a")] {
+        assert_eq!(hom_scene::expand_map_specs(plain).unwrap(), vec![plain.to_owned()]);
+    }
+    let e = hom_scene::expand_map_specs(&format!("{}:*", none.display())).unwrap_err();
+    assert!(e.to_string().contains("holds no map"), "{e}");
+    let e = hom_scene::expand_map_specs("level.obj:*").unwrap_err();
+    assert!(e.to_string().contains(".pk3 archive only"), "{e}");
+    assert!(hom_scene::expand_map_specs(&format!("{}:*", dir.join("missing.pk3").display())).is_err());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn pk3_zip_bombs_are_capped() {
     // Honest declared size above the cap.

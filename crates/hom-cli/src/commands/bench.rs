@@ -14,7 +14,11 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let scenes: Vec<String> = if a.scenes.is_empty() {
         hom_scene::BUILTIN_SCENES.iter().map(|(n, _)| n.to_string()).collect()
     } else {
-        a.scenes.clone()
+        let mut all = Vec::new();
+        for spec in &a.scenes {
+            all.extend(hom_scene::expand_map_specs(spec)?);
+        }
+        all
     };
     let scene_refs: Vec<&str> = scenes.iter().map(String::as_str).collect();
     let culler_refs: Vec<&str> = a.cullers.iter().map(String::as_str).collect();
