@@ -261,6 +261,9 @@ impl CameraPath {
 
     /// Frames sampled along a polyline of eye points at `step` metres, each
     /// looking `look_ahead` metres further along the polyline (waypoints at eye height).
+    /// Where the polyline runs within about 8° of straight up or down (spawn
+    /// points above one another), a frame keeps the last heading that was
+    /// not, level (−z before any): a view along the up axis has no camera.
     ///
     /// # Panics
     /// If `waypoints` has fewer than two points or `step <= 0`.
@@ -286,12 +289,21 @@ impl CameraPath {
             } else {
                 eyes[i] - eyes[i.saturating_sub(1)]
             };
-            eyes[i] + dir.normalize_or(Vec3::NEG_Z) * look_ahead.max(1.0)
+            dir.normalize_or(Vec3::NEG_Z)
         };
+        let mut heading = Vec3::NEG_Z;
         let frames = (0..eyes.len())
-            .map(|i| PathFrame {
-                eye: eyes[i].to_array(),
-                target: ahead(i).to_array(),
+            .map(|i| {
+                let mut dir = ahead(i);
+                if dir.y.abs() > 0.99 {
+                    dir = heading;
+                } else {
+                    heading = Vec3::new(dir.x, 0.0, dir.z).normalize();
+                }
+                PathFrame {
+                    eye: eyes[i].to_array(),
+                    target: (eyes[i] + dir * look_ahead.max(1.0)).to_array(),
+                }
             })
             .collect();
         CameraPath::new(frames)
@@ -333,6 +345,38 @@ mod tests {
             .frames
             .iter()
             .all(|f| f.target[0] > f.eye[0] - 1e-3 || f.eye[0] >= 10.0));
+    }
+
+    /// Spawn points above one another (a shaft, a jump pad): the frames on
+    /// the vertical stretch look level, along the last heading (−z before
+    /// any), so every frame is a camera.
+    #[test]
+    fn along_a_vertical_stretch_keeps_a_level_heading() {
+        let p = CameraPath::along(&[Vec3::ZERO, Vec3::new(0.0, 8.0, 0.0)], 1.0, 2.0);
+        p.validate("shaft").unwrap();
+        assert!(p
+            .frames
+            .iter()
+            .all(|f| f.target[1] == f.eye[1] && f.target[2] < f.eye[2]));
+        let p = CameraPath::along(
+            &[
+                Vec3::ZERO,
+                Vec3::new(4.0, 0.0, 0.0),
+                Vec3::new(4.0, 9.0, 0.0),
+                Vec3::new(4.0, 9.0, 6.0),
+            ],
+            1.0,
+            2.0,
+        );
+        p.validate("up the shaft").unwrap();
+        let up = p
+            .frames
+            .iter()
+            .filter(|f| f.eye[0] == 4.0 && f.eye[1] > 0.0 && f.eye[1] < 7.0);
+        assert!(up.clone().count() >= 6);
+        assert!(up
+            .into_iter()
+            .all(|f| f.target[0] > f.eye[0] && f.target[1] == f.eye[1]));
     }
 
     fn straight(n: usize) -> CameraPath {
