@@ -1,5 +1,6 @@
-//! The cost of one culler alone, without rendering: the built-in scene's walk
-//! (its first 100 frames) culled three times over on two threads, the first
+//! The cost of one culler alone, without rendering: the scene's walk (a
+//! built-in scene's, a map's spawn points, a file's path beside it; its
+//! first 100 frames) culled three times over on two threads, the first
 //! pass a warm-up; prints the mean cull time per frame and the mean of each
 //! stage, then the mean of each counter in brackets (occluder triangles,
 //! setup and raster microseconds, …). For A/B measurements on a noisy
@@ -44,8 +45,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             .ok_or("PASSES must be an integer >= 2")?,
         None => 3,
     };
-    let built = hom_scene::builtin(scene_name)?;
-    let (scene, path) = (built.scene, built.path);
+    let opened = hom_walk::open_walk(scene_name)?;
+    let (scene, path) = (opened.scene, opened.path);
     let mut settings = CullerSettings::for_scene(&scene);
     if let Some(b) = env("CULL_BUDGET") {
         settings.hom.occluders.selection.budget = b;
