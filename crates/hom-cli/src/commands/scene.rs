@@ -31,7 +31,8 @@ pub fn info(spec: &str) -> Result<()> {
     let max_tris = scene.objects().iter().map(|o| o.triangles).max().unwrap_or(0);
     println!("scene:      {}", scene.name());
     println!("objects:    {} ({dynamic} dynamic)", scene.objects().len());
-    println!("meshes:     {}", scene.meshes().len());
+    let vertices: usize = scene.meshes().iter().map(|m| m.positions().len()).sum();
+    println!("meshes:     {} ({vertices} vertices)", scene.meshes().len());
     println!("triangles:  {}", scene.triangle_count());
     println!(
         "per object: {:.0} triangles on average, {max_tris} at most",
