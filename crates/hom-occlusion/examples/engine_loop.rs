@@ -5,10 +5,14 @@
 //! clear the buffer, draw the nearest buildings as occluders, test every
 //! building and prop on all threads at once (a [`hom_occlusion::SharedBuffer`]
 //! answers through `&self`, as an engine's job threads would ask), count what
-//! would not be drawn.
+//! would not be drawn. The ground is one 125,000-triangle mesh under the
+//! whole city, always partly in view: cut once into clusters
+//! ([`hom_occlusion::clusters`]), its parts behind the buildings are not
+//! drawn either.
 //!
 //! `cargo run --release --example engine_loop -p hom-occlusion`
 
+use hom_occlusion::clusters::{cluster_triangles, ClusterOptions};
 use hom_occlusion::geom::Aabb;
 use hom_occlusion::glam::camera::rh::proj::directx::perspective_infinite_reverse;
 use hom_occlusion::glam::camera::rh::view::look_at_mat4;
@@ -50,7 +54,34 @@ fn thing(min: Vec3, size: Vec3) -> Thing {
     }
 }
 
-fn main() -> Result<(), hom_occlusion::OcclusionError> {
+/// Rolling ground over `x0..x0 + 500` × `z0..z0 + 500`, 2 m quads: 250 × 250
+/// quads, 125,000 triangles in one mesh.
+fn ground(x0: f32, z0: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let n = 250u32;
+    let positions = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| (i as f32, j as f32)))
+        .map(|(i, j)| {
+            Vec3::new(
+                x0 + 2.0 * i,
+                0.15 * ((i * 0.3).sin() + (j * 0.2).cos()) - 0.3,
+                z0 + 2.0 * j,
+            )
+        })
+        .collect();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    let triangles = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            [
+                [at(i, j), at(i, j + 1), at(i + 1, j)],
+                [at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)],
+            ]
+        })
+        .collect();
+    (positions, triangles)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
     // A 12 × 12 grid of blocks, 40 m apart, streets 12 m wide between them.
     let mut seed = 0x2545_F491_4F6C_DD1Du64;
     let mut rnd = move || {
@@ -74,6 +105,18 @@ fn main() -> Result<(), hom_occlusion::OcclusionError> {
         }
     }
     let (unit, tris) = cube();
+    // The ground, cut once at load; an engine would lay its index buffer out
+    // in `order` (`Clusters::reorder`) and draw each visible cluster's range.
+    let (ground_positions, ground_triangles) = ground(-260.0, -480.0);
+    // Its 2 m quads would make the default 3 m clusters 5 triangles each
+    // (26,016 clusters: 1.1 % of the ground drawn for 1.09 ms of culling a
+    // frame); 64 triangles and up to 16 m: 2,048 clusters, 3.0 % drawn,
+    // 0.37–0.44 ms (three runs, the AMD EPYC host).
+    let sizes = ClusterOptions {
+        max_extent: 16.0,
+        ..ClusterOptions::default()
+    };
+    let ground = cluster_triangles(&ground_positions, &ground_triangles, &sizes)?;
 
     let (width, height) = (640, 360);
     let options = BufferOptions {
@@ -85,6 +128,7 @@ fn main() -> Result<(), hom_occlusion::OcclusionError> {
 
     let frames = 240;
     let (mut drawn_total, mut tested_total, mut cull_ms) = (0usize, 0usize, 0.0f64);
+    let mut ground_drawn = 0usize;
     for frame in 0..frames {
         // Walk down the street between the first two columns of blocks (x = −212 … −200), looking ahead.
         let t = frame as f32 / frames as f32;
@@ -118,15 +162,23 @@ fn main() -> Result<(), hom_occlusion::OcclusionError> {
             .chain(&props)
             .map(|b| count(shared.test_aabb(&b.bounds, &view_proj)))
             .reduce(|| (0, 0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        let ground_visible: usize = ground
+            .clusters
+            .par_iter()
+            .filter(|c| shared.test_aabb(&c.bounds, &view_proj) == Visibility::Visible)
+            .map(|c| c.triangles.len())
+            .sum();
         cull_ms += start.elapsed().as_secs_f64() * 1e3;
+        ground_drawn += ground_visible;
         drawn_total += visible;
         tested_total += visible + occluded + outside;
         if frame % 40 == 0 {
             let s = buf.stats();
             println!(
                 "frame {frame:3}: draw {visible:4} of {} objects ({occluded} hidden, {outside} outside the view); \
-                 {} occluder triangles, {} tiles drawn, {:.2} ms",
+                 ground {ground_visible} of {} triangles; {} occluder triangles, {} tiles drawn, {:.2} ms",
                 buildings.len() + props.len(),
+                ground_triangles.len(),
                 s.triangles_drawn,
                 s.tiles_drawn,
                 start.elapsed().as_secs_f64() * 1e3,
@@ -134,8 +186,11 @@ fn main() -> Result<(), hom_occlusion::OcclusionError> {
         }
     }
     println!(
-        "{frames} frames: {:.1} % of the objects drawn, {:.2} ms culling per frame",
+        "{frames} frames: {:.1} % of the objects drawn, {:.1} % of the ground's triangles \
+         ({} clusters), {:.2} ms culling per frame",
         100.0 * drawn_total as f64 / tested_total as f64,
+        100.0 * ground_drawn as f64 / (frames * ground_triangles.len()) as f64,
+        ground.clusters.len(),
         cull_ms / frames as f64
     );
     Ok(())
