@@ -247,28 +247,17 @@ pub fn cluster_triangles(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Tiny deterministic generator (xorshift).
-    struct Rng(u64);
-
-    impl Rng {
-        fn f(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use hom_testkit::Rng;
 
     /// Random triangles of up to `size` scattered over a `span` cube.
     fn soup(seed: u64, n: usize, span: f32, size: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let mut r = Rng(seed);
+        let mut r = Rng::new(seed);
         let mut p = Vec::new();
         let mut t = Vec::new();
         for k in 0..n as u32 {
-            let c = Vec3::new(r.f(), r.f(), r.f()) * span;
+            let c = Vec3::new(r.unit(), r.unit(), r.unit()) * span;
             for _ in 0..3 {
-                p.push(c + Vec3::new(r.f(), r.f(), r.f()) * size);
+                p.push(c + Vec3::new(r.unit(), r.unit(), r.unit()) * size);
             }
             t.push([3 * k, 3 * k + 1, 3 * k + 2]);
         }

@@ -563,22 +563,16 @@ mod tests {
         b.build().unwrap()
     }
 
-    /// A unit cube's triangles, outward, without the top two when `open`.
+    /// `hom_testkit::cube()` (the unit cube about the origin), without its
+    /// top face (y = 0.5) when `open`.
     fn cube(open: bool) -> crate::scene::Mesh {
-        let p = (0..8)
-            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
-            .collect();
-        // Two triangles a face; the top (y = 1) last.
-        let faces = [
-            [[0, 2, 1], [1, 2, 3]], // z = 0
-            [[4, 5, 6], [5, 7, 6]], // z = 1
-            [[0, 1, 4], [1, 5, 4]], // y = 0
-            [[0, 4, 2], [2, 4, 6]], // x = 0
-            [[1, 3, 5], [3, 7, 5]], // x = 1
-            [[2, 6, 3], [3, 6, 7]], // y = 1
-        ];
-        let kept = if open { 5 } else { 6 };
-        let t = faces[..kept].concat();
+        let kit = hom_testkit::cube();
+        let p = kit.positions().to_vec();
+        let mut t = kit.triangles().to_vec();
+        if open {
+            t.retain(|tri| !tri.iter().all(|&i| p[i as usize].y > 0.0));
+        }
+        assert_eq!(t.len(), if open { 10 } else { 12 });
         crate::scene::Mesh::new("cube", p, t).unwrap()
     }
 
