@@ -68,10 +68,9 @@ pub fn expand_map_specs(spec: &str) -> Result<Vec<String>, LoadError> {
     }
     let maps = bsp::pk3_maps(Path::new(file))?;
     if maps.is_empty() {
-        return Err(LoadError::Malformed {
+        return Err(LoadError::Bsp {
             path: file.to_owned(),
-            line: None,
-            message: "the archive holds no map (no maps/NAME.bsp)".to_owned(),
+            source: bsp::BspError::NoMaps,
         });
     }
     Ok(maps.into_iter().map(|m| format!("{file}:{m}")).collect())
