@@ -9,11 +9,20 @@
 //! triangles places no object. An object is named after its node, else its mesh, else
 //! `node N`. glTF is already right-handed, +Y up, in metres, so no conversion is needed.
 //!
+//! A node whose mesh spans the level in world space ([`crate::split::spans_level`]:
+//! longer than [`SplitOptions::whole_extent`], 16 m by default) becomes the
+//! mesh's clusters instead, objects `NAME_0`, `NAME_1`… in the splitter's order,
+//! each with the node's transform; the cut is made once per mesh, in the mesh's
+//! own space with the size limit divided by that node's largest axis scale, and
+//! its pieces are shared by every node that instances the mesh and spans the level
+//! ([`GltfOptions::split`]; off keeps every node one object).
+//!
 //! Accessors are read here with checked arithmetic rather than with the `gltf` crate's
 //! reader, and a `.glb` header is checked before the crate sees it, so hostile files
 //! (out-of-range offsets or counts, truncated chunks) give typed errors, never a panic or
 //! an allocation larger than the data in the file.
 
+use crate::split::{spans_level, split_mesh, SplitOptions};
 use crate::LoadError;
 use ::gltf::accessor::{sparse::IndexType, DataType, Dimensions};
 use ::gltf::buffer::View;
@@ -28,6 +37,18 @@ use std::path::Path;
 /// The scene is named after the file stem. Buffers named by relative URIs are read from
 /// the file's directory.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
+    load_with(path, &GltfOptions::default())
+}
+
+/// How to load a glTF file.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GltfOptions {
+    /// How a mesh that spans the level is cut into objects (on by default).
+    pub split: SplitOptions,
+}
+
+/// [`load`] with options.
+pub fn load_with(path: &Path, options: &GltfOptions) -> Result<Scene, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
         path: path.display().to_string(),
         source,
@@ -61,7 +82,7 @@ pub fn load(path: &Path) -> Result<Scene, LoadError> {
     let buffers = ::gltf::import_buffers(&document, Some(base), blob)
         .map_err(|e| malformed(format!("cannot load buffer data: {e}")))?;
     let buffers: Vec<&[u8]> = buffers.iter().map(|d| &d.0[..]).collect();
-    convert(&document, &buffers, &label, &stem)
+    convert(&document, &buffers, &label, &stem, &options.split)
 }
 
 /// Rejects a `.glb` whose header the `gltf` crate would mishandle (a declared length
@@ -138,7 +159,13 @@ fn check_position_accessors(root: &serde_json::Value) -> Result<(), String> {
 }
 
 /// Builds the scene from a parsed document and its loaded buffers.
-fn convert(document: &Document, buffers: &[&[u8]], label: &str, stem: &str) -> Result<Scene, LoadError> {
+fn convert(
+    document: &Document,
+    buffers: &[&[u8]],
+    label: &str,
+    stem: &str,
+    split: &SplitOptions,
+) -> Result<Scene, LoadError> {
     let scene_error = |source| LoadError::Scene {
         path: label.to_owned(),
         source,
@@ -153,8 +180,8 @@ fn convert(document: &Document, buffers: &[&[u8]], label: &str, stem: &str) -> R
     let max_count = buffers.iter().map(|b| b.len()).sum::<usize>();
 
     let mut builder = SceneBuilder::new(stem);
-    // hom mesh per glTF mesh: None = not converted yet, Some(None) = no triangles.
-    let mut mesh_ids: Vec<Option<Option<MeshId>>> = vec![None; document.meshes().len()];
+    // Per glTF mesh: None = not converted yet, Some(None) = no triangles.
+    let mut meshes: Vec<Option<Option<Converted>>> = (0..document.meshes().len()).map(|_| None).collect();
     let roots: Vec<Vec<usize>> = match document.default_scene() {
         Some(scene) => vec![scene.nodes().map(|n| n.index()).collect()],
         None if document.scenes().len() > 0 => document
@@ -188,34 +215,53 @@ fn convert(document: &Document, buffers: &[&[u8]], label: &str, stem: &str) -> R
             let local = Mat4::from_cols_array_2d(&node.transform().matrix());
             let world = parent * local;
             if let Some(mesh) = node.mesh() {
-                let slot = &mut mesh_ids[mesh.index()];
-                let id = match *slot {
-                    Some(id) => id,
-                    None => {
-                        let id = match convert_mesh(&mesh, buffers, max_count)
-                            .map_err(|m| malformed(format!("mesh {}: {m}", mesh.index())))?
-                        {
-                            Some((positions, triangles)) => {
-                                let name = mesh
-                                    .name()
-                                    .map(str::to_owned)
-                                    .unwrap_or_else(|| format!("mesh {}", mesh.index()));
-                                let m = Mesh::new(name, positions, triangles).map_err(scene_error)?;
-                                Some(builder.add_mesh(m))
-                            }
-                            None => None,
-                        };
-                        *slot = Some(id);
-                        id
-                    }
-                };
-                if let Some(id) = id {
+                let slot = &mut meshes[mesh.index()];
+                if slot.is_none() {
+                    let converted = match convert_mesh(&mesh, buffers, max_count)
+                        .map_err(|m| malformed(format!("mesh {}: {m}", mesh.index())))?
+                    {
+                        Some((positions, triangles)) => {
+                            let name = mesh
+                                .name()
+                                .map(str::to_owned)
+                                .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+                            let mesh = Mesh::new(name, positions, triangles).map_err(scene_error)?;
+                            Some(Converted {
+                                mesh,
+                                whole: None,
+                                pieces: None,
+                            })
+                        }
+                        None => None,
+                    };
+                    *slot = Some(converted);
+                }
+                if let Some(Some(c)) = slot {
                     let name = node
                         .name()
                         .or(mesh.name())
                         .map(str::to_owned)
                         .unwrap_or_else(|| format!("node {index}"));
-                    builder.add_object(name, id, world).map_err(scene_error)?;
+                    let world_box = c.mesh.bounds().transformed(&world);
+                    if spans_level(&world_box, c.mesh.triangle_count(), split) {
+                        if c.pieces.is_none() {
+                            let scale = world.to_scale_rotation_translation().0.abs().max_element();
+                            let local = SplitOptions {
+                                max_extent: split.max_extent / scale.max(f32::MIN_POSITIVE),
+                                ..split.clone()
+                            };
+                            let parts = split_mesh(&c.mesh, &local).map_err(scene_error)?;
+                            c.pieces = Some(parts.into_iter().map(|m| builder.add_mesh(m)).collect());
+                        }
+                        for (k, &piece) in c.pieces.iter().flatten().enumerate() {
+                            builder
+                                .add_object(format!("{name}_{k}"), piece, world)
+                                .map_err(scene_error)?;
+                        }
+                    } else {
+                        let id = *c.whole.get_or_insert_with(|| builder.add_mesh(c.mesh.clone()));
+                        builder.add_object(name, id, world).map_err(scene_error)?;
+                    }
                 }
             }
             for child in node.children().collect::<Vec<_>>().into_iter().rev() {
@@ -227,6 +273,15 @@ fn convert(document: &Document, buffers: &[&[u8]], label: &str, stem: &str) -> R
         return Err(scene_error(SceneError::EmptyScene { scene: stem.to_owned() }));
     }
     builder.build().map_err(scene_error)
+}
+
+/// A glTF mesh converted, and the hom meshes made of it as its nodes need them.
+struct Converted {
+    mesh: Mesh,
+    /// The whole mesh, added when a node that does not span the level instances it.
+    whole: Option<MeshId>,
+    /// Its clusters, cut when a node that spans the level first instances it.
+    pieces: Option<Vec<MeshId>>,
 }
 
 /// Positions and triangles of a mesh's triangle primitives; `None` when it has none.

@@ -13,7 +13,11 @@
 //! A file that yields a single object with more triangles than
 //! [`SplitOptions::max_triangles`] is split into spatially coherent objects by
 //! [`crate::split::split_mesh`] (on by default; [`ObjOptions::split`] turns it off):
-//! objects `NAME_0`, `NAME_1`… in the splitter's documented order.
+//! objects `NAME_0`, `NAME_1`… in the splitter's documented order. In a file
+//! with several objects, an object that spans the level
+//! ([`crate::split::spans_level`]: longer than
+//! [`SplitOptions::whole_extent`], 16 m by default) is split the same way, in
+//! its place; the others stay whole.
 //!
 //! The text is first checked line by line, so every syntax or range error names its
 //! 1-based line: malformed numbers, NaN or infinite coordinates, face indices (absolute or
@@ -22,7 +26,7 @@
 //! garbage, non-UTF-8 text, gigantic index values) gives an error, never a panic, and
 //! memory stays proportional to the file size.
 
-use crate::split::{split_mesh, SplitOptions};
+use crate::split::{spans_level, split_mesh, SplitOptions};
 use crate::LoadError;
 use glam::{Mat4, Vec3};
 use hom::scene::{Mesh, Scene, SceneBuilder, SceneError};
@@ -382,7 +386,8 @@ fn build(parsed: Parsed, label: &str, stem: &str, split: &SplitOptions) -> Resul
             continue;
         }
         let mesh = Mesh::new(name.clone(), positions, triangles).map_err(scene_error)?;
-        let parts = if single && mesh.triangle_count() > split.max_triangles {
+        let n = mesh.triangle_count();
+        let parts = if (single && n > split.max_triangles) || spans_level(&mesh.bounds(), n, split) {
             split_mesh(&mesh, split).map_err(scene_error)?
         } else {
             vec![mesh]

@@ -9,6 +9,14 @@
 //! [`SplitOptions::max_triangles`] triangles and [`SplitOptions::max_extent`]
 //! metres each, by default cluster-sized), and each cluster becomes an object.
 //!
+//! Files that have objects of their own (OBJ groups, glTF nodes) keep them,
+//! but an object that spans the level — its box's longest side over
+//! [`SplitOptions::whole_extent`] — is cut the same way ([`spans_level`]): a
+//! ground, a road or a block of buildings is always partly visible, so
+//! whole it is never culled and hides nothing behind it from the cullers'
+//! boxes. Props and houses stay whole, where a closed mesh can be a virtual
+//! occluder (`docs/decisions/clusters.md`).
+//!
 //! **Order (the object ids):** the clusters' order: depth-first over the cut,
 //! the half with the smaller coordinates first; within a group the pieces
 //! keep their input order. The result is a pure function of the input.
@@ -31,6 +39,11 @@ pub struct SplitOptions {
     /// Largest spread of an object's piece centroids along any axis, metres (its
     /// box may be bigger by the size of its pieces). Infinity disables the size limit.
     pub max_extent: f32,
+    /// An object of a file with objects of its own is cut only when its box's
+    /// longest side exceeds this, metres (default 16: larger than props and
+    /// houses, smaller than a ground, a road or a block of buildings).
+    /// Infinity keeps every such object whole.
+    pub whole_extent: f32,
 }
 
 impl Default for SplitOptions {
@@ -40,8 +53,16 @@ impl Default for SplitOptions {
             enabled: true,
             max_triangles: c.max_triangles as usize,
             max_extent: c.max_extent,
+            whole_extent: 16.0,
         }
     }
+}
+
+/// Whether an object of a file with objects of its own is cut: splitting
+/// enabled, more than [`SplitOptions::max_triangles`] triangles, and its
+/// box (world space) longer than [`SplitOptions::whole_extent`] on some axis.
+pub fn spans_level(bounds: &Aabb, triangles: usize, options: &SplitOptions) -> bool {
+    options.enabled && triangles > options.max_triangles && bounds.extent().max_element() > options.whole_extent
 }
 
 /// Groups `pieces` into spatially coherent groups (indices into `pieces`) by
@@ -168,5 +189,26 @@ mod tests {
         };
         assert_eq!(split_mesh(&mesh, &off).unwrap(), vec![mesh]);
         assert!(group_pieces(&[], &SplitOptions::default()).is_empty());
+    }
+
+    #[test]
+    fn only_meshes_that_span_the_level_are_cut() {
+        let options = SplitOptions::default();
+        // 40 m of 80 triangles: spans; 10 m of 20 quads: a house's size, whole.
+        let road = strip(40);
+        assert!(spans_level(&road.bounds(), road.triangle_count(), &options));
+        let house = strip(10);
+        assert!(!spans_level(&house.bounds(), house.triangle_count(), &options));
+        // Few triangles stay whole however long; disabled cuts nothing.
+        let few = SplitOptions {
+            max_triangles: 100,
+            ..options.clone()
+        };
+        assert!(!spans_level(&road.bounds(), road.triangle_count(), &few));
+        let off = SplitOptions {
+            enabled: false,
+            ..options
+        };
+        assert!(!spans_level(&road.bounds(), road.triangle_count(), &off));
     }
 }

@@ -874,8 +874,101 @@ fn a_single_big_obj_object_is_split_unless_turned_off() {
     };
     let whole = obj::parse_with(text.as_bytes(), Path::new("test.obj"), &off).unwrap();
     assert_eq!(names(&whole), vec!["ground"]);
-    // Two groups are never split.
-    let two = format!("{text}o other\nv 0 1 0\nv 1 1 0\nv 0 1 1\nf -1 -2 -3\n");
-    let two = load_obj_text(&two).unwrap();
-    assert_eq!(names(&two), vec!["ground", "other"]);
+    // A file with objects of its own keeps them, but one that spans the level
+    // (40 m, over `whole_extent`) is cut in its place, the same way.
+    let other = "o other\nv 0 1 0\nv 1 1 0\nv 0 1 1\nf -1 -2 -3\n";
+    let two = load_obj_text(&format!("{text}{other}")).unwrap();
+    assert_eq!(two.objects().len(), scene.objects().len() + 1);
+    assert_eq!(&tri_counts(&two)[..scene.objects().len()], &tri_counts(&scene)[..]);
+    assert_eq!(names(&two)[0], "ground_0");
+    assert_eq!(names(&two).last(), Some(&"other"));
+    // A 10 m ground of 200 triangles is a house's size: whole.
+    let small = load_obj_text(&format!("{}{other}", grid_obj(10))).unwrap();
+    assert_eq!(names(&small), vec!["ground", "other"]);
+    let whole = obj::parse_with(format!("{text}{other}").as_bytes(), Path::new("test.obj"), &off).unwrap();
+    assert_eq!(names(&whole), vec!["ground", "other"]);
+}
+
+/// A glTF strip of `n` unit quads along +X (one mesh, "strip") instanced by
+/// two nodes: "long" as is (n m) and "short" scaled by `short_scale`.
+fn strip_document(n: usize, short_scale: f32) -> serde_json::Value {
+    let mut b = Vec::new();
+    for i in 0..=n {
+        for y in [0.0f32, 1.0] {
+            for c in [i as f32, y, 0.0] {
+                b.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    let vertex_bytes = b.len();
+    for i in 0..n as u32 {
+        let a = 2 * i;
+        for k in [a, a + 2, a + 3, a, a + 3, a + 1] {
+            b.extend_from_slice(&k.to_le_bytes());
+        }
+    }
+    json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1] }],
+        "nodes": [
+            { "name": "long", "mesh": 0 },
+            { "name": "short", "mesh": 0, "scale": [short_scale, short_scale, short_scale], "translation": [0.0, 5.0, 0.0] }
+        ],
+        "meshes": [{ "name": "strip", "primitives": [{ "attributes": { "POSITION": 0 }, "indices": 1 }] }],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": 2 * (n + 1), "type": "VEC3",
+              "min": [0.0, 0.0, 0.0], "max": [n as f32, 1.0, 0.0] },
+            { "bufferView": 1, "componentType": 5125, "count": 6 * n, "type": "SCALAR" }
+        ],
+        "bufferViews": [
+            { "buffer": 0, "byteOffset": 0, "byteLength": vertex_bytes },
+            { "buffer": 0, "byteOffset": vertex_bytes, "byteLength": b.len() - vertex_bytes }
+        ],
+        "buffers": [{ "byteLength": b.len(), "uri": data_uri(&b) }]
+    })
+}
+
+/// Every world-space triangle of a scene, as sorted bit patterns (for set equality).
+fn all_world_triangles(scene: &Scene) -> Vec<[[u32; 3]; 3]> {
+    let mut all: Vec<[[u32; 3]; 3]> = (0..scene.objects().len() as u32)
+        .flat_map(|id| world_triangles(scene, id))
+        .map(|t| bits(&t))
+        .collect();
+    all.sort_unstable();
+    all
+}
+
+#[test]
+fn a_gltf_mesh_that_spans_the_level_is_cut_per_node() {
+    let dir = tempfile::tempdir().unwrap();
+    let doc = strip_document(40, 0.25);
+    let cut = load_gltf_doc(dir.path(), "strip.gltf", &doc).unwrap();
+    // "long" is 40 m: its clusters, 3 m each; "short" is 10 m: whole, last.
+    let n = cut.objects().len();
+    assert!(n >= 14, "{n} objects");
+    assert_eq!(names(&cut)[0], "long_0");
+    assert_eq!(names(&cut)[n - 1], "short");
+    assert!(cut.objects()[..n - 1]
+        .iter()
+        .all(|o| o.aabb.extent().max_element() <= 4.0));
+    assert_eq!(cut.object(n as u32 - 1).triangles, 80);
+    // The same triangles in the world, cut or not.
+    let off = hom_scene::gltf::GltfOptions {
+        split: hom_scene::split::SplitOptions {
+            enabled: false,
+            ..Default::default()
+        },
+    };
+    let whole = hom_scene::gltf::load_with(&dir.path().join("strip.gltf"), &off).unwrap();
+    assert_eq!(names(&whole), vec!["long", "short"]);
+    assert_eq!(all_world_triangles(&cut), all_world_triangles(&whole));
+    // Scaled up 4×, "short" spans too: it shares the cut "long" made (pieces of
+    // 3 m in the mesh's space, so 12 m of centroids in its world) and names them.
+    let both = load_gltf_doc(dir.path(), "both.gltf", &strip_document(40, 4.0)).unwrap();
+    let shorts: Vec<_> = both.objects().iter().filter(|o| o.name.starts_with("short_")).collect();
+    assert_eq!(shorts.len(), n - 1);
+    assert_eq!(both.objects().len(), 2 * (n - 1));
+    assert!(shorts.iter().all(|o| o.aabb.extent().max_element() <= 4.0 * 4.0 + 0.01));
+    assert_eq!(both.meshes().len(), n - 1, "the two nodes share the pieces' meshes");
 }
