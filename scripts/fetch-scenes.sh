@@ -2,7 +2,8 @@
 # Fetches real scenes for hom's tests and benchmarks into a git-ignored cache,
 # .cache/scenes/ at the repository root. Idempotent: what is already there is kept.
 #
-#   scripts/fetch-scenes.sh               everything (OpenArena, Nexuiz, samurai monastery)
+#   scripts/fetch-scenes.sh               everything (OpenArena, Nexuiz, Extreme Tux Racer
+#                                         courses, samurai monastery)
 #   scripts/fetch-scenes.sh --tests-only  only what `cargo test` uses (openarena-081-maps)
 #
 # Debian packages are fetched with `apt-get download` and unpacked with `dpkg -x`
@@ -19,7 +20,7 @@ tests_only=0
 for arg in "$@"; do
     case "$arg" in
         --tests-only) tests_only=1 ;;
-        -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+        -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
         *) echo "fetch-scenes: unknown option '$arg' (use --tests-only or --help)" >&2; exit 2 ;;
     esac
 done
@@ -27,7 +28,7 @@ done
 if [[ $tests_only == 1 ]]; then
     packages=(openarena-081-maps)
 else
-    packages=(openarena-081-maps openarena-088-data openarena-oacmp1 nexuiz-data)
+    packages=(openarena-081-maps openarena-088-data openarena-oacmp1 nexuiz-data extremetuxracer-data)
 fi
 
 # A package is done when its marker exists (written after a successful dpkg -x).

@@ -86,7 +86,7 @@ pub enum PvsCommand {
 /// `hom pvs bake`.
 #[derive(Args)]
 pub struct PvsBakeArgs {
-    /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+    /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP, or an Extreme Tux Racer course.dim).
     #[arg(long)]
     pub scene: String,
     /// The .pvs file to write.
@@ -164,7 +164,7 @@ fn parse_shard(s: &str) -> Result<hom::pvs::Shard, String> {
 pub enum OccludersCommand {
     /// Per occluder: original and virtual triangles, coverage kept and guarantee over six axis views.
     Info {
-        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP, or an Extreme Tux Racer course.dim).
         #[arg(long)]
         scene: String,
         /// Samples per side of each axis view.
@@ -198,9 +198,14 @@ pub enum OccludersCommand {
 pub enum SceneCommand {
     /// Object, triangle and bounds information.
     Info {
-        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP).
+        /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP, or an Extreme Tux Racer course.dim).
         #[arg(long)]
         scene: String,
+        /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
+        /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
+        /// or glTF object that spans the level); `off` keeps whole objects.
+        #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
+        clusters: OnOff,
     },
     /// Write the scene's world-space triangles as OBJ, one `o` per object in id order.
     Export {
@@ -210,20 +215,30 @@ pub enum SceneCommand {
         /// Output .obj file.
         #[arg(long)]
         out: PathBuf,
+        /// `on` (default): scene files cut into cluster-sized objects, one `o`
+        /// each in id order; `off`: whole objects (see `hom walk --help`).
+        #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
+        clusters: OnOff,
     },
 }
 
 /// What to look at and how: the scene, the path, the viewport and the culler.
 #[derive(Args)]
 pub struct View {
-    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP; a Quake 3 map walks its spawn points).
+    /// Built-in scene name (see `hom scenes`) or a scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP, or an Extreme Tux Racer course.dim; a Quake 3 map walks its spawn points, a course runs down its slope).
     #[arg(long)]
     pub scene: String,
     /// Camera path JSON file (default: the scene's own walkthrough: a built-in
     /// scene's walk, NAME.path.json beside a NAME.obj/.gltf/.glb file, a Quake 3
-    /// map's spawn points, else an orbit around the bounds).
+    /// map's spawn points, an Extreme Tux Racer course's run down the slope, else
+    /// an orbit around the bounds).
     #[arg(long)]
     pub camera_path: Option<PathBuf>,
+    /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
+    /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
+    /// or glTF object that spans the level); `off` keeps whole objects.
+    #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
+    pub clusters: OnOff,
     /// Image width (default: the path's).
     #[arg(long)]
     pub width: Option<u32>,
@@ -549,6 +564,11 @@ pub struct BenchArgs {
     /// default 1 % of the scene's triangles, within 3,000–20,000).
     #[arg(long)]
     pub budget: Option<u32>,
+    /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
+    /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
+    /// or glTF object that spans the level); `off` keeps whole objects.
+    #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
+    pub clusters: OnOff,
     /// Comma-separated cullers to compare (default: frustum,hom).
     #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
     pub cullers: Vec<String>,

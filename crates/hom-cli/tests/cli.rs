@@ -478,3 +478,90 @@ fn bench_camera_path_walks_one_scene() {
     ]);
     assert_clean_failure(&o, "--camera-path walks one scene; 2 were given");
 }
+
+/// A 40 m ground of 3,200 triangles in an OBJ file of its own.
+fn ground_obj(dir: &std::path::Path) -> std::path::PathBuf {
+    let n = 40;
+    let mut text = String::from("o ground\n");
+    for z in 0..=n {
+        for x in 0..=n {
+            text.push_str(&format!("v {x} 0 {z}\n"));
+        }
+    }
+    for z in 0..n {
+        for x in 0..n {
+            let a = z * (n + 1) + x + 1;
+            text.push_str(&format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1));
+        }
+    }
+    let path = dir.join("ground.obj");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn clusters_off_keeps_whole_objects_in_info_export_and_bench() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = ground_obj(dir.path());
+    let obj = obj.to_str().unwrap();
+    let objects = |o: &Output| {
+        assert!(o.status.success(), "{}", stderr(o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("objects:"))
+            .expect("an objects line")
+            .to_owned();
+        line.split_whitespace().nth(1).unwrap().parse::<usize>().unwrap()
+    };
+    let on = objects(&hom(&["scene", "info", "--scene", obj]));
+    assert!(on >= 50, "3,200 triangles in clusters of at most 64: {on} objects");
+    assert_eq!(
+        objects(&hom(&["scene", "info", "--scene", obj, "--clusters", "off"])),
+        1
+    );
+    // `--clusters` alone is `on`.
+    assert_eq!(objects(&hom(&["scene", "info", "--scene", obj, "--clusters"])), on);
+
+    // Export writes one `o` per object either way.
+    let out = dir.path().join("out.obj");
+    let count_o = |args: &[&str]| {
+        let o = hom(args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = std::fs::read_to_string(&out).unwrap();
+        text.lines().filter(|l| l.starts_with("o ")).count()
+    };
+    let out_s = out.to_str().unwrap();
+    assert_eq!(
+        count_o(&["scene", "export", "--scene", obj, "--out", out_s, "--clusters"]),
+        on
+    );
+    assert_eq!(
+        count_o(&["scene", "export", "--scene", obj, "--out", out_s, "--clusters", "off"]),
+        1
+    );
+
+    // Bench records the choice per scene.
+    let json = dir.path().join("bench.json");
+    let o = hom(&[
+        "bench",
+        "--scenes",
+        obj,
+        "--cullers",
+        "frustum",
+        "--frames",
+        "2",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "--clusters",
+        "off",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["scenes"][0]["clusters"], serde_json::json!(false));
+    assert_eq!(report["scenes"][0]["objects"], serde_json::json!(1));
+}

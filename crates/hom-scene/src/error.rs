@@ -16,7 +16,7 @@ pub enum LoadError {
         source: std::io::Error,
     },
     /// The extension names no supported format.
-    #[error("{path}: unknown scene format; use .obj, .gltf, .glb, .bsp or .pk3 (FILE.pk3:MAP), or a built-in scene name (see `hom scenes`)")]
+    #[error("{path}: unknown scene format; use .obj, .gltf, .glb, .bsp or .pk3 (FILE.pk3:MAP), an Extreme Tux Racer course.dim, or a built-in scene name (see `hom scenes`)")]
     UnknownFormat {
         /// File.
         path: String,
@@ -46,6 +46,15 @@ pub enum LoadError {
         path: String,
         /// Cause.
         source: crate::bsp::BspError,
+    },
+    /// An Extreme Tux Racer course (its `course.dim`, `elev.png` or
+    /// `trees.png`) is malformed or cannot be read.
+    #[error("{path}")]
+    Etr {
+        /// The course's file with the problem.
+        path: String,
+        /// Cause.
+        source: crate::etr::EtrError,
     },
     /// No built-in scene has this name.
     #[error("no built-in scene or file named '{name}'; built-in scenes: {known}")]

@@ -1,6 +1,7 @@
 //! # hom-scene — where scenes come from
 //!
-//! Loaders for real files (OBJ, glTF 2.0, Quake 3 maps), OBJ export, the built-in
+//! Loaders for real files (OBJ, glTF 2.0, Quake 3 maps, Extreme Tux Racer
+//! courses), OBJ export, the built-in
 //! generated scenes with their walkthrough camera paths, and camera path files.
 //! Every loader converts to hom's conventions (right-handed, +Y up, metres)
 //! and returns a typed error naming the file and the problem. Files that hold
@@ -12,6 +13,7 @@ pub mod bsp;
 pub mod builtin;
 pub mod camera_path;
 mod error;
+pub mod etr;
 pub mod export;
 pub mod gltf;
 pub mod moc;
@@ -33,7 +35,8 @@ pub struct LoadedScene {
     /// The scene.
     pub scene: Scene,
     /// The file's own camera path, where it has one (a Quake 3 map's spawn-to-spawn
-    /// walk, [`bsp::BspMap::camera_path`]); `None` for OBJ and glTF.
+    /// walk, [`bsp::BspMap::camera_path`]; an Extreme Tux Racer course's run down
+    /// the slope, [`etr::EtrCourse::path`]); `None` for OBJ and glTF.
     pub path: Option<CameraPath>,
 }
 
@@ -77,26 +80,59 @@ pub fn expand_map_specs(spec: &str) -> Result<Vec<String>, LoadError> {
 }
 
 /// Loads a scene file, choosing the format by extension (`.obj`, `.gltf`, `.glb`,
-/// `.bsp`, `.pk3`; a pk3 with several maps needs `FILE.pk3:MAP`, see [`split_map_spec`]).
+/// `.bsp`, `.pk3`; a pk3 with several maps needs `FILE.pk3:MAP`, see [`split_map_spec`];
+/// an Extreme Tux Racer course by its `course.dim`, or any `.dim`, see [`etr`]).
 /// Default options everywhere; see [`load_with_path`] for the file's own camera path.
 pub fn load(path: &Path) -> Result<Scene, LoadError> {
     load_with_path(path).map(|l| l.scene)
 }
 
-/// [`load`], keeping the camera path the file suggests (Quake 3 maps: spawn to spawn).
+/// [`load`], keeping the camera path the file suggests (Quake 3 maps: spawn to
+/// spawn; Extreme Tux Racer courses: down the slope).
 pub fn load_with_path(path: &Path) -> Result<LoadedScene, LoadError> {
+    load_with_options(path, &LoadOptions::default())
+}
+
+/// What every loader is told: how unstructured geometry and meshes that span
+/// the level are cut into objects ([`split`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadOptions {
+    /// The cut into cluster-sized objects; `enabled: false` (`--clusters off`)
+    /// keeps whole objects: a Quake 3 map is then its opaque world and its
+    /// see-through faces, an Extreme Tux Racer course one terrain, an OBJ or
+    /// glTF file the objects it names.
+    pub split: split::SplitOptions,
+}
+
+/// [`load_with_path`] with options.
+pub fn load_with_options(path: &Path, options: &LoadOptions) -> Result<LoadedScene, LoadError> {
     let (file, map) = split_map_spec(path);
     let ext = file
         .extension()
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     let plain = |scene| LoadedScene { scene, path: None };
+    let split = options.split.clone();
+    if map.is_none() && etr::is_course_file(&file) {
+        let course = etr::load(
+            &file,
+            &etr::EtrOptions {
+                split,
+                ..etr::EtrOptions::default()
+            },
+        )?;
+        return Ok(LoadedScene {
+            scene: course.scene,
+            path: Some(course.path),
+        });
+    }
     match ext.as_deref() {
-        Some("obj") if map.is_none() => obj::load(&file).map(plain),
-        Some("gltf") | Some("glb") if map.is_none() => gltf::load(&file).map(plain),
+        Some("obj") if map.is_none() => obj::load_with(&file, &obj::ObjOptions { split }).map(plain),
+        Some("gltf") | Some("glb") if map.is_none() => gltf::load_with(&file, &gltf::GltfOptions { split }).map(plain),
         Some("bsp") | Some("pk3") => {
             let options = bsp::BspOptions {
                 map,
+                split,
                 ..bsp::BspOptions::default()
             };
             let m = bsp::load(&file, &options)?;

@@ -17,7 +17,7 @@ fn main() {
         eprintln!("usage: why_not_culled SCENE FRAME");
         std::process::exit(2);
     };
-    let b = hom_scene::builtin(scene_name).unwrap();
+    let b = hom_walk::open_walk(scene_name).unwrap();
     let mut scene = b.scene;
     b.animation.apply(&mut scene, frame as f32 / 30.0);
     let cam = b.path.camera(frame);
@@ -63,6 +63,8 @@ fn main() {
         }
     }
     let [not_cov, not_behind, both, passes] = why;
+    let hidden = occl + occluder + straddle + why.iter().sum::<u64>() - occluder_why.iter().sum::<u64>();
+    println!("hidden in-frustum triangles: {hidden}");
     println!("invisible-in-frustum tris: occluded {occl}, selected occluders {occluder}, straddle {straddle}, not covered {not_cov}, not behind {not_behind}, neither {both}, both tests pass {passes}");
     let [not_cov, not_behind, both, passes] = occluder_why;
     println!("  of the selected occluders': not covered {not_cov}, not behind {not_behind}, neither {both}, both tests pass {passes}");

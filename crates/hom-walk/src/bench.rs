@@ -60,6 +60,9 @@ pub struct BenchOptions {
     /// HOM's occluder polygon budget (triangles per frame) for every occluder
     /// culler, instead of the scene's default.
     pub budget: Option<u32>,
+    /// Whether scene files are cut into cluster-sized objects
+    /// ([`hom_scene::LoadOptions`]; `--clusters off` keeps whole objects).
+    pub clusters: bool,
 }
 
 impl Default for BenchOptions {
@@ -79,6 +82,7 @@ impl Default for BenchOptions {
             hv_priming: false,
             camera_path: None,
             budget: None,
+            clusters: true,
         }
     }
 }
@@ -228,6 +232,8 @@ pub struct BenchScene {
     /// The camera path walked ([`crate::PathSource`]: `built-in walk`,
     /// `spawn points`, `orbit`, or the path file).
     pub path: String,
+    /// Whether the scene file was cut into cluster-sized objects (`--clusters`).
+    pub clusters: bool,
     /// Σ frustum-only frame time ÷ Σ oracle-visible-set render time, over the
     /// frames of every culler's walk of this scene.
     pub oracle_speedup: Option<f64>,
@@ -366,7 +372,7 @@ pub fn run_bench(
             scene: spec.to_string(),
             source,
         };
-        let mut opened = crate::open_walk(spec).map_err(scene_error)?;
+        let mut opened = crate::open_walk_with(spec, &crate::load_options(options.clusters)).map_err(scene_error)?;
         if let Some(file) = &options.camera_path {
             opened = opened.along(file).map_err(|source| BenchError::Path {
                 scene: spec.to_string(),
@@ -497,6 +503,7 @@ pub fn run_bench(
             height: path.height,
             frames: frame_count,
             path: path_label,
+            clusters: options.clusters,
             oracle_speedup,
         });
     }

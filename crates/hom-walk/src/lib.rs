@@ -50,6 +50,8 @@ pub enum PathSource {
     File(PathBuf),
     /// An orbit around the bounds: a scene file with no path of its own.
     Orbit,
+    /// An Extreme Tux Racer course's run down the slope.
+    Course,
 }
 
 impl std::fmt::Display for PathSource {
@@ -59,6 +61,7 @@ impl std::fmt::Display for PathSource {
             PathSource::SpawnPoints => f.write_str("spawn points"),
             PathSource::File(p) => write!(f, "{}", p.display()),
             PathSource::Orbit => f.write_str("orbit"),
+            PathSource::Course => f.write_str("down the course"),
         }
     }
 }
@@ -100,6 +103,19 @@ pub fn path_file_of(scene_file: &Path) -> PathBuf {
 /// walk ([`hom_scene::load_with_path`]; `FILE.pk3:MAP` names a map in a pk3);
 /// any other file an orbit around its bounds ([`CameraPath::orbit`]).
 pub fn open_walk(spec: &str) -> Result<OpenedScene, LoadError> {
+    open_walk_with(spec, &hom_scene::LoadOptions::default())
+}
+
+/// The load options of `--clusters on|off`: scene files cut into
+/// cluster-sized objects, or kept whole.
+pub fn load_options(clusters: bool) -> hom_scene::LoadOptions {
+    let mut options = hom_scene::LoadOptions::default();
+    options.split.enabled = clusters;
+    options
+}
+
+/// [`open_walk`] with the loaders' options (built-in scenes ignore them).
+pub fn open_walk_with(spec: &str, options: &hom_scene::LoadOptions) -> Result<OpenedScene, LoadError> {
     let builtins = || hom_scene::BUILTIN_SCENES.iter().chain(hom_scene::SCALE_SCENES);
     if builtins().any(|(n, _)| *n == spec) {
         let b = hom_scene::builtin(spec)?;
@@ -118,13 +134,15 @@ pub fn open_walk(spec: &str) -> Result<OpenedScene, LoadError> {
             known: known.join(", "),
         });
     }
-    let loaded = hom_scene::load_with_path(file)?;
+    let loaded = hom_scene::load_with_options(file, options)?;
+    let course = hom_scene::etr::is_course_file(file);
     let beside = path_file_of(file);
     let mesh_file = file
         .extension()
         .and_then(|e| e.to_str())
         .is_some_and(|e| ["obj", "gltf", "glb"].contains(&e.to_ascii_lowercase().as_str()));
     let (path, path_source) = match loaded.path {
+        Some(p) if course => (p, PathSource::Course),
         Some(p) => (p, PathSource::SpawnPoints),
         None if mesh_file && beside.exists() => (CameraPath::load(&beside)?, PathSource::File(beside)),
         None => (CameraPath::orbit(&loaded.scene.bounds(), 120), PathSource::Orbit),

@@ -32,6 +32,11 @@ use std::path::Path;
 /// same scene [`crate::open_scene`] loads. Any other spec is
 /// [`LoadError::UnknownFormat`]: only these maps carry a PVS.
 pub fn open_map(spec: &str) -> Result<BspMap, LoadError> {
+    open_map_with(spec, &hom_scene::LoadOptions::default())
+}
+
+/// [`open_map`] with the loaders' options (`--clusters`).
+pub fn open_map_with(spec: &str, load: &hom_scene::LoadOptions) -> Result<BspMap, LoadError> {
     let (file, map) = hom_scene::split_map_spec(Path::new(spec));
     let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if !matches!(ext.as_deref(), Some("bsp") | Some("pk3")) {
@@ -39,6 +44,7 @@ pub fn open_map(spec: &str) -> Result<BspMap, LoadError> {
     }
     let options = BspOptions {
         map,
+        split: load.split.clone(),
         ..BspOptions::default()
     };
     hom_scene::bsp::load(&file, &options)

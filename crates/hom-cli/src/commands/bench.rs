@@ -1,7 +1,7 @@
 //! `hom bench`: `walk` (scenes × cullers side by side) or `raster` (the
 //! occluder rasterizer on the Masked Occlusion Culling inputs).
 
-use crate::args::{BenchArgs, BenchKind};
+use crate::args::{BenchArgs, BenchKind, OnOff};
 use anyhow::{Context, Result};
 use hom_walk::pictures;
 use std::path::Path;
@@ -36,6 +36,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         cuts: a.cuts,
         camera_path: a.camera_path.clone(),
         budget: a.budget,
+        clusters: a.clusters == OnOff::On,
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());

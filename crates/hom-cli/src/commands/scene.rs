@@ -23,9 +23,11 @@ pub fn list() -> Result<()> {
     Ok(())
 }
 
-/// `hom scene info`: counts, bounds and the walk of the scene `spec`.
-pub fn info(spec: &str) -> Result<()> {
-    let (scene, path, _) = hom_walk::open_scene(spec)?;
+/// `hom scene info`: counts, bounds and the walk of the scene `spec`, cut
+/// into cluster-sized objects or not (`--clusters`).
+pub fn info(spec: &str, clusters: bool) -> Result<()> {
+    let opened = hom_walk::open_walk_with(spec, &hom_walk::load_options(clusters))?;
+    let (scene, path) = (opened.scene, opened.path);
     let b = scene.bounds();
     let dynamic = scene.dynamic_count();
     let max_tris = scene.objects().iter().map(|o| o.triangles).max().unwrap_or(0);
@@ -48,9 +50,10 @@ pub fn info(spec: &str) -> Result<()> {
     Ok(())
 }
 
-/// `hom scene export`: the scene `spec` as OBJ in `out`.
-pub fn export(spec: &str, out: &Path) -> Result<()> {
-    let (scene, _, _) = hom_walk::open_scene(spec)?;
+/// `hom scene export`: the scene `spec` as OBJ in `out`, one `o` per object
+/// (per cluster-sized object with `clusters`).
+pub fn export(spec: &str, out: &Path, clusters: bool) -> Result<()> {
+    let scene = hom_walk::open_walk_with(spec, &hom_walk::load_options(clusters))?.scene;
     hom_scene::export::write_obj(&scene, out)?;
     println!(
         "wrote {} ({} objects, {} triangles)",

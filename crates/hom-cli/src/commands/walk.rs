@@ -28,7 +28,8 @@ pub fn run(a: WalkArgs) -> Result<()> {
                 a.view.scene
             );
         }
-        Some(hom_walk::pvs::open_map(&a.view.scene)?)
+        let load = hom_walk::load_options(a.view.clusters == crate::args::OnOff::On);
+        Some(hom_walk::pvs::open_map_with(&a.view.scene, &load)?)
     } else {
         None
     };
