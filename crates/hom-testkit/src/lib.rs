@@ -220,6 +220,41 @@ pub fn random_moving_scene(seed: u64, n: usize, dynamic: bool) -> (Scene, Animat
     (b.build().expect("a valid scene"), animation)
 }
 
+/// A random scene of `n` static slabs and open quads at random slants
+/// (ramps, roofs, leaning walls), their vertices in world space under the
+/// identity transform, so each object's axis-aligned box is loose and its
+/// oriented one ([`hom::scene::Mesh::tight_bounds`]) tight: what the
+/// occlusion tests project for slanted objects.
+pub fn random_slanted_scene(seed: u64, n: usize) -> Scene {
+    let mut rng = Rng::new(seed);
+    let mut rnd = move || rng.unit();
+    let mut b = SceneBuilder::new("slanted");
+    let slab = cube();
+    for i in 0..n {
+        let pos = Vec3::new(rnd() * 20.0 - 10.0, rnd() * 6.0 - 3.0, rnd() * 20.0 - 10.0);
+        let thin = if i % 3 == 0 { 0.0 } else { 0.05 + rnd() * 0.3 };
+        let scale = Vec3::new(0.5 + rnd() * 6.0, thin.max(1e-3), 0.5 + rnd() * 6.0);
+        let axis = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5)
+            .try_normalize()
+            .unwrap_or(Vec3::X);
+        let t = Mat4::from_scale_rotation_translation(scale, Quat::from_axis_angle(axis, rnd() * 3.0), pos);
+        let (positions, triangles) = if thin == 0.0 {
+            // An open quad: the slab's top face alone.
+            let p = [[-0.5, 0.0, -0.5], [0.5, 0.0, -0.5], [0.5, 0.0, 0.5], [-0.5, 0.0, 0.5]];
+            let p = p.map(|q| t.transform_point3(Vec3::from_array(q))).to_vec();
+            (p, vec![[0, 1, 2], [0, 2, 3]])
+        } else {
+            let p = slab.positions().iter().map(|&q| t.transform_point3(q)).collect();
+            (p, slab.triangles().to_vec())
+        };
+        let mesh = Mesh::new(format!("s{i}"), positions, triangles).expect("a valid mesh");
+        let m = b.add_mesh(mesh);
+        b.add_object(format!("s{i}"), m, Mat4::IDENTITY)
+            .expect("a valid object");
+    }
+    b.build().expect("a valid scene")
+}
+
 /// Over 60 random scenes, the culler `make` builds occlusion-culls at least
 /// one object in 20 and never wrongly: the conservative property tests are
 /// only meaningful if culling happens.

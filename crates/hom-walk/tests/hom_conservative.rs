@@ -10,7 +10,7 @@ use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer, NO_OBJECT};
 use hom_testkit::{
     assert_culls_a_fair_share, assert_no_false_culls, cube, draw_objects, exact, occluder_cullers,
-    occluder_raster_case, permissive_hom, random_moving_scene, random_scene,
+    occluder_raster_case, permissive_hom, random_moving_scene, random_scene, random_slanted_scene,
 };
 use proptest::prelude::*;
 
@@ -41,6 +41,51 @@ proptest! {
         culler.frame_done(Some(1.0));
         assert_no_false_culls(&scene, &camera, &mut culler);
     }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+    /// Slanted objects are tested by their oriented boxes (thin along the
+    /// slant) where those are smaller: no occluder culler culls one the oracle sees.
+    #[test]
+    fn slanted_objects_tested_by_their_oriented_boxes_are_never_wrongly_culled(
+        seed in any::<u64>(), n in 2usize..40, eye in (-14.0f32..14.0, -2.0f32..4.0, -14.0f32..14.0),
+        look in (-1.0f32..1.0, -0.3f32..0.3, -1.0f32..1.0),
+    ) {
+        let scene = random_slanted_scene(seed, n);
+        let eye = Vec3::new(eye.0, eye.1, eye.2);
+        let camera = Camera::new(eye, eye + Vec3::new(look.0, look.1, look.2 + 1e-3), Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        prop_assume!(camera.validate().is_ok());
+        for mut culler in occluder_cullers(&scene, &permissive()) {
+            assert_no_false_culls(&scene, &camera, culler.as_mut());
+        }
+    }
+}
+
+/// The slanted scenes' oriented boxes are used, and cull: over 40 scenes,
+/// the tests project the oriented box for most objects, and HOM culls some.
+#[test]
+fn slanted_objects_are_tested_by_their_oriented_boxes_and_culled() {
+    let (mut oriented, mut occluded, mut total) = (0, 0, 0);
+    for seed in 0..40u64 {
+        let scene = random_slanted_scene(seed * 17 + 3, 40);
+        for o in scene.objects() {
+            let obb = o.obb.corners();
+            oriented += usize::from(o.test_corners() == obb && o.test_corners() != o.aabb.corners());
+        }
+        let camera = Camera::new(Vec3::new(0.0, 0.5, 13.0), Vec3::ZERO, Vec3::Y, 1.2, 0.1, 100.0, 80, 60);
+        let out = assert_no_false_culls(&scene, &camera, &mut HomCuller::new(&scene, permissive()));
+        occluded += out.occluded.len();
+        total += scene.objects().len();
+    }
+    assert!(
+        oriented * 2 > total,
+        "{oriented} of {total} objects tested by their oriented box"
+    );
+    assert!(
+        occluded * 20 > total,
+        "only {occluded} of {total} objects occlusion-culled"
+    );
 }
 
 /// The occluder rasterizer covers exactly the samples the renderer draws for the same triangles.

@@ -96,6 +96,7 @@ pub struct Mesh {
     positions: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
     bounds: Aabb,
+    tight: Obb,
 }
 
 impl Mesh {
@@ -131,11 +132,13 @@ impl Mesh {
         }
         // Bounds of the vertices actually used, so stray unused vertices do not inflate them.
         let bounds = Aabb::from_points(triangles.iter().flatten().map(|&i| positions[i as usize]));
+        let tight = tight_box(&positions, &triangles).unwrap_or_else(|| Obb::from_local(&bounds, &Mat4::IDENTITY));
         Ok(Mesh {
             name,
             positions,
             triangles,
             bounds,
+            tight,
         })
     }
 
@@ -163,6 +166,46 @@ impl Mesh {
     pub fn bounds(&self) -> Aabb {
         self.bounds
     }
+
+    /// The smaller of [`Mesh::bounds`] and an oriented box along the mesh's
+    /// mean normal ([`Obb::fit`]), in object space: thin for a slanted wall,
+    /// roof or piece of terrain, where the axis-aligned box is mostly empty.
+    pub fn tight_bounds(&self) -> Obb {
+        self.tight
+    }
+}
+
+/// [`Mesh::tight_bounds`] of the referenced vertices: the mean normal is the
+/// area-weighted sum of the triangles' normals, each turned to agree with the
+/// largest one's (triangles are two-sided, so windings may disagree).
+fn tight_box(positions: &[Vec3], triangles: &[[u32; 3]]) -> Option<Obb> {
+    let normal = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        (b - a).cross(c - a)
+    };
+    let largest = triangles
+        .iter()
+        .map(normal)
+        .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))?;
+    let mean: Vec3 = triangles
+        .iter()
+        .map(|t| {
+            let n = normal(t);
+            if n.dot(largest) < 0.0 {
+                -n
+            } else {
+                n
+            }
+        })
+        .sum();
+    let mut used = vec![false; positions.len()];
+    let points: Vec<Vec3> = triangles
+        .iter()
+        .flatten()
+        .filter(|&&i| !std::mem::replace(&mut used[i as usize], true))
+        .map(|&i| positions[i as usize])
+        .collect();
+    Obb::fit(&points, mean)
 }
 
 /// One placed instance of a mesh.
@@ -176,7 +219,9 @@ pub struct Object {
     pub transform: Mat4,
     /// Current world-space axis-aligned bounds.
     pub aabb: Aabb,
-    /// Current world-space oriented bounds (tight for moving, rotated objects).
+    /// Current world-space oriented bounds: the mesh's [`Mesh::tight_bounds`]
+    /// carried by the transform (tight for moving, rotated objects, and for
+    /// slanted ones). See [`Object::test_corners`].
     pub obb: Obb,
     /// Triangle count of its mesh (cached); 0 once removed.
     pub triangles: u32,
@@ -191,6 +236,18 @@ pub struct Object {
 }
 
 impl Object {
+    /// The corners whose screen footprint the occlusion tests use: the
+    /// oriented box's when the object moves or the oriented box is the
+    /// smaller (slanted walls, roofs, terrain on a slope), else the
+    /// axis-aligned box's. Both hold the object's triangles.
+    pub fn test_corners(&self) -> [Vec3; 8] {
+        if self.dynamic || self.obb.volume() < self.aabb.extent().element_product() {
+            self.obb.corners()
+        } else {
+            self.aabb.corners()
+        }
+    }
+
     /// True for an object that moves: added with [`Scene::add_dynamic_object`],
     /// or moved by [`Scene::set_transform`] since. Cullers test it by its
     /// oriented box and keep it out of structures built for static geometry.
@@ -389,7 +446,7 @@ impl Scene {
             mesh,
             transform,
             aabb: bounds.transformed(&transform),
-            obb: Obb::from_local(&bounds, &transform),
+            obb: m.tight_bounds().transformed(&transform),
             triangles,
             occluder: true,
             dynamic,
@@ -417,12 +474,13 @@ impl Scene {
     pub fn set_transform(&mut self, id: u32, transform: Mat4) -> Result<(), SceneError> {
         let name = &self.live_mut(id)?.name;
         check_transform(name, &transform)?;
-        let bounds = self.meshes[self.objects[id as usize].mesh as usize].bounds();
+        let mesh = &self.meshes[self.objects[id as usize].mesh as usize];
+        let (bounds, tight) = (mesh.bounds(), mesh.tight_bounds());
         self.revision.transforms += 1;
         let o = &mut self.objects[id as usize];
         o.transform = transform;
         o.aabb = bounds.transformed(&transform);
-        o.obb = Obb::from_local(&bounds, &transform);
+        o.obb = tight.transformed(&transform);
         if !o.dynamic {
             o.dynamic = true;
             self.dynamic_count += 1;

@@ -187,12 +187,7 @@ impl Traversal<'_> {
             v.visible.push(id);
             return Some(Vis::Visible);
         } else {
-            let corners = if o.is_dynamic() {
-                o.obb.corners()
-            } else {
-                o.aabb.corners()
-            };
-            match self.footprint(&corners) {
+            match self.footprint(&o.test_corners()) {
                 Footprint::Rect(r) if (v.is_occluded)(&r) => {
                     v.occluded.push(id);
                     Vis::Invisible

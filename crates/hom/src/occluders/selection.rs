@@ -126,7 +126,14 @@ pub struct OccluderSelector {
     last_frame_ms: Option<f64>,
     step: f32,
     candidates: Vec<(f32, u32, u32)>,
+    /// Per object this frame: [`IN_VIEW`], [`CHOSEN`] or 0; all 0 between frames.
+    marks: Vec<u8>,
 }
+
+/// [`OccluderSelector::marks`]: a candidate (an occluder in the frustum).
+const IN_VIEW: u8 = 1;
+/// [`OccluderSelector::marks`]: a candidate chosen this frame.
+const CHOSEN: u8 = 2;
 
 impl OccluderSelector {
     /// Bytes held on the heap (per-object flags, queue, candidates).
@@ -136,6 +143,7 @@ impl OccluderSelector {
             + self.queue.capacity() * std::mem::size_of::<(u32, u32)>()
             + vec_bytes(&self.hole_fillers)
             + vec_bytes(&self.candidates)
+            + vec_bytes(&self.marks)
     }
 
     /// A selector with `config`.
@@ -151,6 +159,7 @@ impl OccluderSelector {
             last_frame_ms: None,
             step: 1.25,
             candidates: Vec::new(),
+            marks: Vec::new(),
         }
     }
 
@@ -186,6 +195,7 @@ impl OccluderSelector {
         originals.clear();
         let count = scene.objects().len();
         self.last_selected.resize(count, false);
+        self.marks.resize(count, 0);
         let mut stats = SelectionStats {
             budget: self.budget,
             ..SelectionStats::default()
@@ -227,26 +237,29 @@ impl OccluderSelector {
             };
             let triangles = cuts.cost(scene, occ);
             self.candidates.push((key, occ.object, triangles));
+            self.marks[id] = IN_VIEW;
         }
         stats.candidates = self.candidates.len() as u32;
         self.candidates
             .sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
 
-        let mut chosen = vec![false; count];
+        let marks = &mut self.marks;
         let mut spent: u64 = 0;
         let budget = self.budget as u64;
+        // Every id passed is a candidate's, but the queue's, which may have left the view.
         let mut take = |id: u32, tris: u32, limit: u64, spent: &mut u64, out: &mut Vec<u32>| -> bool {
-            if chosen[id as usize] || *spent + tris as u64 > limit {
+            let mark = marks.get(id as usize).copied().unwrap_or(0);
+            if mark != IN_VIEW || *spent + tris as u64 > limit {
                 return false;
             }
-            chosen[id as usize] = true;
+            marks[id as usize] = CHOSEN;
             *spent += tris as u64;
             out.push(id);
             true
         };
         // 1. The queue of proven hole fillers, if still in view.
         for &(id, tris) in &self.queue {
-            if self.candidates.iter().any(|c| c.1 == id) && take(id, tris, budget, &mut spent, out) {
+            if take(id, tris, budget, &mut spent, out) {
                 stats.queued += 1;
             }
         }
@@ -276,7 +289,7 @@ impl OccluderSelector {
             for &(_, id, tris) in &self.candidates {
                 let occ = match db.occluder(id) {
                     Some(o)
-                        if chosen[id as usize]
+                        if self.marks[id as usize] == CHOSEN
                             && o.stand_in.is_none()
                             && o.virtual_occluder.is_some()
                             && !cuts.has_cut(id) =>
@@ -295,6 +308,9 @@ impl OccluderSelector {
             originals.sort_unstable();
         }
         stats.originals = originals.len() as u32;
+        for &(_, id, _) in &self.candidates {
+            self.marks[id as usize] = 0;
+        }
         out.sort_unstable();
         self.last_selected.fill(false);
         for &id in out.iter() {
