@@ -53,7 +53,12 @@
 //!   even, the other diagonal where it is odd), counter-clockwise seen from
 //!   above. The cells are cut into cluster-sized objects by [`crate::split`]
 //!   (a cell is a piece: its two triangles stay together), named
-//!   `terrain_K` in the cut's order. Terrain objects are occluders.
+//!   `terrain_K` in the cut's order, at most 64 triangles and
+//!   [`TERRAIN_MAX_EXTENT`] (16 m) each: a height field's cells are all
+//!   alike, so the triangle limit alone makes compact clusters, where the
+//!   cut's default 3 m (set for a map's faces) made clusters of 6–12
+//!   triangles and culling cost more than it saved (`docs/decisions/clusters.md`).
+//!   Terrain objects are occluders.
 //! - **Items:** pixel `(px, py)` of `trees.png` names an item by its colour,
 //!   first match in this order (ETR's table; `±10` means strictly within 10):
 //!
@@ -138,6 +143,11 @@ use thiserror::Error;
 
 /// Grey value at relief 0 (ETR's `base_height_value`).
 pub const BASE_HEIGHT_VALUE: f32 = 127.0;
+/// Largest extent of a terrain object, metres: 64 triangles of a course's
+/// 1 × 2 m cells bind first (on 8 courses, HOM over frustum-only culling
+/// 0.69–1.29 with 3 m clusters, 0.82–1.60 with 16 m, its cull 0.7–28 ms
+/// against 1.0–5.5 ms).
+pub const TERRAIN_MAX_EXTENT: f32 = 16.0;
 /// Largest `[width]` and `[length]` accepted, metres (100 km).
 pub const MAX_SIZE: f64 = 100_000.0;
 /// Largest `[scale]` accepted, metres of relief (10 km).
@@ -247,7 +257,8 @@ pub enum EtrError {
 /// How to load a course.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EtrOptions {
-    /// How the terrain is cut into objects (default: cluster-sized).
+    /// How the terrain is cut into objects (default: at most 64 triangles
+    /// and [`TERRAIN_MAX_EXTENT`]).
     pub split: SplitOptions,
     /// Load the items of `trees.png` (trees, shrubs, herring, flags…)?
     pub items: bool,
@@ -264,7 +275,10 @@ pub struct EtrOptions {
 impl Default for EtrOptions {
     fn default() -> Self {
         EtrOptions {
-            split: SplitOptions::default(),
+            split: SplitOptions {
+                max_extent: TERRAIN_MAX_EXTENT,
+                ..SplitOptions::default()
+            },
             items: true,
             max_samples: DEFAULT_MAX_SAMPLES,
             eye_height: 1.7,

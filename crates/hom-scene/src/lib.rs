@@ -97,7 +97,9 @@ pub fn load_with_path(path: &Path) -> Result<LoadedScene, LoadError> {
 /// the level are cut into objects ([`split`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LoadOptions {
-    /// The cut into cluster-sized objects; `enabled: false` (`--clusters off`)
+    /// The cut into cluster-sized objects (an Extreme Tux Racer course's
+    /// terrain takes only `enabled` from it: [`etr::EtrOptions`] sizes its
+    /// clusters); `enabled: false` (`--clusters off`)
     /// keeps whole objects: a Quake 3 map is then its opaque world and its
     /// see-through faces, an Extreme Tux Racer course one terrain, an OBJ or
     /// glTF file the objects it names.
@@ -114,13 +116,10 @@ pub fn load_with_options(path: &Path, options: &LoadOptions) -> Result<LoadedSce
     let plain = |scene| LoadedScene { scene, path: None };
     let split = options.split.clone();
     if map.is_none() && etr::is_course_file(&file) {
-        let course = etr::load(
-            &file,
-            &etr::EtrOptions {
-                split,
-                ..etr::EtrOptions::default()
-            },
-        )?;
+        // A course's terrain keeps its own cluster sizes; only on or off is the caller's.
+        let mut course_options = etr::EtrOptions::default();
+        course_options.split.enabled = split.enabled;
+        let course = etr::load(&file, &course_options)?;
         return Ok(LoadedScene {
             scene: course.scene,
             path: Some(course.path),
