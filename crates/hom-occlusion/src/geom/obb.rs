@@ -7,10 +7,10 @@ use super::Aabb;
 use glam::{Mat3, Mat4, Vec3};
 
 /// Turns about the normal tried by [`Obb::fit`] within a quarter turn.
-pub const FIT_TURNS: usize = 16;
+const FIT_TURNS: usize = 16;
 
 /// Metres added to each side when [`Obb::fit`] compares boxes.
-pub const FIT_PAD: f32 = 0.05;
+const FIT_PAD: f32 = 0.05;
 
 /// A box with its own orthonormal axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,8 +59,8 @@ impl Obb {
     /// A box around `points` in their own space, the smallest of: the
     /// axis-aligned box, and boxes with one axis along `normal` (the mesh's
     /// area-weighted normal; ignored when zero or not finite) turned about it
-    /// in [`FIT_TURNS`] steps of a quarter turn. Sizes are compared as volumes
-    /// with each side widened by [`FIT_PAD`], so a flat patch's box is judged
+    /// in 16 steps of a quarter turn. Sizes are compared as volumes
+    /// with each side widened by 5 cm, so a flat patch's box is judged
     /// by its area, and the axis-aligned box is kept unless another is smaller
     /// by a tenth (what is axis-aligned stays exactly so). `None` without points.
     pub fn fit(points: &[Vec3], normal: Vec3) -> Option<Obb> {
