@@ -27,7 +27,7 @@ mod dynamic;
 mod machine_room;
 mod metropolis;
 mod office;
-mod rng;
+pub(crate) mod rng;
 mod sculpture_park;
 mod shapes;
 pub(crate) mod spheres;

@@ -12,6 +12,12 @@ impl Rng {
         r
     }
 
+    /// A generator whose state is `state` as it is: its first number is
+    /// SplitMix64's hash of `state` (a position's hash, not a seeded stream).
+    pub(crate) fn from_state(state: u64) -> Rng {
+        Rng(state)
+    }
+
     /// The next 64 random bits.
     pub(crate) fn next_u64(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);

@@ -135,6 +135,7 @@ mod error;
 
 pub use error::EtrError;
 
+use crate::builtin::rng::Rng;
 use crate::camera_path::{CameraPath, PathFrame};
 use crate::split::{compact, group_pieces, Piece, SplitOptions};
 use crate::LoadError;
@@ -620,15 +621,11 @@ fn heightfield(dim: &CourseDim, w: u32, h: u32, elev: &[u8]) -> Heightfield {
     }
 }
 
-/// A unit random number in `[0, 1)` from a pixel and a salt (SplitMix64).
+/// A unit random number in `[0, 1)` from a pixel and a salt: the crate's
+/// SplitMix64 hash of the pixel's position, one stream per salt.
 fn unit_hash(px: u32, py: u32, salt: u64) -> f32 {
-    let mut z = (u64::from(px) | u64::from(py) << 32)
-        .wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))
-        .wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 40) as f32 / (1u64 << 24) as f32
+    let position = u64::from(px) | u64::from(py) << 32;
+    Rng::from_state(position.wrapping_add(salt.wrapping_mul(0x9E37_79B9_7F4A_7C15))).f32()
 }
 
 /// The items of `map` (RGB, the height field's size), in row order.
