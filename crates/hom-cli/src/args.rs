@@ -201,11 +201,8 @@ pub enum SceneCommand {
         /// Built-in scene name or scene file (.obj, .gltf, .glb, .bsp, .pk3 or FILE.pk3:MAP, or an Extreme Tux Racer course.dim).
         #[arg(long)]
         scene: String,
-        /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
-        /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
-        /// or glTF object that spans the level); `off` keeps whole objects.
-        #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
-        clusters: OnOff,
+        #[command(flatten)]
+        clusters: Clusters,
     },
     /// Write the scene's world-space triangles as OBJ, one `o` per object in id order.
     Export {
@@ -215,10 +212,8 @@ pub enum SceneCommand {
         /// Output .obj file.
         #[arg(long)]
         out: PathBuf,
-        /// `on` (default): scene files cut into cluster-sized objects, one `o`
-        /// each in id order; `off`: whole objects (see `hom walk --help`).
-        #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
-        clusters: OnOff,
+        #[command(flatten)]
+        clusters: Clusters,
     },
 }
 
@@ -234,11 +229,8 @@ pub struct View {
     /// an orbit around the bounds).
     #[arg(long)]
     pub camera_path: Option<PathBuf>,
-    /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
-    /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
-    /// or glTF object that spans the level); `off` keeps whole objects.
-    #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
-    pub clusters: OnOff,
+    #[command(flatten)]
+    pub clusters: Clusters,
     /// Image width (default: the path's).
     #[arg(long)]
     pub width: Option<u32>,
@@ -494,6 +486,27 @@ pub struct LodArgs {
     pub lod_occluders: OnOff,
 }
 
+/// `--clusters`, for every command that loads a scene file.
+#[derive(Args, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Clusters {
+    /// `on` (default; `--clusters` alone too): scene files are cut into
+    /// cluster-sized objects (a Quake 3 map's faces, an ETR course's terrain,
+    /// a one-object OBJ file, any OBJ or glTF object that spans the level),
+    /// `hom scene export` writing one `o` each in id order; `off` keeps whole objects.
+    #[arg(long = "clusters", value_name = "CLUSTERS", value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
+    pub switch: OnOff,
+}
+
+impl Clusters {
+    /// Cut into cluster-sized objects (the default).
+    pub const ON: Clusters = Clusters { switch: OnOff::On };
+
+    /// The loaders' options this asks for.
+    pub fn load_options(self) -> hom_scene::LoadOptions {
+        hom_walk::load_options(self.switch == OnOff::On)
+    }
+}
+
 /// A switch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OnOff {
@@ -564,11 +577,8 @@ pub struct BenchArgs {
     /// default 1 % of the scene's triangles, within 3,000–20,000).
     #[arg(long)]
     pub budget: Option<u32>,
-    /// `on` (default): scene files are cut into cluster-sized objects (a Quake 3
-    /// map's faces, an ETR course's terrain, a one-object OBJ file, and any OBJ
-    /// or glTF object that spans the level); `off` keeps whole objects.
-    #[arg(long, value_enum, default_value = "on", num_args = 0..=1, default_missing_value = "on")]
-    pub clusters: OnOff,
+    #[command(flatten)]
+    pub clusters: Clusters,
     /// Comma-separated cullers to compare (default: frustum,hom).
     #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
     pub cullers: Vec<String>,

@@ -9,7 +9,7 @@ mod commands;
 mod setup;
 mod table;
 
-use args::{Cli, Command, OccludersCommand, OnOff, PvsCommand, SceneCommand};
+use args::{Cli, Command, OccludersCommand, PvsCommand, SceneCommand};
 use clap::Parser;
 
 /// Output cut short by its reader (`hom scenes | head -1`) is not an error:
@@ -41,10 +41,8 @@ fn main() {
         Command::Bench(a) => commands::bench::run(a),
         Command::Scenes => commands::scene::list(),
         Command::Scene { command } => match command {
-            SceneCommand::Info { scene, clusters } => commands::scene::info(&scene, clusters == OnOff::On),
-            SceneCommand::Export { scene, out, clusters } => {
-                commands::scene::export(&scene, &out, clusters == OnOff::On)
-            }
+            SceneCommand::Info { scene, clusters } => commands::scene::info(&scene, clusters),
+            SceneCommand::Export { scene, out, clusters } => commands::scene::export(&scene, &out, clusters),
         },
         Command::Occluders { command } => match command {
             OccludersCommand::Info {

@@ -1,7 +1,7 @@
 //! What every command sets up: the scene and its camera path with the
 //! viewport overridden, the culler, and the progress bar.
 
-use crate::args::{HomArgs, OnOff, View};
+use crate::args::{HomArgs, View};
 use anyhow::{bail, Result};
 use hom::cull::{Coherence, Culler};
 use hom::experimental::HvPriming;
@@ -31,8 +31,7 @@ impl Walkthrough {
 
 /// The scene and the path to walk, with the viewport overridden where asked.
 pub fn open(view: &View) -> Result<Walkthrough> {
-    let load = hom_walk::load_options(view.clusters == OnOff::On);
-    let mut opened = hom_walk::open_walk_with(&view.scene, &load)?;
+    let mut opened = hom_walk::open_walk_with(&view.scene, &view.clusters.load_options())?;
     if let Some(file) = &view.camera_path {
         opened = opened.along(file)?;
     }

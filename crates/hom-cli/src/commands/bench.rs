@@ -36,7 +36,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         cuts: a.cuts,
         camera_path: a.camera_path.clone(),
         budget: a.budget,
-        clusters: a.clusters == OnOff::On,
+        clusters: a.clusters.switch == OnOff::On,
     };
     let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
     print!("{}", report.table());

@@ -4,7 +4,7 @@
 use super::render::write_false_colour;
 use super::walk::run_walk;
 use super::{busiest_frame, write_stage_chart};
-use crate::args::{DemoArgs, HomArgs, OnOff, View};
+use crate::args::{Clusters, DemoArgs, HomArgs, View};
 use crate::setup::open;
 use crate::table::print_table;
 use anyhow::{Context, Result};
@@ -17,7 +17,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
     let view = View {
         scene: "city".into(),
         camera_path: None,
-        clusters: OnOff::On,
+        clusters: Clusters::ON,
         width: Some(a.width),
         height: Some(a.height),
         speed: None,

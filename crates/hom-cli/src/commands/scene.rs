@@ -1,5 +1,6 @@
 //! `hom scenes`, `hom scene info` and `hom scene export`.
 
+use crate::args::Clusters;
 use anyhow::Result;
 use std::path::Path;
 
@@ -25,8 +26,8 @@ pub fn list() -> Result<()> {
 
 /// `hom scene info`: counts, bounds and the walk of the scene `spec`, cut
 /// into cluster-sized objects or not (`--clusters`).
-pub fn info(spec: &str, clusters: bool) -> Result<()> {
-    let opened = hom_walk::open_walk_with(spec, &hom_walk::load_options(clusters))?;
+pub fn info(spec: &str, clusters: Clusters) -> Result<()> {
+    let opened = hom_walk::open_walk_with(spec, &clusters.load_options())?;
     let (scene, path) = (opened.scene, opened.path);
     let b = scene.bounds();
     let dynamic = scene.dynamic_count();
@@ -51,9 +52,9 @@ pub fn info(spec: &str, clusters: bool) -> Result<()> {
 }
 
 /// `hom scene export`: the scene `spec` as OBJ in `out`, one `o` per object
-/// (per cluster-sized object with `clusters`).
-pub fn export(spec: &str, out: &Path, clusters: bool) -> Result<()> {
-    let scene = hom_walk::open_walk_with(spec, &hom_walk::load_options(clusters))?.scene;
+/// (per cluster-sized object with `--clusters on`).
+pub fn export(spec: &str, out: &Path, clusters: Clusters) -> Result<()> {
+    let scene = hom_walk::open_walk_with(spec, &clusters.load_options())?.scene;
     hom_scene::export::write_obj(&scene, out)?;
     println!(
         "wrote {} ({} objects, {} triangles)",

@@ -28,8 +28,10 @@ pub fn run(a: WalkArgs) -> Result<()> {
                 a.view.scene
             );
         }
-        let load = hom_walk::load_options(a.view.clusters == crate::args::OnOff::On);
-        Some(hom_walk::pvs::open_map_with(&a.view.scene, &load)?)
+        Some(hom_walk::pvs::open_map_with(
+            &a.view.scene,
+            &a.view.clusters.load_options(),
+        )?)
     } else {
         None
     };
