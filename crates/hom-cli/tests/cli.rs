@@ -479,30 +479,12 @@ fn bench_camera_path_walks_one_scene() {
     assert_clean_failure(&o, "--camera-path walks one scene; 2 were given");
 }
 
-/// A 40 m ground of 3,200 triangles in an OBJ file of its own.
-fn ground_obj(dir: &std::path::Path) -> std::path::PathBuf {
-    let n = 40;
-    let mut text = String::from("o ground\n");
-    for z in 0..=n {
-        for x in 0..=n {
-            text.push_str(&format!("v {x} 0 {z}\n"));
-        }
-    }
-    for z in 0..n {
-        for x in 0..n {
-            let a = z * (n + 1) + x + 1;
-            text.push_str(&format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1));
-        }
-    }
-    let path = dir.join("ground.obj");
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
 #[test]
 fn clusters_off_keeps_whole_objects_in_info_export_and_bench() {
     let dir = tempfile::tempdir().unwrap();
-    let obj = ground_obj(dir.path());
+    // A 40 m ground of 3,200 triangles in an OBJ file of its own.
+    let obj = dir.path().join("ground.obj");
+    std::fs::write(&obj, hom_testkit::grid_obj(40)).unwrap();
     let obj = obj.to_str().unwrap();
     let objects = |o: &Output| {
         assert!(o.status.success(), "{}", stderr(o));

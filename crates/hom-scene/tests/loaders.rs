@@ -6,7 +6,7 @@
 use glam::{Mat4, Quat, Vec3};
 use hom::scene::{Mesh, Scene, SceneBuilder, SceneError};
 use hom_scene::{export, gltf, obj, LoadError};
-use hom_testkit::Rng;
+use hom_testkit::{grid_obj, Rng};
 use proptest::prelude::*;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -834,23 +834,6 @@ proptest! {
 }
 
 // ---------------------------------------------------------------- splitting one big mesh
-
-/// A grid of `n × n` quads in the XZ plane, one group.
-fn grid_obj(n: usize) -> String {
-    let mut text = String::from("o ground\n");
-    for z in 0..=n {
-        for x in 0..=n {
-            text.push_str(&format!("v {x} 0 {z}\n"));
-        }
-    }
-    for z in 0..n {
-        for x in 0..n {
-            let a = z * (n + 1) + x + 1;
-            text.push_str(&format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1));
-        }
-    }
-    text
-}
 
 #[test]
 fn a_single_big_obj_object_is_split_unless_turned_off() {

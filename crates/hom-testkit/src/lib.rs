@@ -220,6 +220,24 @@ pub fn random_moving_scene(seed: u64, n: usize, dynamic: bool) -> (Scene, Animat
     (b.build().expect("a valid scene"), animation)
 }
 
+/// The text of an OBJ file holding one object, `ground`: `n` × `n` unit
+/// quads in the XZ plane (2 n² triangles, n metres across).
+pub fn grid_obj(n: usize) -> String {
+    let mut text = String::from("o ground\n");
+    for z in 0..=n {
+        for x in 0..=n {
+            text.push_str(&format!("v {x} 0 {z}\n"));
+        }
+    }
+    for z in 0..n {
+        for x in 0..n {
+            let a = z * (n + 1) + x + 1;
+            text.push_str(&format!("f {} {} {} {}\n", a, a + 1, a + n + 2, a + n + 1));
+        }
+    }
+    text
+}
+
 /// A random scene of `n` static slabs and open quads at random slants
 /// (ramps, roofs, leaning walls), their vertices in world space under the
 /// identity transform, so each object's axis-aligned box is loose and its
