@@ -130,6 +130,8 @@ mod occlusion_map;
 #[forbid(unsafe_code)]
 mod otree;
 mod raster;
+#[forbid(unsafe_code)]
+mod sample_depth;
 mod weld;
 
 pub use buffer::{

@@ -64,6 +64,16 @@ impl TiledRasterizer {
         }
     }
 
+    /// The backend it draws with.
+    pub fn backend(&self) -> RasterBackend {
+        self.backend
+    }
+
+    /// Bytes of scratch held on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        crate::vec_bytes(&self.bins) + self.bins.iter().map(crate::vec_bytes).sum::<usize>()
+    }
+
     /// Renders `tris` (set up for `zb`'s viewport) into `zb`, which keeps
     /// what it holds (clear it first for a new frame), and builds its
     /// pyramid. Uses the current rayon pool; the result does not depend on its size.

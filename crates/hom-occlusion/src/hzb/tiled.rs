@@ -12,6 +12,8 @@
 //! viewport's edge hold `f32::NEG_INFINITY` (nothing there can be seen).
 
 use crate::geom::ScreenRect;
+use crate::raster::scanline::{ScanEdges, Stepper};
+use crate::raster::setup::Tri;
 use crate::DEPTH_MARGIN;
 
 /// Tile side in samples.
@@ -84,6 +86,14 @@ impl TiledZBuffer {
         } else {
             f32::INFINITY
         }
+    }
+
+    /// Bytes held on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        crate::vec_bytes(&self.samples)
+            + crate::vec_bytes(&self.touched)
+            + crate::vec_bytes(&self.tile_max)
+            + self.upper.iter().map(|l| crate::vec_bytes(&l.2)).sum::<usize>()
     }
 
     /// Width in samples.
@@ -232,6 +242,81 @@ impl TiledZBuffer {
             "TiledZBuffer::build_pyramid was not called"
         );
         self.region_behind(k, r, [t0x, t0y, t1x, t1y])
+    }
+
+    /// Whether `tris` (set up for this viewport by the renderer's rule) lie
+    /// behind the drawn depth at every sample they cover, by more than
+    /// [`DEPTH_MARGIN`]: the per-sample question a box test cannot answer
+    /// (`sample_depth.rs`). A row's run within a tile is decided at once
+    /// when its nearest depth lies behind the tile's farthest. Triangles
+    /// that cover no sample are hidden.
+    pub fn triangles_hidden(&self, tris: &[Tri]) -> bool {
+        tris.iter().all(|t| self.triangle_hidden(t))
+    }
+
+    /// One triangle, a tile row (8 rows) at a time: each tile its rows reach
+    /// is passed whole when the triangle's nearest depth over it lies behind
+    /// the tile's farthest, else sample by sample.
+    fn triangle_hidden(&self, t: &Tri) -> bool {
+        let edges = ScanEdges::new(t);
+        let (ra, rb) = (edges.rows.0, edges.rows.1.min(self.height));
+        if ra >= rb {
+            return true;
+        }
+        let mut stepper = Stepper::new(t, &edges, ra);
+        let mut spans = [(0u32, 0u32); TILE as usize];
+        let mut row = ra;
+        while row < rb {
+            let band_end = rb.min((row / TILE + 1) * TILE);
+            let spans = &mut spans[..(band_end - row) as usize];
+            stepper.rows(spans);
+            let (lo, hi) = spans
+                .iter()
+                .filter(|s| s.0 < s.1)
+                .fold((u32::MAX, 0), |(lo, hi), s| (lo.min(s.0), hi.max(s.1.min(self.width))));
+            let mut x = lo;
+            while x < hi {
+                let end = hi.min((x / TILE + 1) * TILE);
+                if !self.tile_hidden(t, row, spans, x, end) {
+                    return false;
+                }
+                x = end;
+            }
+            row = band_end;
+        }
+        true
+    }
+
+    /// Whether `t`'s samples in columns `x..end` (one tile's) of rows
+    /// `row..row + spans.len()` (one tile row's; `spans` their covered
+    /// columns) all lie behind.
+    #[inline]
+    fn tile_hidden(&self, t: &Tri, row: u32, spans: &[(u32, u32)], x: u32, end: u32) -> bool {
+        let tile = (row / TILE * self.tiles_x + x / TILE) as usize;
+        let last_row = row + spans.len() as u32 - 1;
+        if self.touched[tile] && t.depth_bounds(x, end - 1, row, last_row).0 > self.tile_max[tile] + DEPTH_MARGIN {
+            return true;
+        }
+        for (py, &(lo, hi)) in (row..).zip(spans) {
+            let (lo, hi) = (lo.max(x), hi.min(end));
+            if lo >= hi {
+                continue;
+            }
+            if !self.touched[tile] {
+                return false; // no occluder there
+            }
+            let zr = t.depth_row(py);
+            let i = Self::index(self.tiles_x, lo, py);
+            let z = &self.samples[i..i + (hi - lo) as usize];
+            let dx0 = lo as i32 - i32::from(t.x0);
+            let seen = z.iter().zip(dx0..).fold(false, |seen, (&zo, dx)| {
+                seen | (t.depth_in_row(zr, dx) <= zo + DEPTH_MARGIN)
+            });
+            if seen {
+                return false;
+            }
+        }
+        true
     }
 
     /// Whether every texel of level `k` (0 = tiles) over tile range `t` (inclusive) is behind `r`.

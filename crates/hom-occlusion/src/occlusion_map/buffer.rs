@@ -112,6 +112,8 @@ pub struct HomBuffer {
     /// Cleared since the last draw: the representation still holds the old
     /// frame until the next draw or settle empties it.
     cleared: bool,
+    /// Draws since the last clear (the rasterizer keeps the last one's triangles).
+    draws: u32,
 }
 
 impl HomBuffer {
@@ -139,6 +141,7 @@ impl HomBuffer {
             pyramid,
             overlap: OverlapStats::default(),
             cleared: true,
+            draws: 0,
         };
         b.settle();
         Ok(b)
@@ -183,6 +186,20 @@ impl HomBuffer {
         &self.pyramid
     }
 
+    /// The occluder triangles drawn since the last clear, as they were set
+    /// up (the renderer's rule, or the inner rule where a stand-in or
+    /// [`crate::Sampling::Conservative`] asked for it), when they were drawn in one
+    /// flush; `None` after several (the rasterizer keeps only the last).
+    /// Draws what is queued first.
+    pub fn drawn_triangles(&mut self) -> Option<impl Iterator<Item = &Tri>> {
+        <Self as crate::OcclusionBuffer>::flush(self);
+        match self.draws {
+            0 => Some(self.raster.set_up_triangles().take(0)),
+            1 => Some(self.raster.set_up_triangles().take(usize::MAX)),
+            _ => None,
+        }
+    }
+
     /// The depth test alone, for diagnostics (`why_not_culled`); draws what is queued first.
     pub fn depth_is_behind(&mut self, r: &ScreenRect) -> bool {
         <Self as crate::OcclusionBuffer>::flush(self);
@@ -206,6 +223,7 @@ impl HomBuffer {
     /// [`HomBuffer::settle`]), so a cleared frame builds its pyramid once.
     fn reset(&mut self) {
         self.cleared = true;
+        self.draws = 0;
         self.overlap = OverlapStats::default();
     }
 
@@ -253,6 +271,7 @@ impl HomBuffer {
     fn draw_queue(&mut self) {
         let empty_first = self.empty_if_cleared(true);
         self.cleared = false;
+        self.draws += 1;
         let gather = match (&mut self.depth, self.map.depth) {
             (Depth::Buffer(b), DepthMode::Rasterized(..)) => Some(b),
             _ => None,
