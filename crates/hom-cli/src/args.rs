@@ -1,7 +1,7 @@
 //! The command line: every clap type, and nothing that runs.
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use hom::cull::{Coherence, Hierarchy, PSkip};
+use hom::cull::{Coherence, DepthCheck, Hierarchy, PSkip};
 use hom::occluders::{OccluderMeshes, SelectionMode};
 use hom::occlusion::DepthMode;
 use hom_walk::cullers;
@@ -315,6 +315,12 @@ pub struct HomArgs {
     /// (by default, frames are frustum culled only while it does not pay).
     #[arg(long)]
     pub no_cost_model: bool,
+    /// HOM, HZB, masked, otree: where each visible object of at most 256 triangles that the
+    /// occluders cover is checked, after the traversal, against their depth at every sample it
+    /// covers (culled when it lies behind them at every one): `if-drawn` (default: where the
+    /// buffer holds that depth, HZB), `on` (HOM too, drawing it for the check) or `off`.
+    #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
+    pub depth_check: Option<DepthCheck>,
     /// HV: most triangles per octree leaf (default 16).
     #[arg(long)]
     pub hv_threshold: Option<usize>,
@@ -606,6 +612,10 @@ pub struct BenchArgs {
     /// HOM, HZB, masked, otree: never rest where occlusion culling costs more than it saves.
     #[arg(long)]
     pub no_cost_model: bool,
+    /// HOM, HZB, masked, otree: where the per-sample depth check runs after the traversal:
+    /// `if-drawn` (default: where the buffer holds per-sample depth, HZB), `on` (HOM too) or `off`.
+    #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
+    pub depth_check: Option<DepthCheck>,
     /// HV: temporal priming (last frame's visible nodes drawn first).
     #[arg(long)]
     pub hv_priming: bool,

@@ -121,6 +121,9 @@ pub fn culler_settings(args: &HomArgs, scene: &Scene) -> Result<CullerSettings> 
         settings.hv.coherence = c.coherence;
     }
     c.cost_model = !args.no_cost_model;
+    if let Some(d) = args.depth_check {
+        c.depth_check = d;
+    }
     if let Some(h) = args.hierarchy {
         c.hierarchy = h;
     }

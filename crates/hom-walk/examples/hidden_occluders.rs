@@ -1,16 +1,19 @@
 //! What do the hidden objects HOM draws cost the renderer, and how many of
 //! them are its own occluders? (Few in triangles but large on screen; what
 //! keeps HOM from culling them is the depth test, the box's one nearest
-//! depth against a cell's farthest first cover: ARCHITECTURE.md, "Most of
-//! HOM's render excess is its own hidden occluders".) Over a
-//! built-in scene's walk (HOM without the cost model), every fifth frame:
+//! depth against a cell's farthest first cover: docs/decisions/occluders.md,
+//! "Most of HOM's render excess is its own hidden occluders".) Over any
+//! scene's walk (a built-in name or a file, as `hom walk --scene` takes it;
+//! HOM without the cost model, its default depth check), every fifth frame:
 //! the objects HOM draws, the oracle's, the hidden occluders among HOM's
 //! and how many of those the other occluders alone hide (drawn by the
 //! renderer), then the render time of HOM's set, of HOM's set without its
-//! hidden occluders, and of the oracle's set (five timed renders each,
+//! hidden occluders, of that set without the hidden objects whose boxes
+//! cross the near plane, and of the oracle's set (five timed renders each,
 //! interleaved, after one untimed).
 //!
 //! `cargo run --release -p hom-walk --example hidden_occluders -- office`
+//! (or `-- FILE.pk3:oa_dm1`)
 
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
 use hom_render::{Framebuffer, RenderOptions, Renderer};
@@ -21,7 +24,7 @@ fn main() {
         eprintln!("usage: hidden_occluders SCENE");
         std::process::exit(2);
     };
-    let b = hom_scene::builtin(&name).unwrap_or_else(|e| {
+    let b = hom_walk::open_walk(&name).unwrap_or_else(|e| {
         eprintln!("{e}");
         std::process::exit(2);
     });
@@ -32,8 +35,8 @@ fn main() {
     let renderer = Renderer::new(0).expect("a render pool");
     let options = RenderOptions::default();
     let mut out = CullOutput::default();
-    let (mut objects, mut hidden_occluders, mut by_occluders) = ([0usize; 3], 0usize, 0usize);
-    let mut render_ms = [0.0f64; 3];
+    let (mut objects, mut hidden_occluders, mut by_occluders) = ([0usize; 4], 0usize, 0usize);
+    let mut render_ms = [0.0f64; 4];
     let mut sampled = 0;
     for f in 0..b.path.frames.len().min(100) {
         let cam = b.path.camera(f);
@@ -55,12 +58,25 @@ fn main() {
             hidden_occluders += 1;
             by_occluders += usize::from(occluder_pixels[*id as usize] == 0);
         }
-        let sets: [Vec<u32>; 3] = [
+        let vp = cam.view_proj();
+        let straddles = |id: &u32| {
+            let corners = scene.object(*id).test_corners();
+            matches!(
+                hom::geom::project_points(&corners, &vp, cam.width, cam.height),
+                hom::geom::Footprint::Straddles
+            )
+        };
+        let sets: [Vec<u32>; 4] = [
             out.visible.clone(),
             out.visible
                 .iter()
                 .copied()
                 .filter(|id| pixels[*id as usize] > 0 || !is_occluder(id))
+                .collect(),
+            out.visible
+                .iter()
+                .copied()
+                .filter(|id| pixels[*id as usize] > 0 || (!is_occluder(id) && !straddles(id)))
                 .collect(),
             out.visible
                 .iter()
@@ -84,10 +100,11 @@ fn main() {
     let per_frame = |x: f64| x / sampled as f64;
     println!("{name}, {sampled} frames (every fifth of the walk), means per frame:");
     println!(
-        "objects drawn: HOM {:.1}, HOM without its hidden occluders {:.1}, oracle {:.1}",
+        "objects drawn: HOM {:.1}, HOM without its hidden occluders {:.1}, nor hidden boxes across the near plane {:.1}, oracle {:.1}",
         per_frame(objects[0] as f64),
         per_frame(objects[1] as f64),
-        per_frame(objects[2] as f64)
+        per_frame(objects[2] as f64),
+        per_frame(objects[3] as f64)
     );
     println!(
         "hidden occluders HOM draws: {:.1}, {:.1} of them hidden by the other occluders alone",
@@ -95,9 +112,10 @@ fn main() {
         per_frame(by_occluders as f64)
     );
     println!(
-        "render ms: HOM {:.3}, HOM without its hidden occluders {:.3}, oracle {:.3}",
+        "render ms: HOM {:.3}, HOM without its hidden occluders {:.3}, nor hidden boxes across the near plane {:.3}, oracle {:.3}",
         per_frame(render_ms[0]),
         per_frame(render_ms[1]),
-        per_frame(render_ms[2])
+        per_frame(render_ms[2]),
+        per_frame(render_ms[3])
     );
 }

@@ -9,7 +9,7 @@
 use crate::pictures::StageBar;
 use crate::report::{fmt_opt, mean, median, Summary};
 use crate::{cullers, WalkError, WalkOptions, WalkResult};
-use hom::cull::{Coherence, CullStats, Hierarchy, PSkip, PropagationStats};
+use hom::cull::{Coherence, CullStats, DepthCheck, Hierarchy, PSkip, PropagationStats};
 use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
 use hom_render::{RenderError, Renderer};
@@ -49,6 +49,10 @@ pub struct BenchOptions {
     pub occluders: Vec<OccluderMeshes>,
     /// Whether HOM, HZB, masked and otree rest while occlusion culling does not pay.
     pub cost_model: bool,
+    /// Where HOM, HZB, masked and otree check what they cover sample by
+    /// sample after the traversal ([`hom::cull::OccluderCullerConfig::depth_check`]).
+    #[serde(serialize_with = "display")]
+    pub depth_check: DepthCheck,
     /// Walk each path this many times as fast ([`hom_scene::CameraPath::at_speed`]).
     pub speed: Option<f32>,
     /// A cut every this many frames ([`hom_scene::CameraPath::with_cuts`]).
@@ -77,6 +81,7 @@ impl Default for BenchOptions {
             hierarchy: Vec::new(),
             occluders: Vec::new(),
             cost_model: true,
+            depth_check: DepthCheck::IfDrawn,
             speed: None,
             cuts: None,
             hv_priming: false,
@@ -148,6 +153,20 @@ pub fn parse_hierarchy(s: &str) -> Result<Hierarchy, String> {
         "kd-propagate" => Ok(Hierarchy::KdTree(KdTree { propagation: true })),
         _ => Err(format!("expected bvh, kd or kd-propagate, got `{s}`")),
     }
+}
+
+/// A `--depth-check` value: off, if-drawn or on.
+pub fn parse_depth_check(s: &str) -> Result<DepthCheck, String> {
+    match s {
+        "off" => Ok(DepthCheck::Off),
+        "if-drawn" => Ok(DepthCheck::IfDrawn),
+        "on" => Ok(DepthCheck::On),
+        _ => Err(format!("expected off, if-drawn or on, got `{s}`")),
+    }
+}
+
+fn display<S: serde::Serializer>(d: &DepthCheck, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(d)
 }
 
 fn hierarchy_labels<S: serde::Serializer>(h: &[Hierarchy], s: S) -> Result<S::Ok, S::Error> {
@@ -463,6 +482,7 @@ pub fn run_bench(
                 settings.hom.occluders.occluder_db.meshes = m;
             }
             settings.hom.cost_model = options.cost_model;
+            settings.hom.depth_check = options.depth_check;
             if let Some(b) = options.budget {
                 settings.hom.occluders.selection.budget = b;
             }

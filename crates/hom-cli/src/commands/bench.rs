@@ -31,6 +31,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
         hierarchy: a.hierarchy.clone(),
         occluders: a.occluders.clone(),
         cost_model: !a.no_cost_model,
+        depth_check: a.depth_check.unwrap_or_default(),
         hv_priming: a.hv_priming,
         speed: a.speed,
         cuts: a.cuts,

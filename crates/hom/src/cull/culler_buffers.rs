@@ -5,11 +5,14 @@
 
 use super::occluder_culler::{CullerBuffer, OccluderCuller, OccluderCullerConfig};
 use super::CullStats;
-use crate::occlusion::details::{find_worst_hole, worst_hole_of_coverage, Hole, Pyramid, TiledZBuffer};
+use crate::geom::ScreenRect;
+use crate::occlusion::details::setup::Tri;
+use crate::occlusion::details::{find_worst_hole, worst_hole_of_coverage, Hole, Pyramid, SampleDepths, TiledZBuffer};
 use crate::occlusion::{
     BufferOptions, HomBuffer, HzBuffer, MapOptions, MaskedBuffer, OcclusionBuffer, OcclusionError, OcclusionTree,
     DEFAULT_NODE_CAP,
 };
+use crate::occlusion::{RasterBackend, Threads};
 
 /// The hierarchical occlusion map culler (Zhang et al. 1997): per frame,
 /// select occluders → draw them into a [`HomBuffer`] (coverage, opacity
@@ -167,6 +170,28 @@ impl CullerBuffer for HomBuffer {
     fn frame_stats(&self, stats: &mut CullStats) {
         stats.map = Some(self.overlap_stats());
     }
+
+    /// Draws the occluders' depth lazily from the triangles the map drew
+    /// ([`SampleDepths`]), the first time a frame asks.
+    fn triangles_hidden(&mut self, tris: &[Tri], scratch: &mut SampleDepths, draw: bool) -> Option<bool> {
+        if !scratch.is_begun() {
+            if !draw {
+                return None;
+            }
+            let (w, h) = (self.width(), self.height());
+            let options = self.options();
+            let (backend, parallel) = (
+                options.backend.unwrap_or_else(RasterBackend::active),
+                options.threads == Threads::Pool,
+            );
+            scratch.begin(w, h, self.drawn_triangles()?, backend, parallel);
+        }
+        Some(scratch.hidden(tris))
+    }
+
+    fn rect_is_covered(&mut self, r: &ScreenRect) -> bool {
+        self.rect_is_opaque(r)
+    }
 }
 
 impl CullerBuffer for HzBuffer {
@@ -184,6 +209,11 @@ impl CullerBuffer for HzBuffer {
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
         vec![("depth", "per-sample tiled z-buffer, pyramid of farthest depth".into())]
+    }
+
+    /// Asked of its own z-buffer, which holds every occluder's depth at every sample.
+    fn triangles_hidden(&mut self, tris: &[Tri], _: &mut SampleDepths, _: bool) -> Option<bool> {
+        Some(self.zbuffer().triangles_hidden(tris))
     }
 }
 

@@ -9,6 +9,7 @@
 
 mod coherence;
 mod culler_buffers;
+mod depth_check;
 mod frustum;
 mod governor;
 mod hv;
@@ -23,12 +24,14 @@ pub use coherence::{Coherence, PSkip};
 pub use culler_buffers::{
     HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, OtreeConfig, OtreeCuller, TreeOptions,
 };
+pub use depth_check::{DepthCheck, DEPTH_CHECK_MAX_TRIANGLES};
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hv::{HvConfig, HvCuller};
 pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};
 pub use pvs::PvsCuller;
 pub use stats::{
-    CullStats, FrustumStats, HvStats, MemoryStats, OccluderStats, PropagationStats, PvsStats, TraversalStats,
+    CullStats, DepthCheckStats, FrustumStats, HvStats, MemoryStats, OccluderStats, PropagationStats, PvsStats,
+    TraversalStats,
 };
 
 use crate::geom::{View, ViewError};

@@ -24,6 +24,7 @@
 //! 95.0 %, city 74.3 → 75.9 %, 60 frames.)
 
 use super::coherence::{Coherence, TemporalState};
+use super::depth_check::{DepthCheck, DepthChecker};
 use super::frustum::frustum_visible;
 use super::governor::{FrameFacts, Governor};
 use super::kd_traversal::KdModel;
@@ -38,7 +39,8 @@ use crate::geom::{project_points, Footprint, Frustum, ScreenRect, View};
 use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
 use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderCuts, OccluderDb, OccluderSelector, SelectionStats};
-use crate::occlusion::details::{Hole, RectTest};
+use crate::occlusion::details::setup::Tri;
+use crate::occlusion::details::{Hole, RectTest, SampleDepths};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling, Threads};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
@@ -88,6 +90,22 @@ pub trait CullerBuffer: OcclusionBuffer + RectTest + Sized + Send {
     /// The buffer's own statistics of the frame into `stats`, after the
     /// traversal; none by default.
     fn frame_stats(&self, _stats: &mut CullStats) {}
+
+    /// Whether `tris` (set up for this frame's viewport by the renderer's
+    /// rule) lie behind the occluders drawn at every sample they cover: the
+    /// per-sample depth check (`depth_check.rs`). A buffer without
+    /// per-sample depth draws it into `scratch` (reset each frame) on first
+    /// use, when `draw` allows ([`DepthCheck::On`]). `None` (the default),
+    /// and no check, for a buffer that cannot tell.
+    fn triangles_hidden(&mut self, _tris: &[Tri], _scratch: &mut SampleDepths, _draw: bool) -> Option<bool> {
+        None
+    }
+
+    /// Whether the occluders drawn cover every sample of `r`, depth aside:
+    /// where the per-sample depth check may cull. `true` by default.
+    fn rect_is_covered(&mut self, _r: &ScreenRect) -> bool {
+        true
+    }
 }
 
 /// Settings of an [`OccluderCuller`]: what every occluder culler shares, and
@@ -113,6 +131,10 @@ pub struct OccluderCullerConfig<O> {
     /// either way, so [`Threads::CallingThread`] keeps a frame's whole cull
     /// there (building and rebuilding the occluder database still use the pool).
     pub threads: Threads,
+    /// After the traversal, check each visible object the occluders cover
+    /// against their depth at every sample (`depth_check.rs`): where the
+    /// buffer holds that depth (HZB) by default.
+    pub depth_check: DepthCheck,
 }
 
 impl<O: Default> Default for OccluderCullerConfig<O> {
@@ -125,6 +147,7 @@ impl<O: Default> Default for OccluderCullerConfig<O> {
             hierarchy: Hierarchy::Bvh,
             buffer: O::default(),
             threads: Threads::Pool,
+            depth_check: DepthCheck::IfDrawn,
         }
     }
 }
@@ -149,6 +172,7 @@ impl<O> OccluderCullerConfig<O> {
             hierarchy: self.hierarchy,
             buffer,
             threads: self.threads,
+            depth_check: self.depth_check,
         }
     }
 }
@@ -171,6 +195,7 @@ impl<B: CullerBuffer> OccluderCuller<B> {
                 config.coherence,
                 config.cost_model,
                 config.hierarchy,
+                config.depth_check,
             ),
             config,
             buffer: None,
@@ -212,6 +237,7 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
         B::describe(&self.config.buffer)
             .into_iter()
             .chain(self.common.describe())
+            .chain([("depth_check", self.config.depth_check.to_string())])
             .collect()
     }
 
@@ -232,8 +258,9 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
         });
         let common = &mut self.common;
         let drawn = common.draw(scene, &frame, buffer, out);
-        // 3. Traversal: frustum → the buffer's test, front to back.
-        common.traverse(scene, out, frame, drawn, |r| buffer.rect_is_occluded(r));
+        // 3. Traversal: frustum → the buffer's test, front to back; then the
+        //    per-sample depth check of what the occluders cover.
+        common.traverse(scene, out, frame, drawn, buffer);
         buffer.frame_stats(&mut out.stats);
         Ok(())
     }
@@ -310,6 +337,8 @@ pub(crate) struct OccluderCulling {
     last_frame: Option<(Mat4, u32, u32)>,
     /// Occluders at the frame's level of detail ([`super::Culler::set_occluder_lod`]).
     cuts: OccluderCuts,
+    /// The per-sample depth check after the traversal, when on.
+    depth_check: Option<DepthChecker>,
 }
 impl OccluderCulling {
     /// Builds the BVH over the objects' boxes and the occluder database; the
@@ -324,6 +353,7 @@ impl OccluderCulling {
         coherence: Coherence,
         cost_model: bool,
         hierarchy: Hierarchy,
+        depth_check: DepthCheck,
     ) -> OccluderCulling {
         let model = ModelDb::new(scene);
         let kd = match hierarchy {
@@ -344,6 +374,7 @@ impl OccluderCulling {
             known_hidden_ids: Vec::new(),
             last_frame: None,
             cuts: OccluderCuts::default(),
+            depth_check: DepthChecker::new(depth_check),
         }
     }
 
@@ -523,16 +554,17 @@ impl OccluderCulling {
         drawn
     }
 
-    /// Ends a frame: the timed traversal with `is_occluded` deciding each
-    /// screen rectangle, then the visible, occluded and occluder sets and the
-    /// statistics into `out`. `occluder_triangles` is what the culler drew.
-    pub fn traverse(
+    /// Ends a frame: the timed traversal with `buffer` deciding each
+    /// screen rectangle, the timed per-sample depth check (`depth_check`),
+    /// then the visible, occluded and occluder sets and the statistics into
+    /// `out`. `occluder_triangles` is what the culler drew.
+    pub fn traverse<B: CullerBuffer>(
         &mut self,
         scene: &Scene,
         out: &mut CullOutput,
         frame: Selected,
         occluder_triangles: u64,
-        is_occluded: impl FnMut(&ScreenRect) -> bool,
+        buffer: &mut B,
     ) {
         let mut visible = std::mem::take(&mut out.visible);
         let mut occluded = std::mem::take(&mut out.occluded);
@@ -544,10 +576,17 @@ impl OccluderCulling {
         };
         let temporal = &mut self.temporal;
         let kd = &mut self.kd;
+        let is_occluded = |r: &ScreenRect| buffer.rect_is_occluded(r);
         let stats = out.time("traversal", || match kd {
             Some(kd) => traversal.run_kd(kd, temporal, is_occluded, &mut visible, &mut occluded),
             None => traversal.run(temporal, is_occluded, &mut visible, &mut occluded),
         });
+        let sight = (frame.world_to_clip, frame.width, frame.height);
+        if let Some(check) = &mut self.depth_check {
+            out.stats.depth_check = out.time("depth_check", || {
+                check.run(scene, buffer, sight, &mut visible, &mut occluded, temporal)
+            });
+        }
         let (drawn, hidden) = (triangles(scene, &visible), triangles(scene, &occluded));
         self.culled_pct = if drawn + hidden > 0 {
             100.0 * hidden as f32 / (drawn + hidden) as f32
@@ -604,6 +643,7 @@ impl OccluderCulling {
             + self.temporal.heap_bytes()
             + self.kd.as_ref().map_or(0, KdModel::heap_bytes)
             + self.cuts.heap_bytes()
+            + self.depth_check.as_ref().map_or(0, DepthChecker::heap_bytes)
     }
 
     /// The configuration entries every occluder-based culler reports: its

@@ -29,6 +29,8 @@ pub struct CullStats {
     /// `otree_in_leaves`, `otree_dropped`, `otree_visible`, `otree_partial`,
     /// `otree_invisible`; its triangles inserted are not reported).
     pub otree: Option<TreeStats>,
+    /// An occluder culler's per-sample depth check after the traversal.
+    pub depth_check: Option<DepthCheckStats>,
     /// Hierarchical visibility's ([`super::HvCuller`]).
     pub hv: Option<HvStats>,
     /// A precomputed visibility set in front of a culler ([`super::PvsCuller`]).
@@ -107,6 +109,19 @@ pub struct OccluderStats {
     /// Tiles and blocks skipped because everything there was nearer
     /// (`occluder_tiles_rejected`).
     pub tiles_rejected: u64,
+}
+
+/// The per-sample depth check after an occluder culler's traversal
+/// (`cull/depth_check.rs`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DepthCheckStats {
+    /// Visible objects the occluders cover, checked sample by sample (`depth_checks`).
+    pub checked: u64,
+    /// Of them, behind the occluders at every sample, and culled (`depth_check_culled`).
+    pub culled: u64,
+    /// HOM: tiles of 8×8 samples of occluder depth drawn for the check
+    /// (`depth_check_tiles`); HZB's z-buffer is already drawn.
+    pub tiles_drawn: u64,
 }
 
 /// An occluder culler's memory, in bytes.
@@ -241,6 +256,13 @@ impl CullStats {
                 ("occluder_tiles_rejected", o.tiles_rejected),
             ]);
         }
+        if let Some(d) = &self.depth_check {
+            c.extend([
+                ("depth_checks", d.checked),
+                ("depth_check_culled", d.culled),
+                ("depth_check_tiles", d.tiles_drawn),
+            ]);
+        }
         if let Some(m) = &self.memory {
             c.extend([("temporal_bytes", m.temporal_bytes), ("state_bytes", m.state_bytes)]);
         }
@@ -314,6 +336,7 @@ mod tests {
                 ..OccluderStats::default()
             }),
             memory: Some(MemoryStats::default()),
+            depth_check: Some(DepthCheckStats::default()),
             map: Some(OverlapStats::default()),
             otree: Some(TreeStats::default()),
             pvs: Some(PvsStats::default()),

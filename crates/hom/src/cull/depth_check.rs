@@ -1,0 +1,182 @@
+//! The per-sample depth check, after the traversal: each object the
+//! traversal left visible whose rectangle the occluders cover (depth aside)
+//! is asked again with its own triangles against the occluders' depth at
+//! every sample ([`SampleDepths`]), and culled when it lies behind them at
+//! every sample it covers.
+//!
+//! Why: an object close behind its hider passes the coverage test and fails
+//! the box's depth test — its box's nearest corner is nearer than its
+//! surface, and a cell's farthest cover varies with a sloped hider by more
+//! than the gap. Most are this frame's own occluders, large on screen; on
+//! the Quake 3 maps they were most of what HOM drew beyond the oracle's set
+//! (`docs/decisions/occluders.md`, "The per-sample depth check").
+//!
+//! # Conservative
+//! The object's triangles are set up exactly as the renderer sets them up
+//! (the same vertex transform, [`object_to_clip`], clipping, snapping and
+//! fill rule) and compared with the renderer's depth formula; the occluders
+//! are the triangles the buffer drew (the renderer's rule for originals;
+//! the inner rule, covering fewer samples and no nearer, for stand-ins,
+//! which lie inside their objects). So at every sample the object covers,
+//! an occluder's surface lies nearer by [`DEPTH_MARGIN`]. Following "hidden
+//! by" from a culled object reaches, depth falling strictly at every step,
+//! the nearest occluder at that sample, which no test can cull: an object
+//! it hides owns no pixel. The same caveats as the box tests apply (the
+//! image at the buffer's resolution and sampling, opaque occluders).
+//!
+//! [`DEPTH_MARGIN`]: crate::occlusion::details::DEPTH_MARGIN
+
+use super::coherence::{TemporalState, Vis};
+use super::occluder_culler::CullerBuffer;
+use super::DepthCheckStats;
+use crate::geom::{object_to_clip, project_points, Footprint, ScreenRect};
+use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::occlusion::details::SampleDepths;
+use crate::scene::Scene;
+use glam::Mat4;
+
+/// Objects with more triangles than this are not checked: setting them up
+/// costs more than the check saves. The clusters real levels are cut into
+/// have at most 64.
+pub const DEPTH_CHECK_MAX_TRIANGLES: u32 = 256;
+
+/// Where an occluder culler runs the per-sample depth check (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum DepthCheck {
+    /// Never.
+    Off,
+    /// Where the buffer already holds the occluders' depth at every sample
+    /// (HZB), so the check costs only its comparisons. The default: there it
+    /// pays (oa_dm5 HZB 1.06 → 1.12×, ctf_inyard 1.00 → 1.07×).
+    #[default]
+    IfDrawn,
+    /// Also where the buffer does not (HOM, which then draws its occluders'
+    /// depth for it with HZB's rasterizer: 1.2–1.5 ms on the Quake 3 maps,
+    /// more than the check saves there today).
+    On,
+}
+
+impl std::fmt::Display for DepthCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            DepthCheck::Off => "off",
+            DepthCheck::IfDrawn => "if-drawn",
+            DepthCheck::On => "on",
+        })
+    }
+}
+
+/// The check's scratch, kept across frames.
+#[derive(Default)]
+pub(crate) struct DepthChecker {
+    /// Whether buffers without per-sample depth draw it for the check ([`DepthCheck::On`]).
+    draw: bool,
+    depths: SampleDepths,
+    vertices: Vec<Vertex>,
+    tris: Vec<Tri>,
+    hidden: Vec<u32>,
+}
+
+impl DepthChecker {
+    /// The check as `mode` asks; `None` when off.
+    pub fn new(mode: DepthCheck) -> Option<DepthChecker> {
+        (mode != DepthCheck::Off).then(|| DepthChecker {
+            draw: mode == DepthCheck::On,
+            ..DepthChecker::default()
+        })
+    }
+
+    /// Bytes held on the heap.
+    pub fn heap_bytes(&self) -> usize {
+        self.depths.heap_bytes()
+            + crate::vec_bytes(&self.vertices)
+            + crate::vec_bytes(&self.tris)
+            + crate::vec_bytes(&self.hidden)
+    }
+
+    /// Checks the objects of `visible` (ascending) against `buffer`'s
+    /// occluders, drawn this frame through `world_to_clip` into a `width` ×
+    /// `height` viewport; moves those hidden at every sample to `occluded`
+    /// (ascending) and tells `temporal`. `None` when the buffer cannot tell
+    /// (no per-sample depth, and `draw` off or no occluder triangles kept).
+    #[allow(clippy::too_many_arguments)]
+    pub fn run<B: CullerBuffer>(
+        &mut self,
+        scene: &Scene,
+        buffer: &mut B,
+        (world_to_clip, width, height): (Mat4, u32, u32),
+        visible: &mut Vec<u32>,
+        occluded: &mut Vec<u32>,
+        temporal: &mut TemporalState,
+    ) -> Option<DepthCheckStats> {
+        let viewport = Viewport::new(width, height);
+        let mut stats = DepthCheckStats::default();
+        self.depths.reset();
+        self.hidden.clear();
+        for &id in visible.iter() {
+            let o = scene.object(id);
+            if o.triangles > DEPTH_CHECK_MAX_TRIANGLES || o.is_removed() {
+                continue;
+            }
+            let straddles = match project_points(&o.test_corners(), &world_to_clip, width, height) {
+                Footprint::Rect(r) if !buffer.rect_is_covered(&r) => continue,
+                Footprint::Rect(_) => false,
+                Footprint::Straddles => true,
+            };
+            let mesh = scene.mesh_of(o);
+            self.vertices.clear();
+            self.vertices.extend(
+                mesh.positions()
+                    .iter()
+                    .map(|&p| Vertex::new(object_to_clip(&world_to_clip, &o.transform, p), &viewport)),
+            );
+            self.tris.clear();
+            for t in mesh.triangles() {
+                let v = t.map(|i| &self.vertices[i as usize]);
+                setup_triangle(v, &viewport, id, [0; 4], &mut self.tris);
+            }
+            // A box across the near plane has no rectangle: its triangles' bounds stand in.
+            if straddles && !self.tris.is_empty() && !buffer.rect_is_covered(&bounds(&self.tris)) {
+                continue;
+            }
+            stats.checked += 1;
+            if buffer.triangles_hidden(&self.tris, &mut self.depths, self.draw)? {
+                self.hidden.push(id);
+            }
+        }
+        let s = self.depths.stats();
+        stats.culled = self.hidden.len() as u64;
+        if self.depths.is_begun() {
+            stats.tiles_drawn = s.tiles_drawn;
+        }
+        if !self.hidden.is_empty() {
+            let hidden = &self.hidden;
+            visible.retain(|id| hidden.binary_search(id).is_err());
+            occluded.extend_from_slice(hidden);
+            occluded.sort_unstable();
+            for &id in hidden {
+                temporal.set_object(id, Vis::Invisible);
+            }
+        }
+        Some(stats)
+    }
+}
+
+/// The samples `tris` (not empty) may cover.
+fn bounds(tris: &[Tri]) -> ScreenRect {
+    let mut r = ScreenRect {
+        x0: u32::MAX,
+        y0: u32::MAX,
+        x1: 0,
+        y1: 0,
+        z_near: 0.0,
+        z_far: 1.0,
+    };
+    for t in tris {
+        r.x0 = r.x0.min(u32::from(t.x0));
+        r.y0 = r.y0.min(u32::from(t.y0));
+        r.x1 = r.x1.max(u32::from(t.x1));
+        r.y1 = r.y1.max(u32::from(t.y1));
+    }
+    r
+}
