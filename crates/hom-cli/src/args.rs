@@ -317,8 +317,8 @@ pub struct HomArgs {
     pub no_cost_model: bool,
     /// HOM, HZB, masked, otree: where each visible object of at most 256 triangles that the
     /// occluders cover is checked, after the traversal, against their depth at every sample it
-    /// covers (culled when it lies behind them at every one): `if-drawn` (default: where the
-    /// buffer holds that depth, HZB), `on` (HOM too, drawing it for the check) or `off`.
+    /// covers (culled when it lies behind them at every one): `off` (default), `if-drawn` (where
+    /// the buffer holds that depth: HZB) or `on` (HOM too, drawing it for the check).
     #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
     pub depth_check: Option<DepthCheck>,
     /// HV: most triangles per octree leaf (default 16).
@@ -613,7 +613,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_cost_model: bool,
     /// HOM, HZB, masked, otree: where the per-sample depth check runs after the traversal:
-    /// `if-drawn` (default: where the buffer holds per-sample depth, HZB), `on` (HOM too) or `off`.
+    /// `off` (default), `if-drawn` (where the buffer holds per-sample depth: HZB) or `on` (HOM too).
     #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
     pub depth_check: Option<DepthCheck>,
     /// HV: temporal priming (last frame's visible nodes drawn first).

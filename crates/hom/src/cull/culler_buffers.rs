@@ -3,6 +3,7 @@
 //! over them ([`HomCuller`], [`HzbCuller`], [`MaskedCuller`], [`OtreeCuller`])
 //! and of their settings, and each one's diagnostic accessors.
 
+use super::depth_check::SampleDepthQuery;
 use super::occluder_culler::{CullerBuffer, OccluderCuller, OccluderCullerConfig};
 use super::CullStats;
 use crate::geom::ScreenRect;
@@ -170,28 +171,6 @@ impl CullerBuffer for HomBuffer {
     fn frame_stats(&self, stats: &mut CullStats) {
         stats.map = Some(self.overlap_stats());
     }
-
-    /// Draws the occluders' depth lazily from the triangles the map drew
-    /// ([`SampleDepths`]), the first time a frame asks.
-    fn triangles_hidden(&mut self, tris: &[Tri], scratch: &mut SampleDepths, draw: bool) -> Option<bool> {
-        if !scratch.is_begun() {
-            if !draw {
-                return None;
-            }
-            let (w, h) = (self.width(), self.height());
-            let options = self.options();
-            let (backend, parallel) = (
-                options.backend.unwrap_or_else(RasterBackend::active),
-                options.threads == Threads::Pool,
-            );
-            scratch.begin(w, h, self.drawn_triangles()?, backend, parallel);
-        }
-        Some(scratch.hidden(tris))
-    }
-
-    fn rect_is_covered(&mut self, r: &ScreenRect) -> bool {
-        self.rect_is_opaque(r)
-    }
 }
 
 impl CullerBuffer for HzBuffer {
@@ -209,11 +188,6 @@ impl CullerBuffer for HzBuffer {
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
         vec![("depth", "per-sample tiled z-buffer, pyramid of farthest depth".into())]
-    }
-
-    /// Asked of its own z-buffer, which holds every occluder's depth at every sample.
-    fn triangles_hidden(&mut self, tris: &[Tri], _: &mut SampleDepths, _: bool) -> Option<bool> {
-        Some(self.zbuffer().triangles_hidden(tris))
     }
 }
 
@@ -278,3 +252,46 @@ impl HzbCuller {
         self.buffer().map(|b| b.last_zbuffer())
     }
 }
+
+impl SampleDepthQuery for HomBuffer {
+    /// Draws the occluders' depth lazily from the triangles the map drew
+    /// ([`SampleDepths`]), the first time a frame asks.
+    fn triangles_hidden(&mut self, tris: &[Tri], scratch: &mut SampleDepths, draw: bool) -> Option<bool> {
+        if !scratch.is_begun() {
+            if !draw {
+                return None;
+            }
+            let (w, h) = (self.width(), self.height());
+            let options = self.options();
+            let (backend, parallel) = (
+                options.backend.unwrap_or_else(RasterBackend::active),
+                options.threads == Threads::Pool,
+            );
+            scratch.begin(w, h, self.drawn_triangles()?, backend, parallel);
+        }
+        Some(scratch.hidden(tris))
+    }
+
+    fn rect_is_covered(&mut self, r: &ScreenRect) -> bool {
+        self.rect_is_opaque(r)
+    }
+}
+
+impl SampleDepthQuery for HzBuffer {
+    /// Asked of its own z-buffer, which holds every occluder's depth at every sample.
+    fn triangles_hidden(&mut self, tris: &[Tri], _: &mut SampleDepths, _: bool) -> Option<bool> {
+        Some(self.zbuffer().triangles_hidden(tris))
+    }
+
+    /// Every sample holds a finite depth: behind it lies the greatest float.
+    fn rect_is_covered(&mut self, r: &ScreenRect) -> bool {
+        let beyond_all = ScreenRect { z_near: f32::MAX, ..*r };
+        self.zbuffer().is_behind(&beyond_all)
+    }
+}
+
+/// No per-sample depth: never checked.
+impl SampleDepthQuery for MaskedBuffer {}
+
+/// No per-sample depth: never checked.
+impl SampleDepthQuery for OcclusionTree {}

@@ -27,7 +27,6 @@
 //! [`DEPTH_MARGIN`]: crate::occlusion::details::DEPTH_MARGIN
 
 use super::coherence::{TemporalState, Vis};
-use super::occluder_culler::CullerBuffer;
 use super::DepthCheckStats;
 use crate::geom::{object_to_clip, project_points, Footprint, ScreenRect};
 use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
@@ -43,12 +42,13 @@ pub const DEPTH_CHECK_MAX_TRIANGLES: u32 = 256;
 /// Where an occluder culler runs the per-sample depth check (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum DepthCheck {
-    /// Never.
+    /// Never. The default: the check culls more, but pays for itself in
+    /// neither buffer today (`docs/decisions/occluders.md`).
+    #[default]
     Off,
     /// Where the buffer already holds the occluders' depth at every sample
-    /// (HZB), so the check costs only its comparisons. The default: there it
-    /// pays (oa_dm5 HZB 1.06 → 1.12×, ctf_inyard 1.00 → 1.07×).
-    #[default]
+    /// (HZB), so the check costs only its comparisons: HZB's speedup moved
+    /// by −0.11 to +0.09 over four Quake 3 maps and three built-in scenes.
     IfDrawn,
     /// Also where the buffer does not (HOM, which then draws its occluders'
     /// depth for it with HZB's rasterizer: 1.2–1.5 ms on the Quake 3 maps,
@@ -63,6 +63,27 @@ impl std::fmt::Display for DepthCheck {
             DepthCheck::IfDrawn => "if-drawn",
             DepthCheck::On => "on",
         })
+    }
+}
+
+/// What the per-sample depth check asks of an occluder culler's buffer
+/// (a part of [`super::CullerBuffer`]). Both answers have defaults: a
+/// buffer that cannot tell is never checked.
+pub trait SampleDepthQuery {
+    /// Whether `tris` (set up for this frame's viewport by the renderer's
+    /// rule) lie behind the occluders drawn at every sample they cover: the
+    /// per-sample depth check (`depth_check.rs`). A buffer without
+    /// per-sample depth draws it into `scratch` (reset each frame) on first
+    /// use, when `draw` allows ([`DepthCheck::On`]). `None` (the default),
+    /// and no check, for a buffer that cannot tell.
+    fn triangles_hidden(&mut self, _tris: &[Tri], _scratch: &mut SampleDepths, _draw: bool) -> Option<bool> {
+        None
+    }
+
+    /// Whether the occluders drawn cover every sample of `r`, depth aside:
+    /// where the per-sample depth check may cull. `true` by default.
+    fn rect_is_covered(&mut self, _r: &ScreenRect) -> bool {
+        true
     }
 }
 
@@ -100,7 +121,7 @@ impl DepthChecker {
     /// (ascending) and tells `temporal`. `None` when the buffer cannot tell
     /// (no per-sample depth, and `draw` off or no occluder triangles kept).
     #[allow(clippy::too_many_arguments)]
-    pub fn run<B: CullerBuffer>(
+    pub fn run<B: SampleDepthQuery>(
         &mut self,
         scene: &Scene,
         buffer: &mut B,

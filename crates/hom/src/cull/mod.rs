@@ -24,7 +24,7 @@ pub use coherence::{Coherence, PSkip};
 pub use culler_buffers::{
     HomConfig, HomCuller, HzbConfig, HzbCuller, MaskedConfig, MaskedCuller, OtreeConfig, OtreeCuller, TreeOptions,
 };
-pub use depth_check::{DepthCheck, DEPTH_CHECK_MAX_TRIANGLES};
+pub use depth_check::{DepthCheck, SampleDepthQuery, DEPTH_CHECK_MAX_TRIANGLES};
 pub use frustum::{FrustumCuller, NoCuller};
 pub use hv::{HvConfig, HvCuller};
 pub use occluder_culler::{CullerBuffer, Hierarchy, OccluderCuller, OccluderCullerConfig};

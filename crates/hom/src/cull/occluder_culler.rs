@@ -24,7 +24,7 @@
 //! 95.0 %, city 74.3 → 75.9 %, 60 frames.)
 
 use super::coherence::{Coherence, TemporalState};
-use super::depth_check::{DepthCheck, DepthChecker};
+use super::depth_check::{DepthCheck, DepthChecker, SampleDepthQuery};
 use super::frustum::frustum_visible;
 use super::governor::{FrameFacts, Governor};
 use super::kd_traversal::KdModel;
@@ -39,8 +39,7 @@ use crate::geom::{project_points, Footprint, Frustum, ScreenRect, View};
 use crate::lod::OccluderLod;
 use crate::occluders::draw_occluders;
 use crate::occluders::{ObjectBoxes, OccluderConfig, OccluderCuts, OccluderDb, OccluderSelector, SelectionStats};
-use crate::occlusion::details::setup::Tri;
-use crate::occlusion::details::{Hole, RectTest, SampleDepths};
+use crate::occlusion::details::{Hole, RectTest};
 use crate::occlusion::{BufferOptions, OcclusionBuffer, OcclusionError, Sampling, Threads};
 use crate::scene::Scene;
 use glam::{Mat4, Vec3};
@@ -69,7 +68,7 @@ impl std::fmt::Display for Hierarchy {
 
 /// What [`OccluderCuller`] needs of its buffer besides the front door
 /// ([`OcclusionBuffer`]) and the cullers' rectangle test ([`RectTest`]).
-pub trait CullerBuffer: OcclusionBuffer + RectTest + Sized + Send {
+pub trait CullerBuffer: OcclusionBuffer + RectTest + SampleDepthQuery + Sized + Send {
     /// The buffer's own settings, [`OccluderCullerConfig::buffer`].
     type Options: Clone + std::fmt::Debug + Default + PartialEq + Send;
 
@@ -90,22 +89,6 @@ pub trait CullerBuffer: OcclusionBuffer + RectTest + Sized + Send {
     /// The buffer's own statistics of the frame into `stats`, after the
     /// traversal; none by default.
     fn frame_stats(&self, _stats: &mut CullStats) {}
-
-    /// Whether `tris` (set up for this frame's viewport by the renderer's
-    /// rule) lie behind the occluders drawn at every sample they cover: the
-    /// per-sample depth check (`depth_check.rs`). A buffer without
-    /// per-sample depth draws it into `scratch` (reset each frame) on first
-    /// use, when `draw` allows ([`DepthCheck::On`]). `None` (the default),
-    /// and no check, for a buffer that cannot tell.
-    fn triangles_hidden(&mut self, _tris: &[Tri], _scratch: &mut SampleDepths, _draw: bool) -> Option<bool> {
-        None
-    }
-
-    /// Whether the occluders drawn cover every sample of `r`, depth aside:
-    /// where the per-sample depth check may cull. `true` by default.
-    fn rect_is_covered(&mut self, _r: &ScreenRect) -> bool {
-        true
-    }
 }
 
 /// Settings of an [`OccluderCuller`]: what every occluder culler shares, and
@@ -132,8 +115,7 @@ pub struct OccluderCullerConfig<O> {
     /// there (building and rebuilding the occluder database still use the pool).
     pub threads: Threads,
     /// After the traversal, check each visible object the occluders cover
-    /// against their depth at every sample (`depth_check.rs`): where the
-    /// buffer holds that depth (HZB) by default.
+    /// against their depth at every sample (`depth_check.rs`); off by default.
     pub depth_check: DepthCheck,
 }
 
@@ -147,7 +129,7 @@ impl<O: Default> Default for OccluderCullerConfig<O> {
             hierarchy: Hierarchy::Bvh,
             buffer: O::default(),
             threads: Threads::Pool,
-            depth_check: DepthCheck::IfDrawn,
+            depth_check: DepthCheck::Off,
         }
     }
 }
