@@ -450,8 +450,12 @@ pub(crate) mod x86 {
                 return false;
             }
             let clear = _mm256_and_ps(better, _mm256_cmp_ps::<_CMP_GE_OQ>(z1, z));
-            let new_z0 = _mm256_blendv_ps(z0, z, better);
-            let new_z1 = _mm256_blendv_ps(z1, _mm256_set1_ps(f32::NEG_INFINITY), clear);
+            // Selects between a loaded value and another become masked stores,
+            // microcoded on AMD's cores: a min of registers stores whole.
+            // min(z, z0) is z where better (z < z0), else z0.
+            let new_z0 = _mm256_min_ps(z, z0);
+            let floor = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), _mm256_set1_ps(f32::NEG_INFINITY), clear);
+            let new_z1 = _mm256_min_ps(floor, z1);
             let rows = to_rows(_mm256_castps_si256(clear));
             let mask = _mm256_loadu_si256(tile.mask.as_ptr().cast());
             let o = _mm256_loadu_si256(outside.as_ptr().cast());
