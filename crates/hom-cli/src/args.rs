@@ -98,9 +98,11 @@ pub struct PvsBakeArgs {
     /// The viewing region: cells around this camera path's eyes (default: the scene's own walk).
     #[arg(long)]
     pub camera_path: Option<PathBuf>,
-    /// Bake only shard K of N (the blocks of cells split in N ranges), e.g. `--shard 0/4`; join with `hom pvs merge`.
+    /// Bake only shard K of N (the blocks of cells split in N ranges), e.g. `--shard 0/4`; join with
+    /// `hom pvs merge`. `auto/N` takes K from the batch system: `JOB_COMPLETION_INDEX` (Kubernetes
+    /// Indexed Jobs, from 0), else `SLURM_ARRAY_TASK_ID` − `SLURM_ARRAY_TASK_MIN` (Slurm job arrays).
     #[arg(long, value_parser = parse_shard)]
-    pub shard: Option<hom::pvs::Shard>,
+    pub shard: Option<ShardArg>,
     /// Convex polygons of occluder objects (coplanar adjacent triangles joined) at least this large (m²) are planar occluders; `inf` for none.
     #[arg(long, default_value_t = 1.0)]
     pub min_polygon_area: f32,
@@ -140,23 +142,41 @@ pub struct PvsCheckArgs {
     pub seed: u64,
 }
 
-/// Parses `K/N` (shard K of N, from 0).
-fn parse_shard(s: &str) -> Result<hom::pvs::Shard, String> {
+/// `--shard`: shard K of N, or K from the batch system's environment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShardArg {
+    /// `K/N`.
+    Fixed(hom::pvs::Shard),
+    /// `auto/N`: K is read when the bake starts ([`crate::commands::pvs::shard_from_env`]).
+    Auto {
+        /// N.
+        count: u32,
+    },
+}
+
+/// Parses `K/N` (shard K of N, from 0) or `auto/N`.
+fn parse_shard(s: &str) -> Result<ShardArg, String> {
     let (k, n) = s
         .split_once('/')
-        .ok_or_else(|| format!("'{s}' is not K/N (e.g. 0/4)"))?;
-    let index: u32 = k
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{k}' in '{s}' is not a shard index"))?;
+        .ok_or_else(|| format!("'{s}' is not K/N or auto/N (e.g. 0/4, auto/4)"))?;
     let count: u32 = n
         .trim()
         .parse()
         .map_err(|_| format!("'{n}' in '{s}' is not a shard count"))?;
-    if count == 0 || index >= count {
+    if count == 0 {
+        return Err(format!("'{s}': the shard count N must be at least 1"));
+    }
+    if k.trim() == "auto" {
+        return Ok(ShardArg::Auto { count });
+    }
+    let index: u32 = k
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{k}' in '{s}' is not a shard index (a number, or auto)"))?;
+    if index >= count {
         return Err(format!("shard {index}/{count}: K must be below N (0/4 .. 3/4)"));
     }
-    Ok(hom::pvs::Shard { index, count })
+    Ok(ShardArg::Fixed(hom::pvs::Shard { index, count }))
 }
 
 /// `hom occluders` tools.

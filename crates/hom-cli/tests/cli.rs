@@ -402,6 +402,54 @@ fn pvs_bake_shards_merge_info_walk_and_refusals() {
     assert_clean_failure(&hom(&["pvs", "merge", "--out", &merged, &s0]), "shard 1/2 is missing");
 }
 
+/// `--shard auto/N` as a batch system runs it: Kubernetes' index for one
+/// shard, a Slurm array (first index 1) for the other; merged they are the
+/// whole bake, byte for byte. Without an index, or past N, a one-line error.
+#[test]
+fn pvs_bake_auto_shards_from_kubernetes_and_slurm() {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_auto");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let (whole, s0, s1, merged) = (path("whole.pvs"), path("s0.pvs"), path("s1.pvs"), path("merged.pvs"));
+    let bake = |out: &str, shard: &str, env: &[(&str, &str)]| {
+        Command::new(env!("CARGO_BIN_EXE_hom"))
+            .args(["pvs", "bake", "--scene", "spheres", "--cell-size", "8", "--out", out])
+            .args(["--shard", shard])
+            .env_remove("JOB_COMPLETION_INDEX")
+            .env_remove("SLURM_ARRAY_TASK_ID")
+            .env_remove("SLURM_ARRAY_TASK_MIN")
+            .envs(env.iter().copied())
+            .output()
+            .expect("the hom binary runs")
+    };
+    let o = bake(&whole, "0/1", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bake(&s0, "auto/2", &[("JOB_COMPLETION_INDEX", "0")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("shard 0/2 (from JOB_COMPLETION_INDEX)"));
+    let o = bake(
+        &s1,
+        "auto/2",
+        &[("SLURM_ARRAY_TASK_ID", "2"), ("SLURM_ARRAY_TASK_MIN", "1")],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = hom(&["pvs", "merge", "--out", &merged, &s0, &s1]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&merged).unwrap(), std::fs::read(&whole).unwrap());
+    assert_clean_failure(&bake(&s0, "auto/2", &[]), "neither is set");
+    assert_clean_failure(&bake(&s0, "auto/2", &[("JOB_COMPLETION_INDEX", "2")]), "not below 2");
+    // Malformed values are refused by the argument parser (its usage hint follows).
+    for (bad, needle) in [("auto/0", "at least 1"), ("some/2", "not a shard index")] {
+        let o = bake(&s0, bad, &[]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(needle) && !stderr(&o).contains("panicked"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
 #[test]
 fn walk_lod_adds_lod_fields_render_lod_writes_two_pictures_and_bad_lod_flags_are_refused() {
     let dir = std::env::temp_dir().join(format!("hom-cli-lod-{}", std::process::id()));

@@ -1,7 +1,7 @@
 //! `hom pvs`: bake, merge, info and check precomputed visibility (Law & Tan
 //! 1999, section 5).
 
-use crate::args::{PvsBakeArgs, PvsCheckArgs};
+use crate::args::{PvsBakeArgs, PvsCheckArgs, ShardArg};
 use crate::setup::progress_of;
 use anyhow::{bail, Context, Result};
 use hom::geom::{Aabb, Camera};
@@ -68,7 +68,14 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         fusion_spacing: a.fusion_spacing,
         ..config_for(&path, a.cell_size, a.min_polygon_area, a.pad)
     };
-    let shard = a.shard.unwrap_or(Shard::WHOLE);
+    let (shard, from) = match a.shard {
+        None => (Shard::WHOLE, None),
+        Some(ShardArg::Fixed(s)) => (s, None),
+        Some(ShardArg::Auto { count }) => {
+            let (s, from) = shard_from_env(count, |name| std::env::var(name).ok())?;
+            (s, Some(from))
+        }
+    };
     let start = Instant::now();
     let bar = progress_of(0, "pvs bake", "blocks");
     let pvs = Pvs::bake(&scene, &eyes, &moving, &config, shard, &|done, total| {
@@ -80,13 +87,14 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
     let seconds = start.elapsed().as_secs_f64();
     write(&a.out, &pvs)?;
     println!(
-        "{}: {} cells of {} m, {} occluder objects, shard {}/{}, baked in {:.1} s, {} bytes",
+        "{}: {} cells of {} m, {} occluder objects, shard {}/{}{}, baked in {:.1} s, {} bytes",
         a.out.display(),
         pvs.cells().cell_count(),
         config.cell_size,
         pvs.occluder_objects().len(),
         shard.index,
         shard.count,
+        from.map_or(String::new(), |f| format!(" (from {f})")),
         seconds,
         std::fs::metadata(&a.out).map(|m| m.len()).unwrap_or(0)
     );
@@ -94,6 +102,48 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         print_sizes(&pvs, scene.objects().len());
     }
     Ok(())
+}
+
+/// The shard of `--shard auto/N` (`count` = N) and where its index came
+/// from, reading the environment through `var`: `JOB_COMPLETION_INDEX`
+/// (Kubernetes Indexed Jobs, from 0), else `SLURM_ARRAY_TASK_ID` −
+/// `SLURM_ARRAY_TASK_MIN` (Slurm job arrays, whatever their first index).
+/// An error names the variable when neither is set, one is not a number, or
+/// the index is not below N.
+pub fn shard_from_env(count: u32, var: impl Fn(&str) -> Option<String>) -> Result<(Shard, String)> {
+    let number = |name: &str| -> Result<Option<u32>> {
+        match var(name) {
+            None => Ok(None),
+            Some(v) => v
+                .trim()
+                .parse()
+                .map(Some)
+                .map_err(|_| anyhow::anyhow!("--shard auto/{count}: {name}='{v}' is not a whole number")),
+        }
+    };
+    let (index, from) = if let Some(k) = number("JOB_COMPLETION_INDEX")? {
+        (k, "JOB_COMPLETION_INDEX".to_string())
+    } else if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        let Some(min) = number("SLURM_ARRAY_TASK_MIN")? else {
+            bail!("--shard auto/{count}: SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_MIN is not");
+        };
+        let Some(k) = id.checked_sub(min) else {
+            bail!("--shard auto/{count}: SLURM_ARRAY_TASK_ID={id} is below SLURM_ARRAY_TASK_MIN={min}");
+        };
+        (k, format!("SLURM_ARRAY_TASK_ID={id} - SLURM_ARRAY_TASK_MIN={min}"))
+    } else {
+        bail!(
+            "--shard auto/{count} takes the shard index from JOB_COMPLETION_INDEX (Kubernetes Indexed Jobs) \
+             or SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN (Slurm job arrays), and neither is set"
+        );
+    };
+    if index >= count {
+        bail!(
+            "--shard auto/{count}: {from} gives shard {index}, not below {count} \
+             (run {count} completions, or an array of {count} tasks)"
+        );
+    }
+    Ok((Shard { index, count }, from))
 }
 
 /// `hom pvs merge`.
@@ -411,5 +461,46 @@ impl Rng {
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |name| vars.iter().find(|(n, _)| *n == name).map(|(_, v)| v.to_string())
+    }
+
+    #[test]
+    fn auto_shards_come_from_kubernetes_or_slurm() {
+        let k8s = shard_from_env(4, env(&[("JOB_COMPLETION_INDEX", "3")])).unwrap();
+        assert_eq!(k8s.0, Shard { index: 3, count: 4 });
+        let slurm = [("SLURM_ARRAY_TASK_ID", "12"), ("SLURM_ARRAY_TASK_MIN", "10")];
+        assert_eq!(shard_from_env(4, env(&slurm)).unwrap().0, Shard { index: 2, count: 4 });
+        // Kubernetes' index wins where both are set.
+        let both = [("JOB_COMPLETION_INDEX", "0"), ("SLURM_ARRAY_TASK_ID", "12")];
+        assert_eq!(shard_from_env(4, env(&both)).unwrap().0.index, 0);
+    }
+
+    #[test]
+    fn auto_shards_refuse_what_they_cannot_use() {
+        let fails = |vars: &[(&str, &str)], needle: &str| {
+            let e = shard_from_env(4, env(vars)).unwrap_err().to_string();
+            assert!(e.contains(needle), "expected '{needle}' in: {e}");
+        };
+        fails(&[], "neither is set");
+        fails(&[("JOB_COMPLETION_INDEX", "4")], "gives shard 4, not below 4");
+        fails(&[("JOB_COMPLETION_INDEX", "-1")], "is not a whole number");
+        fails(&[("JOB_COMPLETION_INDEX", "two")], "JOB_COMPLETION_INDEX='two'");
+        fails(&[("SLURM_ARRAY_TASK_ID", "3")], "SLURM_ARRAY_TASK_MIN is not");
+        fails(
+            &[("SLURM_ARRAY_TASK_ID", "3"), ("SLURM_ARRAY_TASK_MIN", "5")],
+            "is below",
+        );
+        fails(
+            &[("SLURM_ARRAY_TASK_ID", "9"), ("SLURM_ARRAY_TASK_MIN", "5")],
+            "gives shard 4",
+        );
     }
 }
