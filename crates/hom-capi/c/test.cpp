@@ -1,0 +1,44 @@
+// The C++ wrapper (hom.hpp): a wall hides a box; misuse throws hom::Error;
+// buffers move. Built with `c++ -Wall -Wextra -Werror -std=c++17` by
+// scripts/c-api-check.sh (CI).
+#include "hom.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+int main() {
+    float m[16] = {0};
+    const float f = 1.0f / std::tan(0.5f);
+    m[0] = f * 0.75f, m[5] = f, m[10] = 100.0f / (0.1f - 100.0f), m[11] = -1.0f, m[14] = 10.0f / (0.1f - 100.0f);
+    const float wall[12] = {-10, -5, -10, 10, -5, -10, 10, 5, -10, -10, 5, -10};
+    const uint32_t quad[6] = {0, 1, 2, 0, 2, 3};
+    const float lo[3] = {-1, -1, -20}, hi[3] = {1, 1, -15};
+    int failures = 0;
+    for (hom::Kind kind : {hom::Kind::Hzb, hom::Kind::Hom, hom::Kind::Masked}) {
+        hom::Buffer b(320, 240, hom::Clip::ZeroToOne, kind);
+        hom::Buffer moved = std::move(b);
+        moved.clear();
+        moved.render_triangles(wall, 4, 12, quad, 6, m);
+        failures += moved.test_aabb(lo, hi, m) != hom::Visibility::Occluded;
+        failures += moved.stats().triangles_submitted != 2;
+        try {
+            moved.render_triangles(wall, 4, 12, quad, 5, m);
+            failures++;
+        } catch (const hom::Error &e) {
+            failures += e.code() != HOM_ERROR_INVALID || std::strstr(e.what(), "multiple of 3") == nullptr;
+        }
+    }
+    try {
+        hom::Buffer bad(0, 0, hom::Clip::ReversedZ);
+        failures++;
+    } catch (const hom::Error &e) {
+        failures += std::strstr(e.what(), "16384") == nullptr;
+    }
+    if (failures != 0) {
+        std::fprintf(stderr, "hom C++ test: %d failures\n", failures);
+        return 1;
+    }
+    std::printf("hom C++ test: all checks passed\n");
+    return 0;
+}

@@ -1,0 +1,99 @@
+// hom: occlusion culling from C++ — a header-only RAII wrapper over hom.h.
+// hom::Buffer owns a HomBuffer (moved, never copied); a failing call throws
+// hom::Error with hom_last_error()'s message. Link as for hom.h.
+#ifndef HOM_HPP
+#define HOM_HPP
+
+#include "hom.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace hom {
+
+/// A failed hom call: its code (HOM_ERROR_*) and message.
+class Error : public std::runtime_error {
+  public:
+    Error(int32_t code, const std::string &message) : std::runtime_error(message), code_(code) {}
+    int32_t code() const noexcept { return code_; }
+
+  private:
+    int32_t code_;
+};
+
+/// A test's answer.
+enum class Visibility : int32_t { Visible = HOM_VISIBLE, Occluded = HOM_OCCLUDED, ViewCulled = HOM_VIEW_CULLED };
+
+/// Clip conventions of the matrices passed in.
+enum class Clip : int32_t {
+    ZeroToOne = HOM_CLIP_ZERO_TO_ONE,
+    NegOneToOne = HOM_CLIP_NEG_ONE_TO_ONE,
+    ReversedZ = HOM_CLIP_REVERSED_Z,
+};
+
+/// Buffer kinds.
+enum class Kind : int32_t { Hzb = HOM_KIND_HZB, Hom = HOM_KIND_HOM, Masked = HOM_KIND_MASKED };
+
+/// An occlusion buffer; see hom.h for each call's contract.
+class Buffer {
+  public:
+    Buffer(uint32_t width, uint32_t height, Clip clip, Kind kind = Kind::Hzb)
+        : buffer_(hom_buffer_new_kind(static_cast<int32_t>(kind), width, height, static_cast<int32_t>(clip))) {
+        if (buffer_ == nullptr) {
+            throw Error(HOM_ERROR_INVALID, hom_last_error());
+        }
+    }
+    ~Buffer() { hom_buffer_free(buffer_); }
+    Buffer(const Buffer &) = delete;
+    Buffer &operator=(const Buffer &) = delete;
+    Buffer(Buffer &&other) noexcept : buffer_(std::exchange(other.buffer_, nullptr)) {}
+    Buffer &operator=(Buffer &&other) noexcept {
+        if (this != &other) {
+            hom_buffer_free(buffer_);
+            buffer_ = std::exchange(other.buffer_, nullptr);
+        }
+        return *this;
+    }
+
+    void clear() { check(hom_buffer_clear(buffer_)); }
+
+    /// Occluder triangles: positions `stride_bytes` apart, three indices a triangle.
+    void render_triangles(const float *positions, std::size_t vertex_count, std::size_t stride_bytes,
+                          const uint32_t *indices, std::size_t index_count, const float model_to_clip[16]) {
+        check(hom_buffer_render_triangles(buffer_, positions, vertex_count, stride_bytes, indices, index_count,
+                                          model_to_clip));
+    }
+
+    Visibility test_aabb(const float min[3], const float max[3], const float model_to_clip[16]) {
+        return static_cast<Visibility>(check(hom_buffer_test_aabb(buffer_, min, max, model_to_clip)));
+    }
+
+    Visibility test_rect(float min_x, float min_y, float max_x, float max_y, float nearest_depth) {
+        return static_cast<Visibility>(check(hom_buffer_test_rect(buffer_, min_x, min_y, max_x, max_y, nearest_depth)));
+    }
+
+    HomBufferStats stats() {
+        HomBufferStats s{};
+        check(hom_buffer_stats(buffer_, &s));
+        return s;
+    }
+
+    /// The C handle, for calls the wrapper does not have.
+    HomBuffer *get() noexcept { return buffer_; }
+
+  private:
+    static int32_t check(int32_t code) {
+        if (code < 0) {
+            throw Error(code, hom_last_error());
+        }
+        return code;
+    }
+    HomBuffer *buffer_;
+};
+
+} // namespace hom
+
+#endif // HOM_HPP

@@ -1,0 +1,475 @@
+//! # hom-capi — hom's occlusion buffers from C
+//!
+//! A C ABI over the front door of `hom-occlusion`: create a buffer, clear it
+//! each frame, draw occluder triangles (your positions with a stride, `uint32_t`
+//! indices, a column-major `float[16]` matrix), test boxes and screen
+//! rectangles, read its statistics, free it. The header is
+//! `include/hom.h` (cbindgen's output, checked against this file by the
+//! tests); `include/hom.hpp` wraps it in C++ RAII.
+//!
+//! ## The contract
+//! - `HomBuffer` is any hom occlusion buffer: [`hom_buffer_new`] makes the
+//!   hierarchical Z-buffer (what `engine_loop` uses), [`hom_buffer_new_kind`]
+//!   any of the three.
+//! - Functions that can fail return a negative code ([`HOM_ERROR_NULL`],
+//!   [`HOM_ERROR_INVALID`], [`HOM_ERROR_INTERNAL`]) or `NULL`, and
+//!   [`hom_last_error`] says why (per thread, until the next call on it).
+//!   Success clears it.
+//! - Every pointer is checked: `NULL` where data is needed, misaligned
+//!   `float`/`uint32_t` pointers, a stride below 12 bytes or not a multiple
+//!   of 4, counts whose byte size overflows, indices not a multiple of 3 or
+//!   out of range, and non-finite matrices are errors, never a crash. Vertices
+//!   that are not finite are skipped (their triangles draw nothing). A box
+//!   with a NaN corner is `HOM_VISIBLE`, never `HOM_OCCLUDED`.
+//! - No panic crosses the boundary: one is caught and becomes
+//!   [`HOM_ERROR_INTERNAL`].
+//! - A buffer is used by one thread at a time; different buffers, by any.
+//! - Triangles are two-sided, as hom's own default.
+//!
+//! This crate is the one place outside `hom-occlusion` where `unsafe` lives:
+//! each function that takes a pointer reads it once, after the checks above,
+//! into Rust values; nothing keeps a pointer past the call.
+
+use hom_occlusion::geom::Aabb;
+use hom_occlusion::glam::{Mat4, Vec2, Vec3};
+use hom_occlusion::{
+    BufferOptions, ClipConvention, FaceCull, HomBuffer as MapBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer,
+    Visibility,
+};
+use std::cell::RefCell;
+use std::ffi::{c_char, CString};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Clip convention: z / w in [0, 1], 0 at the near plane (Vulkan, Direct3D, Metal, wgpu).
+pub const HOM_CLIP_ZERO_TO_ONE: i32 = 0;
+/// Clip convention: z / w in [-1, 1] (OpenGL).
+pub const HOM_CLIP_NEG_ONE_TO_ONE: i32 = 1;
+/// Clip convention: reversed Z, 1 at the near plane (finite or infinite far plane).
+pub const HOM_CLIP_REVERSED_Z: i32 = 2;
+
+/// A test's answer: some sample of the buffer may see it.
+pub const HOM_VISIBLE: i32 = 0;
+/// A test's answer: hidden behind what was drawn, at every sample.
+pub const HOM_OCCLUDED: i32 = 1;
+/// A test's answer: wholly outside the view.
+pub const HOM_VIEW_CULLED: i32 = 2;
+
+/// Buffer kind: the hierarchical Z-buffer (per-sample depth; the default).
+pub const HOM_KIND_HZB: i32 = 0;
+/// Buffer kind: hierarchical occlusion maps (coverage pyramid and depth cells).
+pub const HOM_KIND_HOM: i32 = 1;
+/// Buffer kind: masked occlusion culling (a coverage mask and two depth layers per tile).
+pub const HOM_KIND_MASKED: i32 = 2;
+
+// Written as differences so that cbindgen's `#define`s come out parenthesized,
+// safe in any C expression (`x-HOM_ERROR_NULL`).
+/// Error: a pointer that must not be `NULL` was.
+pub const HOM_ERROR_NULL: i32 = 0 - 1;
+/// Error: an argument out of range, misaligned, inconsistent or not finite.
+pub const HOM_ERROR_INVALID: i32 = 0 - 2;
+/// Error: hom failed inside (a panic, caught); the message says where.
+pub const HOM_ERROR_INTERNAL: i32 = 0 - 3;
+
+/// Most vertices or indices one call takes (indices are `uint32_t`).
+const MAX_COUNT: usize = u32::MAX as usize;
+
+/// An occlusion buffer (opaque to C).
+pub struct HomBuffer {
+    inner: Box<dyn OcclusionBuffer + Send>,
+}
+
+/// A buffer's work since its last clear ([`hom_buffer_stats`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HomBufferStats {
+    /// Triangles passed to `hom_buffer_render_triangles`.
+    pub triangles_submitted: u64,
+    /// Triangles drawn after clipping, face culling and dropping those that cover no sample.
+    pub triangles_drawn: u64,
+    /// Tests answered.
+    pub tests: u64,
+    /// Of those, answered `HOM_OCCLUDED`.
+    pub occluded: u64,
+    /// Of those, answered `HOM_VIEW_CULLED`.
+    pub view_culled: u64,
+    /// Milliseconds setting triangles up.
+    pub setup_ms: f64,
+    /// Milliseconds drawing them.
+    pub raster_ms: f64,
+}
+
+thread_local! {
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+/// Why a call failed: its code and message.
+struct Fail {
+    code: i32,
+    message: String,
+}
+
+fn invalid(message: impl Into<String>) -> Fail {
+    Fail {
+        code: HOM_ERROR_INVALID,
+        message: message.into(),
+    }
+}
+
+fn null(what: &str) -> Fail {
+    Fail {
+        code: HOM_ERROR_NULL,
+        message: format!("{what} is NULL"),
+    }
+}
+
+fn set_error(message: &str) {
+    let message = CString::new(message.replace('\0', " ")).unwrap_or_default();
+    LAST_ERROR.with(|e| *e.borrow_mut() = message);
+}
+
+/// Empties the message after a call that succeeded, allocating nothing
+/// when it is empty already (a test a call: this is the hot path).
+fn clear_error() {
+    LAST_ERROR.with(|e| {
+        if !e.borrow().is_empty() {
+            *e.borrow_mut() = CString::default();
+        }
+    });
+}
+
+/// Runs `f`: its value, or its error's code with the message kept for
+/// [`hom_last_error`]; a panic becomes [`HOM_ERROR_INTERNAL`].
+fn guard<T>(on_error: impl Fn(i32) -> T, f: impl FnOnce() -> Result<T, Fail>) -> T {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(v)) => {
+            clear_error();
+            v
+        }
+        Ok(Err(e)) => {
+            set_error(&e.message);
+            on_error(e.code)
+        }
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown".into());
+            set_error(&format!(
+                "internal error in hom (a panic, caught at the C boundary): {what}"
+            ));
+            on_error(HOM_ERROR_INTERNAL)
+        }
+    }
+}
+
+fn clip_of(clip: i32) -> Result<ClipConvention, Fail> {
+    match clip {
+        HOM_CLIP_ZERO_TO_ONE => Ok(ClipConvention::ZeroToOne),
+        HOM_CLIP_NEG_ONE_TO_ONE => Ok(ClipConvention::NegOneToOne),
+        HOM_CLIP_REVERSED_Z => Ok(ClipConvention::ReversedZ),
+        _ => Err(invalid(format!(
+            "clip convention {clip} is not HOM_CLIP_ZERO_TO_ONE (0), HOM_CLIP_NEG_ONE_TO_ONE (1) or HOM_CLIP_REVERSED_Z (2)"
+        ))),
+    }
+}
+
+fn code_of(v: Visibility) -> i32 {
+    match v {
+        Visibility::Visible => HOM_VISIBLE,
+        Visibility::Occluded => HOM_OCCLUDED,
+        Visibility::ViewCulled => HOM_VIEW_CULLED,
+    }
+}
+
+/// `n` values of `T` at `p`, checked for `NULL` (when `n > 0`), alignment and size.
+///
+/// # Safety
+/// When the checks pass, `p` must point at `n` readable values of `T`.
+unsafe fn read_slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Fail> {
+    if n == 0 {
+        return Ok(&[]);
+    }
+    if p.is_null() {
+        return Err(null(what));
+    }
+    if !p.is_aligned() {
+        return Err(invalid(format!(
+            "{what} is not aligned to {} bytes",
+            std::mem::align_of::<T>()
+        )));
+    }
+    if n.checked_mul(std::mem::size_of::<T>())
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(invalid(format!("{what}: {n} values do not fit in memory")));
+    }
+    // SAFETY: not NULL, aligned, the byte size fits isize, and the caller
+    // promises `n` readable values; the slice lives only for this call.
+    Ok(unsafe { std::slice::from_raw_parts(p, n) })
+}
+
+/// The column-major matrix at `m`.
+///
+/// # Safety
+/// When not `NULL` and aligned, `m` must point at 16 readable floats.
+unsafe fn matrix(m: *const f32, what: &str) -> Result<Mat4, Fail> {
+    if m.is_null() {
+        return Err(null(what));
+    }
+    // SAFETY: the caller's promise, passed on.
+    let cols = unsafe { read_slice(m, 16, what) }?;
+    let m = Mat4::from_cols_slice(cols);
+    if !m.is_finite() {
+        return Err(invalid(format!("{what} is not finite")));
+    }
+    Ok(m)
+}
+
+/// The three floats at `p`.
+///
+/// # Safety
+/// When not `NULL` and aligned, `p` must point at 3 readable floats.
+unsafe fn vec3(p: *const f32, what: &str) -> Result<Vec3, Fail> {
+    if p.is_null() {
+        return Err(null(what));
+    }
+    // SAFETY: the caller's promise, passed on.
+    Ok(Vec3::from_slice(unsafe { read_slice(p, 3, what) }?))
+}
+
+/// The buffer behind `buffer`.
+///
+/// # Safety
+/// When not `NULL`, `buffer` must come from `hom_buffer_new*` and not be freed.
+unsafe fn buffer_mut<'a>(buffer: *mut HomBuffer) -> Result<&'a mut HomBuffer, Fail> {
+    // SAFETY: the caller's promise: a live buffer, used by this thread alone.
+    unsafe { buffer.as_mut() }.ok_or_else(|| null("buffer"))
+}
+
+/// A new hierarchical Z-buffer of `width` × `height` samples (each 1..=16384)
+/// for matrices in `clip` (a `HOM_CLIP_*`); `NULL` on error.
+#[no_mangle]
+pub extern "C" fn hom_buffer_new(width: u32, height: u32, clip: i32) -> *mut HomBuffer {
+    hom_buffer_new_kind(HOM_KIND_HZB, width, height, clip)
+}
+
+/// A new buffer of `kind` (a `HOM_KIND_*`), as [`hom_buffer_new`]; `NULL` on error.
+#[no_mangle]
+pub extern "C" fn hom_buffer_new_kind(kind: i32, width: u32, height: u32, clip: i32) -> *mut HomBuffer {
+    guard(
+        |_| std::ptr::null_mut(),
+        || {
+            let options = BufferOptions {
+                clip: clip_of(clip)?,
+                ..BufferOptions::default()
+            };
+            let refused = |e: hom_occlusion::OcclusionError| invalid(e.to_string());
+            let inner: Box<dyn OcclusionBuffer + Send> = match kind {
+                HOM_KIND_HZB => Box::new(HzBuffer::new(width, height, options).map_err(refused)?),
+                HOM_KIND_HOM => Box::new(MapBuffer::new(width, height, options).map_err(refused)?),
+                HOM_KIND_MASKED => Box::new(MaskedBuffer::new(width, height, options).map_err(refused)?),
+                _ => {
+                    return Err(invalid(format!(
+                        "buffer kind {kind} is not HOM_KIND_HZB (0), HOM_KIND_HOM (1) or HOM_KIND_MASKED (2)"
+                    )))
+                }
+            };
+            Ok(Box::into_raw(Box::new(HomBuffer { inner })))
+        },
+    )
+}
+
+/// Frees `buffer`; `NULL` is fine.
+///
+/// # Safety
+/// `buffer` must be `NULL` or come from `hom_buffer_new*`, freed once.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_free(buffer: *mut HomBuffer) {
+    if !buffer.is_null() {
+        // SAFETY: the caller's promise: made by `Box::into_raw` in
+        // `hom_buffer_new_kind`, not freed before.
+        drop(unsafe { Box::from_raw(buffer) });
+    }
+}
+
+/// Empties `buffer` for a new frame. Returns 0, or `HOM_ERROR_NULL`.
+///
+/// # Safety
+/// `buffer` must be `NULL` or a live buffer.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_clear(buffer: *mut HomBuffer) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            unsafe { buffer_mut(buffer) }?.inner.clear();
+            Ok(0)
+        },
+    )
+}
+
+/// Draws occluder triangles: `vertex_count` positions, three floats each,
+/// `stride_bytes` apart (12 for packed `float[3]`), `index_count` indices
+/// (three a triangle) into them, placed by the column-major
+/// `model_to_clip` in the buffer's clip convention. Two-sided. 0 on
+/// success, a negative code on error ([`hom_last_error`] says why).
+///
+/// # Safety
+/// Each pointer must be `NULL` or point at what its count says:
+/// `(vertex_count - 1) * stride_bytes + 12` bytes of positions,
+/// `index_count` indices, 16 floats of matrix; `buffer` a live buffer.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_render_triangles(
+    buffer: *mut HomBuffer,
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+    model_to_clip: *const f32,
+) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            // SAFETY: the caller's promise, passed on.
+            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+            if vertex_count > MAX_COUNT || index_count > MAX_COUNT {
+                return Err(invalid(format!(
+                    "{vertex_count} vertices, {index_count} indices: at most {MAX_COUNT} each"
+                )));
+            }
+            if !index_count.is_multiple_of(3) {
+                return Err(invalid(format!(
+                    "index_count {index_count} is not a multiple of 3 (three indices a triangle)"
+                )));
+            }
+            if stride_bytes < 12 || !stride_bytes.is_multiple_of(4) {
+                return Err(invalid(format!(
+                    "stride_bytes {stride_bytes}: at least 12 (three floats) and a multiple of 4"
+                )));
+            }
+            let floats = match vertex_count {
+                0 => 0,
+                n => (n - 1)
+                    .checked_mul(stride_bytes / 4)
+                    .and_then(|f| f.checked_add(3))
+                    .ok_or_else(|| invalid(format!("{vertex_count} vertices of {stride_bytes} bytes overflow")))?,
+            };
+            // SAFETY: the caller's promise: the positions span these floats.
+            let raw = unsafe { read_slice(positions, floats, "positions") }?;
+            let step = stride_bytes / 4;
+            let points: Vec<Vec3> = (0..vertex_count)
+                .map(|i| Vec3::from_slice(&raw[i * step..i * step + 3]))
+                .collect();
+            // SAFETY: the caller's promise, passed on.
+            let flat = unsafe { read_slice(indices, index_count, "indices") }?;
+            let triangles: Vec<[u32; 3]> = flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            buffer
+                .inner
+                .render_triangles(&points, &triangles, &m, FaceCull::None)
+                .map_err(|e| invalid(e.to_string()))?;
+            Ok(0)
+        },
+    )
+}
+
+/// Tests the box `min`..`max` (three floats each, in the space
+/// `model_to_clip` places): `HOM_VISIBLE`, `HOM_OCCLUDED` or
+/// `HOM_VIEW_CULLED`, or a negative code on error. A box with a NaN corner
+/// is `HOM_VISIBLE`.
+///
+/// # Safety
+/// Each pointer must be `NULL` or point at its floats; `buffer` a live buffer.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_test_aabb(
+    buffer: *mut HomBuffer,
+    min: *const f32,
+    max: *const f32,
+    model_to_clip: *const f32,
+) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on (each of the four below).
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            // SAFETY: as above.
+            let (min, max) = (unsafe { vec3(min, "min") }?, unsafe { vec3(max, "max") }?);
+            // SAFETY: as above.
+            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+            if min.is_nan() || max.is_nan() {
+                return Ok(HOM_VISIBLE); // never culled; Aabb::new's min/max would drop the NaN
+            }
+            Ok(code_of(buffer.inner.test_aabb(&Aabb::new(min, max), &m)))
+        },
+    )
+}
+
+/// Tests the screen rectangle `min_x..max_x` × `min_y..max_y` (NDC, y up)
+/// at `nearest_depth` (z / w in the buffer's clip convention): as
+/// [`hom_buffer_test_aabb`].
+///
+/// # Safety
+/// `buffer` must be `NULL` or a live buffer.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_test_rect(
+    buffer: *mut HomBuffer,
+    min_x: f32,
+    min_y: f32,
+    max_x: f32,
+    max_y: f32,
+    nearest_depth: f32,
+) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            let (min, max) = (Vec2::new(min_x, min_y), Vec2::new(max_x, max_y));
+            Ok(code_of(buffer.inner.test_rect(min, max, nearest_depth)))
+        },
+    )
+}
+
+/// The buffer's work since its last clear, into `out`. 0, or a negative code.
+///
+/// # Safety
+/// `buffer` must be `NULL` or a live buffer; `out` `NULL` or writable.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_stats(buffer: *mut HomBuffer, out: *mut HomBufferStats) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            if out.is_null() {
+                return Err(null("out"));
+            }
+            if !out.is_aligned() {
+                return Err(invalid("out is not aligned to 8 bytes"));
+            }
+            let s = buffer.inner.stats();
+            let stats = HomBufferStats {
+                triangles_submitted: s.triangles_submitted,
+                triangles_drawn: s.triangles_drawn,
+                tests: s.tests,
+                occluded: s.occluded,
+                view_culled: s.view_culled,
+                setup_ms: s.setup_ms,
+                raster_ms: s.raster_ms,
+            };
+            // SAFETY: not NULL, aligned, and writable by the caller's promise.
+            unsafe { out.write(stats) };
+            Ok(0)
+        },
+    )
+}
+
+/// Why the last failing call on this thread failed; an empty string after
+/// a call that succeeded. Valid until the next call on this thread.
+#[no_mangle]
+pub extern "C" fn hom_last_error() -> *const c_char {
+    LAST_ERROR.with(|e| e.borrow().as_ptr())
+}

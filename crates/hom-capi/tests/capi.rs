@@ -1,0 +1,262 @@
+//! The C ABI from Rust: answers equal the front door's on random scenes,
+//! every misuse is an error code with a message (never a crash), and
+//! `include/hom.h` is cbindgen's output for the source.
+
+use hom_capi::*;
+use hom_occlusion::geom::Aabb;
+use hom_occlusion::glam::{Mat4, Vec3};
+use hom_occlusion::{BufferOptions, ClipConvention, FaceCull, HzBuffer, MaskedBuffer, OcclusionBuffer, Visibility};
+use std::ffi::CStr;
+
+fn last_error() -> String {
+    // SAFETY: hom_last_error returns a valid C string until the next call.
+    unsafe { CStr::from_ptr(hom_last_error()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// A unit cube's 8 corners and 36 indices.
+fn cube() -> (Vec<[f32; 3]>, Vec<u32>) {
+    let p = (0..8)
+        .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
+        .collect();
+    let faces = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let t = faces
+        .iter()
+        .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
+        .collect();
+    (p, t)
+}
+
+fn view_proj(eye: Vec3, reversed: bool) -> Mat4 {
+    use hom_occlusion::glam::camera::rh::{proj::directx, view::look_at_mat4};
+    let proj = if reversed {
+        directx::perspective_infinite_reverse(1.0, 4.0 / 3.0, 0.1)
+    } else {
+        directx::perspective(1.0, 4.0 / 3.0, 0.1, 200.0)
+    };
+    proj * look_at_mat4(eye, Vec3::new(0.0, 1.0, 0.0), Vec3::Y)
+}
+
+/// xorshift64*, enough for scene layouts.
+struct Rng(u64);
+impl Rng {
+    fn unit(&mut self) -> f32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// Random boxes drawn and tested through the C ABI and through the Rust
+/// front door, the same buffer kind each: every answer equal (the
+/// buffers' own tests check them against brute force). Positions carry a
+/// fourth float, so the stride is used.
+#[test]
+fn answers_equal_the_front_doors() {
+    let (corners, indices) = cube();
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut answers = [0usize; 3];
+    for case in 0..40 {
+        let reversed = case % 2 == 0;
+        let clip = if reversed {
+            HOM_CLIP_REVERSED_Z
+        } else {
+            HOM_CLIP_ZERO_TO_ONE
+        };
+        let options = BufferOptions {
+            clip: if reversed {
+                ClipConvention::ReversedZ
+            } else {
+                ClipConvention::ZeroToOne
+            },
+            ..BufferOptions::default()
+        };
+        let kind = [HOM_KIND_HZB, HOM_KIND_MASKED][case % 2];
+        let mut rust: Box<dyn OcclusionBuffer> = if kind == HOM_KIND_HZB {
+            Box::new(HzBuffer::new(160, 120, options).unwrap())
+        } else {
+            Box::new(MaskedBuffer::new(160, 120, options).unwrap())
+        };
+        let c = hom_buffer_new_kind(kind, 160, 120, clip);
+        assert!(!c.is_null(), "{}", last_error());
+        let vp = view_proj(Vec3::new(rng.unit() * 4.0 - 2.0, 1.5, 14.0), reversed);
+        // SAFETY: `c` is live; every pointer below points at what its count says.
+        unsafe {
+            assert_eq!(hom_buffer_clear(c), 0);
+            rust.clear();
+            let strided: Vec<f32> = corners.iter().flat_map(|p| [p[0], p[1], p[2], 7.0]).collect();
+            let points: Vec<Vec3> = corners.iter().map(|&p| Vec3::from(p)).collect();
+            let tris: Vec<[u32; 3]> = indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+            for _ in 0..6 {
+                let at = Vec3::new(rng.unit() * 12.0 - 6.0, 0.0, rng.unit() * 8.0 - 4.0);
+                let size = Vec3::new(0.5 + rng.unit() * 4.0, 0.5 + rng.unit() * 4.0, 0.2 + rng.unit());
+                let m = vp * Mat4::from_translation(at) * Mat4::from_scale(size);
+                let code = hom_buffer_render_triangles(
+                    c,
+                    strided.as_ptr(),
+                    8,
+                    16,
+                    indices.as_ptr(),
+                    36,
+                    m.to_cols_array().as_ptr(),
+                );
+                assert_eq!(code, 0, "{}", last_error());
+                rust.render_triangles(&points, &tris, &m, FaceCull::None).unwrap();
+            }
+            for _ in 0..60 {
+                let min = Vec3::new(rng.unit() * 16.0 - 8.0, rng.unit() * 2.0, rng.unit() * 30.0 - 20.0);
+                let max = min + Vec3::new(rng.unit(), rng.unit(), rng.unit());
+                let got = hom_buffer_test_aabb(
+                    c,
+                    min.as_ref().as_ptr(),
+                    max.as_ref().as_ptr(),
+                    vp.to_cols_array().as_ptr(),
+                );
+                let want = match rust.test_aabb(&Aabb::new(min, max), &vp) {
+                    Visibility::Visible => HOM_VISIBLE,
+                    Visibility::Occluded => HOM_OCCLUDED,
+                    Visibility::ViewCulled => HOM_VIEW_CULLED,
+                };
+                assert_eq!(got, want, "case {case}");
+                answers[got as usize] += 1;
+            }
+            let mut stats = HomBufferStats::default();
+            assert_eq!(hom_buffer_stats(c, &mut stats), 0);
+            assert_eq!(stats.triangles_submitted, 6 * 12);
+            assert_eq!(stats.tests, 60);
+            hom_buffer_free(c);
+        }
+    }
+    assert!(answers.iter().all(|&n| n > 50), "every answer occurs: {answers:?}");
+}
+
+/// Misuse: an error code and a message naming the problem, never a crash.
+#[test]
+fn misuse_is_an_error_not_a_crash() {
+    let (corners, indices) = cube();
+    let flat: Vec<f32> = corners.concat();
+    let m = Mat4::IDENTITY.to_cols_array();
+    let nan = [f32::NAN; 16];
+    assert!(hom_buffer_new(0, 10, HOM_CLIP_ZERO_TO_ONE).is_null());
+    assert!(last_error().contains("1..=16384"), "{}", last_error());
+    assert!(hom_buffer_new(10, 10, 7).is_null());
+    assert!(last_error().contains("clip convention 7"));
+    assert!(hom_buffer_new_kind(9, 10, 10, 0).is_null());
+    assert!(last_error().contains("buffer kind 9"));
+    let b = hom_buffer_new(64, 48, HOM_CLIP_ZERO_TO_ONE);
+    assert!(!b.is_null() && last_error().is_empty());
+    // SAFETY: `b` is live; the pointers are valid or deliberately NULL, and the
+    // counts match the data except where the call is meant to refuse.
+    unsafe {
+        let render = |p: *const f32, n, stride, i: *const u32, k, m: *const f32| {
+            hom_buffer_render_triangles(b, p, n, stride, i, k, m)
+        };
+        let check = |got: i32, want: i32, needle: &str| {
+            assert_eq!(got, want, "{needle}: {}", last_error());
+            assert!(
+                last_error().contains(needle),
+                "expected '{needle}' in '{}'",
+                last_error()
+            );
+        };
+        let (p, i) = (flat.as_ptr(), indices.as_ptr());
+        check(
+            render(std::ptr::null(), 8, 12, i, 36, m.as_ptr()),
+            HOM_ERROR_NULL,
+            "positions is NULL",
+        );
+        check(
+            render(p, 8, 12, std::ptr::null(), 36, m.as_ptr()),
+            HOM_ERROR_NULL,
+            "indices is NULL",
+        );
+        check(
+            render(p, 8, 12, i, 36, std::ptr::null()),
+            HOM_ERROR_NULL,
+            "model_to_clip is NULL",
+        );
+        check(render(p, 8, 0, i, 36, m.as_ptr()), HOM_ERROR_INVALID, "stride_bytes 0");
+        check(
+            render(p, 8, 12, i, 35, m.as_ptr()),
+            HOM_ERROR_INVALID,
+            "not a multiple of 3",
+        );
+        check(render(p, 7, 12, i, 36, m.as_ptr()), HOM_ERROR_INVALID, "vertex 7");
+        check(render(p, 8, 12, i, 36, nan.as_ptr()), HOM_ERROR_INVALID, "not finite");
+        check(
+            render(p, usize::MAX / 2, 16, i, 36, m.as_ptr()),
+            HOM_ERROR_INVALID,
+            "at most",
+        );
+        let misaligned = (flat.as_ptr() as *const u8).add(1) as *const f32;
+        assert_eq!(
+            render(misaligned, 8, 12, indices.as_ptr(), 36, m.as_ptr()),
+            HOM_ERROR_INVALID
+        );
+        assert!(last_error().contains("aligned"));
+        // Nothing to draw is fine; so is a NaN vertex (its triangles draw nothing).
+        assert_eq!(render(std::ptr::null(), 0, 12, std::ptr::null(), 0, m.as_ptr()), 0);
+        let mut with_nan = flat.clone();
+        with_nan[0] = f32::NAN;
+        assert_eq!(
+            render(with_nan.as_ptr(), 8, 12, indices.as_ptr(), 36, m.as_ptr()),
+            0,
+            "{}",
+            last_error()
+        );
+        // A NaN box is never occluded; NULL boxes and buffers are errors.
+        let (lo, hi) = ([f32::NAN, 0.0, 0.0], [1.0f32, 1.0, 1.0]);
+        assert_eq!(
+            hom_buffer_test_aabb(b, lo.as_ptr(), hi.as_ptr(), m.as_ptr()),
+            HOM_VISIBLE
+        );
+        assert_eq!(
+            hom_buffer_test_aabb(b, std::ptr::null(), hi.as_ptr(), m.as_ptr()),
+            HOM_ERROR_NULL
+        );
+        assert_eq!(
+            hom_buffer_test_aabb(std::ptr::null_mut(), lo.as_ptr(), hi.as_ptr(), m.as_ptr()),
+            HOM_ERROR_NULL
+        );
+        assert!(last_error().contains("buffer is NULL"));
+        assert_eq!(hom_buffer_clear(std::ptr::null_mut()), HOM_ERROR_NULL);
+        assert_eq!(hom_buffer_stats(b, std::ptr::null_mut()), HOM_ERROR_NULL);
+        assert_eq!(hom_buffer_test_rect(b, -0.5, -0.5, 0.5, 0.5, 0.9), HOM_VISIBLE);
+        hom_buffer_free(b);
+        hom_buffer_free(std::ptr::null_mut());
+    }
+}
+
+/// `include/hom.h` is what cbindgen (pinned in Cargo.toml) makes of the
+/// source with `cbindgen.toml`; `HOM_BLESS_HEADER=1` rewrites it.
+#[test]
+fn the_header_is_cbindgens_output() {
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let config = cbindgen::Config::from_file(format!("{dir}/cbindgen.toml")).expect("cbindgen.toml");
+    let mut out = Vec::new();
+    cbindgen::Builder::new()
+        .with_src(format!("{dir}/src/lib.rs"))
+        .with_config(config)
+        .generate()
+        .expect("cbindgen reads the source")
+        .write(&mut out);
+    let generated = String::from_utf8(out).expect("UTF-8");
+    let path = format!("{dir}/include/hom.h");
+    if std::env::var_os("HOM_BLESS_HEADER").is_some() {
+        std::fs::write(&path, &generated).expect("writing include/hom.h");
+    }
+    let checked_in = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        generated == checked_in,
+        "include/hom.h is stale: regenerate it with HOM_BLESS_HEADER=1 cargo test -p hom-capi"
+    );
+}
