@@ -67,6 +67,7 @@ int main(int argc, char **argv) {
     static const uint32_t tris[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
                                       2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
     static Box buildings[2 * ROWS], props[2 * ROWS * PROPS_PER_ROW];
+    static int32_t answers[2 * ROWS * (1 + PROPS_PER_ROW)];
     int nb = 0, np = 0;
     unsigned seed = 12345;
     for (int r = 0; r < ROWS; r++) {
@@ -112,14 +113,14 @@ int main(int argc, char **argv) {
                 return 1;
             }
         }
+        /* Every building and prop in one call (hom_buffer_test_aabb asks one). */
+        if (hom_buffer_test_aabbs(buffer, &buildings[0].min[0], (size_t)nb, view_proj, answers) != 0 ||
+            hom_buffer_test_aabbs(buffer, &props[0].min[0], (size_t)np, view_proj, answers + nb) != 0) {
+            fprintf(stderr, "test: %s\n", hom_last_error());
+            return 1;
+        }
         for (int i = 0; i < nb + np; i++) {
-            const Box *b = i < nb ? &buildings[i] : &props[i - nb];
-            const int v = hom_buffer_test_aabb(buffer, b->min, b->max, view_proj);
-            if (v < 0) {
-                fprintf(stderr, "test: %s\n", hom_last_error());
-                return 1;
-            }
-            culled += v != HOM_VISIBLE;
+            culled += answers[i] != HOM_VISIBLE;
             tested++;
         }
     }

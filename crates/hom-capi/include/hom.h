@@ -176,6 +176,24 @@ int32_t hom_buffer_test_aabb(struct HomBuffer *buffer,
                              const float *model_to_clip);
 
 /*
+ Tests `count` boxes at once, six floats each (`min_x, min_y, min_z,
+ max_x, max_y, max_z`) at `boxes`, all placed by `model_to_clip`, writing
+ each answer (`HOM_VISIBLE`, `HOM_OCCLUDED` or `HOM_VIEW_CULLED`) to
+ `results[i]`: [`hom_buffer_test_aabb`]'s answers, with the checks and the
+ call's overhead paid once. 0, or a negative code (then `results` is
+ unspecified).
+
+ # Safety
+ `boxes` must be `NULL` or point at `6 * count` floats, `results` at
+ `count` writable `int32_t`; `buffer` a live buffer.
+ */
+int32_t hom_buffer_test_aabbs(struct HomBuffer *buffer,
+                              const float *boxes,
+                              size_t count,
+                              const float *model_to_clip,
+                              int32_t *results);
+
+/*
  Tests the screen rectangle `min_x..max_x` × `min_y..max_y` (NDC, y up)
  at `nearest_depth` (z / w in the buffer's clip convention): as
  [`hom_buffer_test_aabb`].

@@ -407,6 +407,64 @@ pub unsafe extern "C" fn hom_buffer_test_aabb(
     )
 }
 
+/// Tests `count` boxes at once, six floats each (`min_x, min_y, min_z,
+/// max_x, max_y, max_z`) at `boxes`, all placed by `model_to_clip`, writing
+/// each answer (`HOM_VISIBLE`, `HOM_OCCLUDED` or `HOM_VIEW_CULLED`) to
+/// `results[i]`: [`hom_buffer_test_aabb`]'s answers, with the checks and the
+/// call's overhead paid once. 0, or a negative code (then `results` is
+/// unspecified).
+///
+/// # Safety
+/// `boxes` must be `NULL` or point at `6 * count` floats, `results` at
+/// `count` writable `int32_t`; `buffer` a live buffer.
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_test_aabbs(
+    buffer: *mut HomBuffer,
+    boxes: *const f32,
+    count: usize,
+    model_to_clip: *const f32,
+    results: *mut i32,
+) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on (each of the three below).
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            // SAFETY: as above.
+            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+            if count > MAX_COUNT {
+                return Err(invalid(format!("{count} boxes: at most {MAX_COUNT}")));
+            }
+            // SAFETY: as above.
+            let boxes = unsafe { read_slice(boxes, 6 * count, "boxes") }?;
+            if count > 0 && results.is_null() {
+                return Err(null("results"));
+            }
+            if !results.is_aligned() {
+                return Err(invalid("results is not aligned to 4 bytes"));
+            }
+            let results: &mut [i32] = if count == 0 {
+                &mut []
+            } else {
+                // SAFETY: not NULL, aligned, `count` values fit in memory (the
+                // boxes did, at six times the size), writable by the caller's
+                // promise; `boxes` (floats) cannot be the same memory without
+                // the caller breaking C's own aliasing rules.
+                unsafe { std::slice::from_raw_parts_mut(results, count) }
+            };
+            for (b, out) in boxes.chunks_exact(6).zip(results.iter_mut()) {
+                let (min, max) = (Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]));
+                *out = if min.is_nan() || max.is_nan() {
+                    HOM_VISIBLE
+                } else {
+                    code_of(buffer.inner.test_aabb(&Aabb::new(min, max), &m))
+                };
+            }
+            Ok(0)
+        },
+    )
+}
+
 /// Tests the screen rectangle `min_x..max_x` × `min_y..max_y` (NDC, y up)
 /// at `nearest_depth` (z / w in the buffer's clip convention): as
 /// [`hom_buffer_test_aabb`].

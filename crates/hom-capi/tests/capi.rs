@@ -129,10 +129,26 @@ fn answers_equal_the_front_doors() {
                 assert_eq!(got, want, "case {case}");
                 answers[got as usize] += 1;
             }
+            // The batch call gives the single calls' answers, box for box.
+            let mut boxes = Vec::new();
+            for _ in 0..50 {
+                let min = [rng.unit() * 16.0 - 8.0, rng.unit() * 2.0, rng.unit() * 30.0 - 20.0];
+                boxes.extend(min);
+                boxes.extend([min[0] + rng.unit(), min[1] + rng.unit(), min[2] + rng.unit()]);
+            }
+            boxes[0] = f32::NAN;
+            let mut batch = vec![-9; 50];
+            let code = hom_buffer_test_aabbs(c, boxes.as_ptr(), 50, vp.to_cols_array().as_ptr(), batch.as_mut_ptr());
+            assert_eq!(code, 0, "{}", last_error());
+            for (b, &got) in boxes.chunks(6).zip(&batch) {
+                let one = hom_buffer_test_aabb(c, b.as_ptr(), b[3..].as_ptr(), vp.to_cols_array().as_ptr());
+                assert_eq!(got, one, "case {case}");
+            }
+            assert_eq!(batch[0], HOM_VISIBLE, "a NaN box");
             let mut stats = HomBufferStats::default();
             assert_eq!(hom_buffer_stats(c, &mut stats), 0);
             assert_eq!(stats.triangles_submitted, 6 * 12);
-            assert_eq!(stats.tests, 60);
+            assert_eq!(stats.tests, 60 + 49 + 49, "NaN boxes are answered before the buffer");
             hom_buffer_free(c);
         }
     }
@@ -229,6 +245,25 @@ fn misuse_is_an_error_not_a_crash() {
         );
         assert!(last_error().contains("buffer is NULL"));
         assert_eq!(hom_buffer_clear(std::ptr::null_mut()), HOM_ERROR_NULL);
+        let mut out = [0i32; 2];
+        let two = [0.0f32, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0];
+        assert_eq!(
+            hom_buffer_test_aabbs(b, two.as_ptr(), 2, m.as_ptr(), std::ptr::null_mut()),
+            HOM_ERROR_NULL
+        );
+        assert!(last_error().contains("results is NULL"));
+        assert_eq!(
+            hom_buffer_test_aabbs(b, std::ptr::null(), 2, m.as_ptr(), out.as_mut_ptr()),
+            HOM_ERROR_NULL
+        );
+        assert_eq!(
+            hom_buffer_test_aabbs(b, two.as_ptr(), usize::MAX, m.as_ptr(), out.as_mut_ptr()),
+            HOM_ERROR_INVALID
+        );
+        assert_eq!(
+            hom_buffer_test_aabbs(b, std::ptr::null(), 0, m.as_ptr(), std::ptr::null_mut()),
+            0
+        );
         assert_eq!(hom_buffer_stats(b, std::ptr::null_mut()), HOM_ERROR_NULL);
         assert_eq!(hom_buffer_test_rect(b, -0.5, -0.5, 0.5, 0.5, 0.9), HOM_VISIBLE);
         hom_buffer_free(b);
