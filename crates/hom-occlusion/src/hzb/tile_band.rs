@@ -214,23 +214,30 @@ fn tile_kernel(t: &Tri, e: &TileEdges, (px, py): (u32, u32), rows: (u32, u32), w
     }
 }
 
-/// A tile with `i64` edge functions, for triangles too large for `i32`.
+/// A tile with `i64` edge functions, for triangles too large for `i32`
+/// (edges across thousands of pixels of the guard band): each row's edge
+/// values at its first sample, stepped by a column's increment, the same
+/// values [`Tri::covers`] computes.
 fn draw_tile_wide(t: &Tri, px: u32, py: u32, width: u32, height: u32, tile: &mut [f32; TILE_SAMPLES]) -> Option<f32> {
     let (x0, y0) = (u32::from(t.x0), u32::from(t.y0));
+    let step = [0, 1, 2].map(|i| t.a[i] * ONE);
     let mut changed = false;
     for j in 0..(height - py).min(TILE) {
         let y = py + j;
         let zr = t.zref + t.dzdy * y.wrapping_sub(y0) as i32 as f32;
+        let (sx, sy) = (i64::from(px) * ONE + HALF, i64::from(y) * ONE + HALF);
+        let mut e = [0, 1, 2].map(|i| t.a[i] * sx + t.b[i] * sy + t.c[i]);
         for i in 0..(width - px).min(TILE) {
-            let x = px + i;
-            if !t.covers(x, y) {
-                continue;
+            if (e[0] | e[1] | e[2]) >= 0 {
+                let z = t.depth_in_row(zr, (px + i).wrapping_sub(x0) as i32);
+                let d = &mut tile[(j * TILE + i) as usize];
+                if z < *d {
+                    *d = z;
+                    changed = true;
+                }
             }
-            let z = t.depth_in_row(zr, x.wrapping_sub(x0) as i32);
-            let d = &mut tile[(j * TILE + i) as usize];
-            if z < *d {
-                *d = z;
-                changed = true;
+            for k in 0..3 {
+                e[k] += step[k];
             }
         }
     }
