@@ -75,8 +75,11 @@ impl CullOutput {
         self.stats = CullStats::default();
     }
 
-    /// Runs `f`, recording its wall time as stage `name`.
+    /// Runs `f`, recording its wall time as stage `name` (and, with the
+    /// `tracing` feature, inside a `hom_cull` span whose `stage` is `name`).
     pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        #[cfg(feature = "tracing")]
+        let _span = tracing::info_span!("hom_cull", stage = name).entered();
         let start = Instant::now();
         let r = f();
         self.stages.push((name, start.elapsed().as_secs_f64() * 1e3));
