@@ -87,6 +87,45 @@ int main(void) {
         CHECK(hom_buffer_test_aabb(kb, front_min, front_max, view_proj) == HOM_VISIBLE, "kind: in front");
         hom_buffer_free(kb);
     }
+    /* A scene: a wall and two boxes, one behind it; every culler kind keeps the
+     * wall and the box in front, and the occlusion cullers cull the one behind. */
+    {
+        static const float cube[24] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+        static const uint32_t tris[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+                                          2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+        float wall_model[16] = {0}, behind_model[16] = {0}, front_model[16] = {0};
+        /* Column-major scale-then-translate: a 20 x 10 x 1 wall at z = -11..-10. */
+        wall_model[0] = 20, wall_model[5] = 10, wall_model[10] = 1, wall_model[15] = 1;
+        wall_model[12] = -10, wall_model[13] = -5, wall_model[14] = -11;
+        behind_model[0] = behind_model[5] = behind_model[10] = behind_model[15] = 1;
+        behind_model[12] = -0.5f, behind_model[13] = -0.5f, behind_model[14] = -20;
+        memcpy(front_model, behind_model, sizeof front_model);
+        front_model[14] = -5;
+        HomScene *scene = hom_scene_new();
+        CHECK(scene != NULL, "hom_scene_new");
+        CHECK(hom_scene_add_mesh(scene, cube, 8, 12, tris, 36) == 0, "add_mesh");
+        CHECK(hom_scene_add_object(scene, 0, wall_model, 0) == 0, "wall");
+        CHECK(hom_scene_add_object(scene, 0, behind_model, 0) == 1, "box behind");
+        CHECK(hom_scene_add_object(scene, 0, front_model, 1) == 2, "box in front, dynamic");
+        CHECK(hom_scene_add_object(scene, 5, front_model, 0) == HOM_ERROR_INVALID, "no mesh 5");
+        const int kinds[4] = {HOM_CULLER_FRUSTUM, HOM_CULLER_HOM, HOM_CULLER_HZB, HOM_CULLER_MASKED};
+        for (int k = 0; k < 4; k++) {
+            HomCuller *culler = hom_culler_new(scene, kinds[k]);
+            CHECK(culler != NULL, "hom_culler_new");
+            uint32_t ids[8];
+            for (int frame = 0; frame < 3; frame++) {
+                const int64_t n = hom_culler_cull(culler, scene, view_proj, 320, 240, HOM_CLIP_ZERO_TO_ONE, ids, 8);
+                const int64_t want = kinds[k] == HOM_CULLER_FRUSTUM ? 3 : 2;
+                CHECK(n == want, "visible count");
+                CHECK(n >= 2 && ids[0] == 0 && ids[n - 1] == 2, "the wall and the box in front");
+                CHECK(hom_culler_frame_done(culler, -1.0) == 0, "frame_done");
+            }
+            hom_culler_free(culler);
+        }
+        CHECK(hom_scene_remove_object(scene, 1) == 0 && hom_scene_remove_object(scene, 1) == HOM_ERROR_INVALID,
+              "remove once");
+        hom_scene_free(scene);
+    }
     if (failures) {
         fprintf(stderr, "hom C test: %d failures\n", failures);
         return 1;

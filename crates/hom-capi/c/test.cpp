@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <vector>
 
 int main() {
     float m[16] = {0};
@@ -34,6 +35,27 @@ int main() {
         failures++;
     } catch (const hom::Error &e) {
         failures += std::strstr(e.what(), "16384") == nullptr;
+    }
+    {
+        static const float cube[24] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+        static const uint32_t tris[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+                                          2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+        float wall[16] = {20, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1, 0, -10, -5, -11, 1};
+        float behind[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -0.5f, -0.5f, -20, 1};
+        hom::Scene scene;
+        const uint32_t mesh = scene.add_mesh(cube, 8, 12, tris, 36);
+        scene.add_object(mesh, wall);
+        scene.add_object(mesh, behind, true);
+        hom::Culler culler(scene, hom::CullerKind::Hom);
+        std::vector<uint32_t> visible;  // empty: the wrapper grows it
+        culler.cull(scene, m, 320, 240, hom::Clip::ZeroToOne, visible);
+        failures += visible != std::vector<uint32_t>{0};
+        try {
+            scene.add_object(7, wall);
+            failures++;
+        } catch (const hom::Error &e) {
+            failures += std::strstr(e.what(), "mesh 7") == nullptr;
+        }
     }
     if (failures != 0) {
         std::fprintf(stderr, "hom C++ test: %d failures\n", failures);

@@ -72,9 +72,39 @@
 #define HOM_ERROR_INTERNAL (0 - 3)
 
 /*
+ Culler kind: frustum culling only.
+ */
+#define HOM_CULLER_FRUSTUM 0
+
+/*
+ Culler kind: hierarchical occlusion maps (hom's default).
+ */
+#define HOM_CULLER_HOM 1
+
+/*
+ Culler kind: the hierarchical Z-buffer.
+ */
+#define HOM_CULLER_HZB 2
+
+/*
+ Culler kind: masked occlusion culling.
+ */
+#define HOM_CULLER_MASKED 3
+
+/*
  An occlusion buffer (opaque to C).
  */
 typedef struct HomBuffer HomBuffer;
+
+/*
+ A culler built for one scene (opaque to C).
+ */
+typedef struct HomCuller HomCuller;
+
+/*
+ A scene: meshes and the objects placing them (opaque to C).
+ */
+typedef struct HomScene HomScene;
 
 /*
  A buffer's work since its last clear ([`hom_buffer_stats`]).
@@ -221,6 +251,124 @@ int32_t hom_buffer_stats(struct HomBuffer *buffer, struct HomBufferStats *out);
  a call that succeeded. Valid until the next call on this thread.
  */
 const char *hom_last_error(void);
+
+/*
+ A new, empty scene; `NULL` only if hom fails inside.
+ */
+struct HomScene *hom_scene_new(void);
+
+/*
+ Frees `scene`; `NULL` is fine. Free its cullers first or after: they keep no pointer to it.
+
+ # Safety
+ `scene` must be `NULL` or come from [`hom_scene_new`], freed once.
+ */
+void hom_scene_free(struct HomScene *scene);
+
+/*
+ Adds a mesh (positions with a stride, three indices a triangle, as
+ [`hom_buffer_render_triangles`] takes them): its id (from 0), or a
+ negative code. A mesh with no triangles, a NaN vertex or an index out of
+ range is refused.
+
+ # Safety
+ As [`hom_buffer_render_triangles`]'s pointers; `scene` a live scene.
+ */
+int64_t hom_scene_add_mesh(struct HomScene *scene,
+                           const float *positions,
+                           size_t vertex_count,
+                           size_t stride_bytes,
+                           const uint32_t *indices,
+                           size_t index_count);
+
+/*
+ Places mesh `mesh` by the column-major `transform`: the new object's id
+ (ids are never reused), or a negative code. `dynamic` non-zero: it will
+ move ([`hom_scene_set_transform`]); a static object may move too, and is
+ dynamic from then on.
+
+ # Safety
+ `transform` must be `NULL` or point at 16 floats; `scene` a live scene.
+ */
+int64_t hom_scene_add_object(struct HomScene *scene,
+                             uint32_t mesh,
+                             const float *transform,
+                             int32_t dynamic);
+
+/*
+ Moves object `object` to the column-major `transform`. 0, or a negative code.
+
+ # Safety
+ `transform` must be `NULL` or point at 16 floats; `scene` a live scene.
+ */
+int32_t hom_scene_set_transform(struct HomScene *scene, uint32_t object, const float *transform);
+
+/*
+ Removes object `object` (its id is not reused). 0, or a negative code.
+
+ # Safety
+ `scene` must be `NULL` or a live scene.
+ */
+int32_t hom_scene_remove_object(struct HomScene *scene, uint32_t object);
+
+/*
+ Whether object `object` may be chosen as an occluder (non-zero, the
+ default) or never (0: glass, foliage, grates). 0, or a negative code.
+
+ # Safety
+ `scene` must be `NULL` or a live scene.
+ */
+int32_t hom_scene_set_occluder(struct HomScene *scene, uint32_t object, int32_t occluder);
+
+/*
+ A culler of `kind` (a `HOM_CULLER_*`) for `scene`, with its defaults
+ for the scene (occluder budget, selection, coherence, cost model);
+ `NULL` on error. It follows the scene's changes by itself.
+
+ # Safety
+ `scene` must be `NULL` or a live scene.
+ */
+struct HomCuller *hom_culler_new(const struct HomScene *scene, int32_t kind);
+
+/*
+ Frees `culler`; `NULL` is fine.
+
+ # Safety
+ `culler` must be `NULL` or come from [`hom_culler_new`], freed once.
+ */
+void hom_culler_free(struct HomCuller *culler);
+
+/*
+ Culls `scene` (the one `culler` was made for) for a `width` × `height`
+ image seen through the column-major `view_proj` in `clip` (a
+ `HOM_CLIP_*`): writes the ids of the objects to draw, ascending, to
+ `visible` (at most `capacity` of them) and returns how many there are —
+ more than `capacity` means the list was cut: call again with room for
+ all. A negative code on error.
+
+ # Safety
+ `view_proj` must be `NULL` or point at 16 floats, `visible` at
+ `capacity` writable `uint32_t` (or be `NULL` with `capacity` 0);
+ `culler` and `scene` live.
+ */
+int64_t hom_culler_cull(struct HomCuller *culler,
+                        const struct HomScene *scene,
+                        const float *view_proj,
+                        uint32_t width,
+                        uint32_t height,
+                        int32_t clip,
+                        uint32_t *visible,
+                        size_t capacity);
+
+/*
+ Tells `culler` the frame's time once drawn, in milliseconds (negative:
+ unknown): what its cost model learns whether occlusion culling pays from.
+ 0, or a negative code.
+
+ # Safety
+ `culler` must be `NULL` or a live culler.
+ */
+int32_t hom_culler_frame_done(struct HomCuller *culler, double frame_ms);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -94,6 +94,91 @@ class Buffer {
     HomBuffer *buffer_;
 };
 
+/// A scene of meshes and objects; see hom.h's hom_scene_*.
+class Scene {
+  public:
+    Scene() : scene_(hom_scene_new()) {
+        if (scene_ == nullptr) {
+            throw Error(HOM_ERROR_INTERNAL, hom_last_error());
+        }
+    }
+    ~Scene() { hom_scene_free(scene_); }
+    Scene(const Scene &) = delete;
+    Scene &operator=(const Scene &) = delete;
+
+    /// A mesh's id.
+    uint32_t add_mesh(const float *positions, std::size_t vertex_count, std::size_t stride_bytes,
+                      const uint32_t *indices, std::size_t index_count) {
+        return static_cast<uint32_t>(
+            check(hom_scene_add_mesh(scene_, positions, vertex_count, stride_bytes, indices, index_count)));
+    }
+    /// An object's id (never reused).
+    uint32_t add_object(uint32_t mesh, const float transform[16], bool dynamic = false) {
+        return static_cast<uint32_t>(check(hom_scene_add_object(scene_, mesh, transform, dynamic ? 1 : 0)));
+    }
+    void set_transform(uint32_t object, const float transform[16]) {
+        check(hom_scene_set_transform(scene_, object, transform));
+    }
+    void remove_object(uint32_t object) { check(hom_scene_remove_object(scene_, object)); }
+    void set_occluder(uint32_t object, bool occluder) {
+        check(hom_scene_set_occluder(scene_, object, occluder ? 1 : 0));
+    }
+    HomScene *get() noexcept { return scene_; }
+
+  private:
+    static int64_t check(int64_t code) {
+        if (code < 0) {
+            throw Error(static_cast<int32_t>(code), hom_last_error());
+        }
+        return code;
+    }
+    HomScene *scene_;
+};
+
+/// Culler kinds.
+enum class CullerKind : int32_t {
+    Frustum = HOM_CULLER_FRUSTUM,
+    Hom = HOM_CULLER_HOM,
+    Hzb = HOM_CULLER_HZB,
+    Masked = HOM_CULLER_MASKED,
+};
+
+/// A culler for one scene; see hom.h's hom_culler_*.
+class Culler {
+  public:
+    Culler(Scene &scene, CullerKind kind = CullerKind::Hom)
+        : culler_(hom_culler_new(scene.get(), static_cast<int32_t>(kind))) {
+        if (culler_ == nullptr) {
+            throw Error(HOM_ERROR_INVALID, hom_last_error());
+        }
+    }
+    ~Culler() { hom_culler_free(culler_); }
+    Culler(const Culler &) = delete;
+    Culler &operator=(const Culler &) = delete;
+
+    /// The visible object ids (ascending) into `visible`, resized to fit.
+    template <class Vector>
+    void cull(Scene &scene, const float view_proj[16], uint32_t width, uint32_t height, Clip clip, Vector &visible) {
+        for (;;) {
+            const int64_t n = hom_culler_cull(culler_, scene.get(), view_proj, width, height,
+                                              static_cast<int32_t>(clip), visible.data(), visible.size());
+            if (n < 0) {
+                throw Error(static_cast<int32_t>(n), hom_last_error());
+            }
+            if (static_cast<std::size_t>(n) <= visible.size()) {
+                visible.resize(static_cast<std::size_t>(n));
+                return;
+            }
+            visible.resize(static_cast<std::size_t>(n));
+        }
+    }
+    /// The frame's time once drawn (negative: unknown), for the cost model.
+    void frame_done(double frame_ms) { hom_culler_frame_done(culler_, frame_ms); }
+
+  private:
+    HomCuller *culler_;
+};
+
 } // namespace hom
 
 #endif // HOM_HPP

@@ -7,6 +7,10 @@
 //! `include/hom.h` (cbindgen's output, checked against this file by the
 //! tests); `include/hom.hpp` wraps it in C++ RAII.
 //!
+//! For a whole scene, `HomScene` holds meshes and objects (ids never
+//! reused) and `HomCuller` culls it per frame with hom's occluder selection,
+//! coherence and cost model: [`hom_culler_cull`] writes the visible object ids.
+//!
 //! ## The contract
 //! - `HomBuffer` is any hom occlusion buffer: [`hom_buffer_new`] makes the
 //!   hierarchical Z-buffer (what `engine_loop` uses), [`hom_buffer_new_kind`]
@@ -530,4 +534,348 @@ pub unsafe extern "C" fn hom_buffer_stats(buffer: *mut HomBuffer, out: *mut HomB
 #[no_mangle]
 pub extern "C" fn hom_last_error() -> *const c_char {
     LAST_ERROR.with(|e| e.borrow().as_ptr())
+}
+
+/// Culler kind: frustum culling only.
+pub const HOM_CULLER_FRUSTUM: i32 = 0;
+/// Culler kind: hierarchical occlusion maps (hom's default).
+pub const HOM_CULLER_HOM: i32 = 1;
+/// Culler kind: the hierarchical Z-buffer.
+pub const HOM_CULLER_HZB: i32 = 2;
+/// Culler kind: masked occlusion culling.
+pub const HOM_CULLER_MASKED: i32 = 3;
+
+/// A scene: meshes and the objects placing them (opaque to C).
+pub struct HomScene {
+    scene: hom::scene::Scene,
+}
+
+/// A culler built for one scene (opaque to C).
+pub struct HomCuller {
+    culler: Box<dyn hom::cull::Culler>,
+    out: hom::cull::CullOutput,
+}
+
+/// The scene behind `scene`.
+///
+/// # Safety
+/// When not `NULL`, `scene` must come from [`hom_scene_new`] and not be freed.
+unsafe fn scene_mut<'a>(scene: *mut HomScene) -> Result<&'a mut HomScene, Fail> {
+    // SAFETY: the caller's promise: a live scene, used by this thread alone.
+    unsafe { scene.as_mut() }.ok_or_else(|| null("scene"))
+}
+
+/// The positions at `positions` (`vertex_count` of them, `stride_bytes`
+/// apart) and the triangles of `index_count` indices at `indices`, checked
+/// as [`hom_buffer_render_triangles`] checks them.
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`]'s pointers.
+unsafe fn mesh_data(
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), Fail> {
+    if vertex_count > MAX_COUNT || index_count > MAX_COUNT {
+        return Err(invalid(format!(
+            "{vertex_count} vertices, {index_count} indices: at most {MAX_COUNT} each"
+        )));
+    }
+    if !index_count.is_multiple_of(3) {
+        return Err(invalid(format!(
+            "index_count {index_count} is not a multiple of 3 (three indices a triangle)"
+        )));
+    }
+    if stride_bytes < 12 || !stride_bytes.is_multiple_of(4) {
+        return Err(invalid(format!(
+            "stride_bytes {stride_bytes}: at least 12 (three floats) and a multiple of 4"
+        )));
+    }
+    let floats = match vertex_count {
+        0 => 0,
+        n => (n - 1)
+            .checked_mul(stride_bytes / 4)
+            .and_then(|f| f.checked_add(3))
+            .ok_or_else(|| invalid(format!("{vertex_count} vertices of {stride_bytes} bytes overflow")))?,
+    };
+    // SAFETY: the caller's promise: the positions span these floats.
+    let raw = unsafe { read_slice(positions, floats, "positions") }?;
+    let step = stride_bytes / 4;
+    let points = (0..vertex_count)
+        .map(|i| Vec3::from_slice(&raw[i * step..i * step + 3]))
+        .collect();
+    // SAFETY: the caller's promise, passed on.
+    let flat = unsafe { read_slice(indices, index_count, "indices") }?;
+    Ok((points, flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()))
+}
+
+/// A new, empty scene; `NULL` only if hom fails inside.
+#[no_mangle]
+pub extern "C" fn hom_scene_new() -> *mut HomScene {
+    guard(
+        |_| std::ptr::null_mut(),
+        || {
+            Ok(Box::into_raw(Box::new(HomScene {
+                scene: hom::scene::Scene::new("C scene"),
+            })))
+        },
+    )
+}
+
+/// Frees `scene`; `NULL` is fine. Free its cullers first or after: they keep no pointer to it.
+///
+/// # Safety
+/// `scene` must be `NULL` or come from [`hom_scene_new`], freed once.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_free(scene: *mut HomScene) {
+    if !scene.is_null() {
+        // SAFETY: the caller's promise: made by `Box::into_raw`, not freed before.
+        drop(unsafe { Box::from_raw(scene) });
+    }
+}
+
+/// Adds a mesh (positions with a stride, three indices a triangle, as
+/// [`hom_buffer_render_triangles`] takes them): its id (from 0), or a
+/// negative code. A mesh with no triangles, a NaN vertex or an index out of
+/// range is refused.
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`]'s pointers; `scene` a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_add_mesh(
+    scene: *mut HomScene,
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+) -> i64 {
+    guard(
+        i64::from,
+        || {
+            // SAFETY: the caller's promise, passed on (both below).
+            let scene = unsafe { scene_mut(scene) }?;
+            // SAFETY: as above.
+            let (points, triangles) =
+                unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
+            let mesh = hom::scene::Mesh::new("mesh", points, triangles).map_err(|e| invalid(e.to_string()))?;
+            Ok(i64::from(scene.scene.add_mesh(mesh)))
+        },
+    )
+}
+
+/// Places mesh `mesh` by the column-major `transform`: the new object's id
+/// (ids are never reused), or a negative code. `dynamic` non-zero: it will
+/// move ([`hom_scene_set_transform`]); a static object may move too, and is
+/// dynamic from then on.
+///
+/// # Safety
+/// `transform` must be `NULL` or point at 16 floats; `scene` a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_add_object(
+    scene: *mut HomScene,
+    mesh: u32,
+    transform: *const f32,
+    dynamic: i32,
+) -> i64 {
+    guard(
+        i64::from,
+        || {
+            // SAFETY: the caller's promise, passed on (both below).
+            let scene = unsafe { scene_mut(scene) }?;
+            // SAFETY: as above.
+            let m = unsafe { matrix(transform, "transform") }?;
+            let s = &mut scene.scene;
+            let id = if dynamic != 0 {
+                s.add_dynamic_object("object", mesh, m)
+            } else {
+                s.add_object("object", mesh, m)
+            };
+            id.map(i64::from).map_err(|e| invalid(e.to_string()))
+        },
+    )
+}
+
+/// Moves object `object` to the column-major `transform`. 0, or a negative code.
+///
+/// # Safety
+/// `transform` must be `NULL` or point at 16 floats; `scene` a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_set_transform(scene: *mut HomScene, object: u32, transform: *const f32) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on (both below).
+            let scene = unsafe { scene_mut(scene) }?;
+            // SAFETY: as above.
+            let m = unsafe { matrix(transform, "transform") }?;
+            scene
+                .scene
+                .set_transform(object, m)
+                .map_err(|e| invalid(e.to_string()))?;
+            Ok(0)
+        },
+    )
+}
+
+/// Removes object `object` (its id is not reused). 0, or a negative code.
+///
+/// # Safety
+/// `scene` must be `NULL` or a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_remove_object(scene: *mut HomScene, object: u32) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let scene = unsafe { scene_mut(scene) }?;
+            scene.scene.remove_object(object).map_err(|e| invalid(e.to_string()))?;
+            Ok(0)
+        },
+    )
+}
+
+/// Whether object `object` may be chosen as an occluder (non-zero, the
+/// default) or never (0: glass, foliage, grates). 0, or a negative code.
+///
+/// # Safety
+/// `scene` must be `NULL` or a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_set_occluder(scene: *mut HomScene, object: u32, occluder: i32) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let scene = unsafe { scene_mut(scene) }?;
+            scene
+                .scene
+                .set_occluder(object, occluder != 0)
+                .map_err(|e| invalid(e.to_string()))?;
+            Ok(0)
+        },
+    )
+}
+
+/// A culler of `kind` (a `HOM_CULLER_*`) for `scene`, with its defaults
+/// for the scene (occluder budget, selection, coherence, cost model);
+/// `NULL` on error. It follows the scene's changes by itself.
+///
+/// # Safety
+/// `scene` must be `NULL` or a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_culler_new(scene: *const HomScene, kind: i32) -> *mut HomCuller {
+    guard(
+        |_| std::ptr::null_mut(),
+        || {
+            use hom::cull::{FrustumCuller, HomConfig, HomCuller as Hom, HzbCuller, MaskedCuller};
+            // SAFETY: the caller's promise: a live scene.
+            let scene = &unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?.scene;
+            let config = HomConfig::for_scene(scene);
+            let culler: Box<dyn hom::cull::Culler> = match kind {
+                HOM_CULLER_FRUSTUM => Box::new(FrustumCuller::new(scene)),
+                HOM_CULLER_HOM => Box::new(Hom::new(scene, config)),
+                HOM_CULLER_HZB => Box::new(HzbCuller::new(scene, config.with_buffer(()))),
+                HOM_CULLER_MASKED => Box::new(MaskedCuller::new(scene, config.with_buffer(()))),
+                _ => {
+                    return Err(invalid(format!(
+                        "culler kind {kind} is not HOM_CULLER_FRUSTUM (0), HOM_CULLER_HOM (1), HOM_CULLER_HZB (2) or HOM_CULLER_MASKED (3)"
+                    )))
+                }
+            };
+            Ok(Box::into_raw(Box::new(HomCuller {
+                culler,
+                out: hom::cull::CullOutput::default(),
+            })))
+        },
+    )
+}
+
+/// Frees `culler`; `NULL` is fine.
+///
+/// # Safety
+/// `culler` must be `NULL` or come from [`hom_culler_new`], freed once.
+#[no_mangle]
+pub unsafe extern "C" fn hom_culler_free(culler: *mut HomCuller) {
+    if !culler.is_null() {
+        // SAFETY: the caller's promise: made by `Box::into_raw`, not freed before.
+        drop(unsafe { Box::from_raw(culler) });
+    }
+}
+
+/// Culls `scene` (the one `culler` was made for) for a `width` × `height`
+/// image seen through the column-major `view_proj` in `clip` (a
+/// `HOM_CLIP_*`): writes the ids of the objects to draw, ascending, to
+/// `visible` (at most `capacity` of them) and returns how many there are —
+/// more than `capacity` means the list was cut: call again with room for
+/// all. A negative code on error.
+///
+/// # Safety
+/// `view_proj` must be `NULL` or point at 16 floats, `visible` at
+/// `capacity` writable `uint32_t` (or be `NULL` with `capacity` 0);
+/// `culler` and `scene` live.
+#[no_mangle]
+pub unsafe extern "C" fn hom_culler_cull(
+    culler: *mut HomCuller,
+    scene: *const HomScene,
+    view_proj: *const f32,
+    width: u32,
+    height: u32,
+    clip: i32,
+    visible: *mut u32,
+    capacity: usize,
+) -> i64 {
+    guard(
+        i64::from,
+        || {
+            // SAFETY: the caller's promise: a live culler, used by this thread alone.
+            let c = unsafe { culler.as_mut() }.ok_or_else(|| null("culler"))?;
+            // SAFETY: the caller's promise: a live scene.
+            let scene = &unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?.scene;
+            // SAFETY: as above, for the matrix.
+            let m = unsafe { matrix(view_proj, "view_proj") }?;
+            if capacity > 0 && visible.is_null() {
+                return Err(null("visible"));
+            }
+            if !visible.is_aligned() {
+                return Err(invalid("visible is not aligned to 4 bytes"));
+            }
+            if capacity > MAX_COUNT {
+                return Err(invalid(format!("capacity {capacity}: at most {MAX_COUNT}")));
+            }
+            let view = hom::geom::View::new(m, width, height, clip_of(clip)?);
+            c.culler
+                .cull(scene, &view, &mut c.out)
+                .map_err(|e| invalid(e.to_string()))?;
+            let n = c.out.visible.len().min(capacity);
+            if n > 0 {
+                // SAFETY: not NULL, aligned, `capacity` (≥ n) writable values by
+                // the caller's promise, and no Rust reference aliases them.
+                let dst = unsafe { std::slice::from_raw_parts_mut(visible, n) };
+                dst.copy_from_slice(&c.out.visible[..n]);
+            }
+            Ok(c.out.visible.len() as i64)
+        },
+    )
+}
+
+/// Tells `culler` the frame's time once drawn, in milliseconds (negative:
+/// unknown): what its cost model learns whether occlusion culling pays from.
+/// 0, or a negative code.
+///
+/// # Safety
+/// `culler` must be `NULL` or a live culler.
+#[no_mangle]
+pub unsafe extern "C" fn hom_culler_frame_done(culler: *mut HomCuller, frame_ms: f64) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise: a live culler.
+            let c = unsafe { culler.as_mut() }.ok_or_else(|| null("culler"))?;
+            c.culler
+                .frame_done((frame_ms >= 0.0 && frame_ms.is_finite()).then_some(frame_ms));
+            Ok(0)
+        },
+    )
 }
