@@ -652,18 +652,14 @@ pub unsafe extern "C" fn hom_scene_add_mesh(
     indices: *const u32,
     index_count: usize,
 ) -> i64 {
-    guard(
-        i64::from,
-        || {
-            // SAFETY: the caller's promise, passed on (both below).
-            let scene = unsafe { scene_mut(scene) }?;
-            // SAFETY: as above.
-            let (points, triangles) =
-                unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
-            let mesh = hom::scene::Mesh::new("mesh", points, triangles).map_err(|e| invalid(e.to_string()))?;
-            Ok(i64::from(scene.scene.add_mesh(mesh)))
-        },
-    )
+    guard(i64::from, || {
+        // SAFETY: the caller's promise, passed on (both below).
+        let scene = unsafe { scene_mut(scene) }?;
+        // SAFETY: as above.
+        let (points, triangles) = unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
+        let mesh = hom::scene::Mesh::new("mesh", points, triangles).map_err(|e| invalid(e.to_string()))?;
+        Ok(i64::from(scene.scene.add_mesh(mesh)))
+    })
 }
 
 /// Places mesh `mesh` by the column-major `transform`: the new object's id
@@ -680,22 +676,19 @@ pub unsafe extern "C" fn hom_scene_add_object(
     transform: *const f32,
     dynamic: i32,
 ) -> i64 {
-    guard(
-        i64::from,
-        || {
-            // SAFETY: the caller's promise, passed on (both below).
-            let scene = unsafe { scene_mut(scene) }?;
-            // SAFETY: as above.
-            let m = unsafe { matrix(transform, "transform") }?;
-            let s = &mut scene.scene;
-            let id = if dynamic != 0 {
-                s.add_dynamic_object("object", mesh, m)
-            } else {
-                s.add_object("object", mesh, m)
-            };
-            id.map(i64::from).map_err(|e| invalid(e.to_string()))
-        },
-    )
+    guard(i64::from, || {
+        // SAFETY: the caller's promise, passed on (both below).
+        let scene = unsafe { scene_mut(scene) }?;
+        // SAFETY: as above.
+        let m = unsafe { matrix(transform, "transform") }?;
+        let s = &mut scene.scene;
+        let id = if dynamic != 0 {
+            s.add_dynamic_object("object", mesh, m)
+        } else {
+            s.add_object("object", mesh, m)
+        };
+        id.map(i64::from).map_err(|e| invalid(e.to_string()))
+    })
 }
 
 /// Moves object `object` to the column-major `transform`. 0, or a negative code.
@@ -826,38 +819,35 @@ pub unsafe extern "C" fn hom_culler_cull(
     visible: *mut u32,
     capacity: usize,
 ) -> i64 {
-    guard(
-        i64::from,
-        || {
-            // SAFETY: the caller's promise: a live culler, used by this thread alone.
-            let c = unsafe { culler.as_mut() }.ok_or_else(|| null("culler"))?;
-            // SAFETY: the caller's promise: a live scene.
-            let scene = &unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?.scene;
-            // SAFETY: as above, for the matrix.
-            let m = unsafe { matrix(view_proj, "view_proj") }?;
-            if capacity > 0 && visible.is_null() {
-                return Err(null("visible"));
-            }
-            if !visible.is_aligned() {
-                return Err(invalid("visible is not aligned to 4 bytes"));
-            }
-            if capacity > MAX_COUNT {
-                return Err(invalid(format!("capacity {capacity}: at most {MAX_COUNT}")));
-            }
-            let view = hom::geom::View::new(m, width, height, clip_of(clip)?);
-            c.culler
-                .cull(scene, &view, &mut c.out)
-                .map_err(|e| invalid(e.to_string()))?;
-            let n = c.out.visible.len().min(capacity);
-            if n > 0 {
-                // SAFETY: not NULL, aligned, `capacity` (≥ n) writable values by
-                // the caller's promise, and no Rust reference aliases them.
-                let dst = unsafe { std::slice::from_raw_parts_mut(visible, n) };
-                dst.copy_from_slice(&c.out.visible[..n]);
-            }
-            Ok(c.out.visible.len() as i64)
-        },
-    )
+    guard(i64::from, || {
+        // SAFETY: the caller's promise: a live culler, used by this thread alone.
+        let c = unsafe { culler.as_mut() }.ok_or_else(|| null("culler"))?;
+        // SAFETY: the caller's promise: a live scene.
+        let scene = &unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?.scene;
+        // SAFETY: as above, for the matrix.
+        let m = unsafe { matrix(view_proj, "view_proj") }?;
+        if capacity > 0 && visible.is_null() {
+            return Err(null("visible"));
+        }
+        if !visible.is_aligned() {
+            return Err(invalid("visible is not aligned to 4 bytes"));
+        }
+        if capacity > MAX_COUNT {
+            return Err(invalid(format!("capacity {capacity}: at most {MAX_COUNT}")));
+        }
+        let view = hom::geom::View::new(m, width, height, clip_of(clip)?);
+        c.culler
+            .cull(scene, &view, &mut c.out)
+            .map_err(|e| invalid(e.to_string()))?;
+        let n = c.out.visible.len().min(capacity);
+        if n > 0 {
+            // SAFETY: not NULL, aligned, `capacity` (≥ n) writable values by
+            // the caller's promise, and no Rust reference aliases them.
+            let dst = unsafe { std::slice::from_raw_parts_mut(visible, n) };
+            dst.copy_from_slice(&c.out.visible[..n]);
+        }
+        Ok(c.out.visible.len() as i64)
+    })
 }
 
 /// Tells `culler` the frame's time once drawn, in milliseconds (negative:
