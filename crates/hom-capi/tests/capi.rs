@@ -298,8 +298,9 @@ fn the_header_is_cbindgens_output() {
 
 /// A scene built through the C ABI and culled there gives the same visible
 /// ids as the same scene culled in Rust, frame after frame with objects
-/// moving and one removed, for every culler kind; the ids come ascending and
-/// the count says when the caller's array was too short.
+/// moving and one removed, for every culler kind, and never culls an object
+/// the oracle (the reference renderer's item buffer) sees; the ids come
+/// ascending and the count says when the caller's array was too short.
 #[test]
 fn scene_culls_equal_rusts() {
     use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller as Hom, HzbCuller, MaskedCuller};
@@ -346,6 +347,8 @@ fn scene_culls_equal_rusts() {
         let c_cullers: Vec<*mut HomCuller> = kinds.iter().map(|&k| hom_culler_new(c, k)).collect();
         assert!(c_cullers.iter().all(|p| !p.is_null()), "{}", last_error());
         let mut culled_some = false;
+        let renderer = hom_render::Renderer::new(1).expect("a render thread");
+        let mut fb = hom_render::Framebuffer::new(160, 120);
         for frame in 0..12 {
             if frame == 5 {
                 rust.remove_object(7).unwrap();
@@ -356,7 +359,11 @@ fn scene_culls_equal_rusts() {
                 rust.set_transform(i as u32, model).unwrap();
                 assert_eq!(hom_scene_set_transform(c, i as u32, model.to_cols_array().as_ptr()), 0);
             }
-            let vp = view_proj(Vec3::new(frame as f32 - 6.0, 1.5, 14.0), false);
+            let eye = Vec3::new(frame as f32 - 6.0, 1.5, 14.0);
+            let camera = hom::geom::Camera::new(eye, Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 1.0, 0.1, 200.0, 160, 120);
+            let vp = camera.view_proj();
+            // The oracle: every object owning a pixel of the full image must be drawn.
+            let pixels = hom_render::oracle_pixel_counts(&renderer, &rust, &camera, &mut fb);
             for (r, &k) in rust_cullers.iter_mut().zip(&c_cullers) {
                 let mut out = CullOutput::default();
                 let view = hom::geom::View::new(vp, 160, 120, ClipConvention::ZeroToOne);
@@ -374,6 +381,14 @@ fn scene_culls_equal_rusts() {
                 );
                 assert_eq!(n, out.visible.len() as i64, "{}", last_error());
                 assert_eq!(&ids[..n as usize], &out.visible[..], "frame {frame}");
+                for (id, &owned) in pixels.iter().enumerate() {
+                    let drawn = ids[..n as usize].binary_search(&(id as u32)).is_ok();
+                    assert!(
+                        owned == 0 || drawn,
+                        "{}: object {id} owns {owned} pixels but was culled",
+                        r.name()
+                    );
+                }
                 culled_some |= r.name() != "frustum" && !out.occluded.is_empty();
                 // A short array: the count, and the first ids.
                 let mut two = [0u32; 2];
