@@ -186,6 +186,15 @@ fn code_of(v: Visibility) -> i32 {
     }
 }
 
+/// The answer for the box `min`..`max` placed by `m`: `HOM_VISIBLE` for a
+/// NaN corner, never culled (`Aabb::new`'s min/max would drop the NaN).
+fn test_box(buffer: &mut HomBuffer, min: Vec3, max: Vec3, m: &Mat4) -> i32 {
+    if min.is_nan() || max.is_nan() {
+        return HOM_VISIBLE;
+    }
+    code_of(buffer.inner.test_aabb(&Aabb::new(min, max), m))
+}
+
 /// `n` values of `T` at `p`, checked for `NULL` (when `n > 0`), alignment and size.
 ///
 /// # Safety
@@ -340,37 +349,9 @@ pub unsafe extern "C" fn hom_buffer_render_triangles(
             let buffer = unsafe { buffer_mut(buffer) }?;
             // SAFETY: the caller's promise, passed on.
             let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
-            if vertex_count > MAX_COUNT || index_count > MAX_COUNT {
-                return Err(invalid(format!(
-                    "{vertex_count} vertices, {index_count} indices: at most {MAX_COUNT} each"
-                )));
-            }
-            if !index_count.is_multiple_of(3) {
-                return Err(invalid(format!(
-                    "index_count {index_count} is not a multiple of 3 (three indices a triangle)"
-                )));
-            }
-            if stride_bytes < 12 || !stride_bytes.is_multiple_of(4) {
-                return Err(invalid(format!(
-                    "stride_bytes {stride_bytes}: at least 12 (three floats) and a multiple of 4"
-                )));
-            }
-            let floats = match vertex_count {
-                0 => 0,
-                n => (n - 1)
-                    .checked_mul(stride_bytes / 4)
-                    .and_then(|f| f.checked_add(3))
-                    .ok_or_else(|| invalid(format!("{vertex_count} vertices of {stride_bytes} bytes overflow")))?,
-            };
-            // SAFETY: the caller's promise: the positions span these floats.
-            let raw = unsafe { read_slice(positions, floats, "positions") }?;
-            let step = stride_bytes / 4;
-            let points: Vec<Vec3> = (0..vertex_count)
-                .map(|i| Vec3::from_slice(&raw[i * step..i * step + 3]))
-                .collect();
-            // SAFETY: the caller's promise, passed on.
-            let flat = unsafe { read_slice(indices, index_count, "indices") }?;
-            let triangles: Vec<[u32; 3]> = flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            // SAFETY: as above.
+            let (points, triangles) =
+                unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
             buffer
                 .inner
                 .render_triangles(&points, &triangles, &m, FaceCull::None)
@@ -403,10 +384,7 @@ pub unsafe extern "C" fn hom_buffer_test_aabb(
             let (min, max) = (unsafe { vec3(min, "min") }?, unsafe { vec3(max, "max") }?);
             // SAFETY: as above.
             let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
-            if min.is_nan() || max.is_nan() {
-                return Ok(HOM_VISIBLE); // never culled; Aabb::new's min/max would drop the NaN
-            }
-            Ok(code_of(buffer.inner.test_aabb(&Aabb::new(min, max), &m)))
+            Ok(test_box(buffer, min, max, &m))
         },
     )
 }
@@ -457,12 +435,7 @@ pub unsafe extern "C" fn hom_buffer_test_aabbs(
                 unsafe { std::slice::from_raw_parts_mut(results, count) }
             };
             for (b, out) in boxes.chunks_exact(6).zip(results.iter_mut()) {
-                let (min, max) = (Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]));
-                *out = if min.is_nan() || max.is_nan() {
-                    HOM_VISIBLE
-                } else {
-                    code_of(buffer.inner.test_aabb(&Aabb::new(min, max), &m))
-                };
+                *out = test_box(buffer, Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]), &m);
             }
             Ok(0)
         },
@@ -566,8 +539,9 @@ unsafe fn scene_mut<'a>(scene: *mut HomScene) -> Result<&'a mut HomScene, Fail> 
 }
 
 /// The positions at `positions` (`vertex_count` of them, `stride_bytes`
-/// apart) and the triangles of `index_count` indices at `indices`, checked
-/// as [`hom_buffer_render_triangles`] checks them.
+/// apart) and the triangles of `index_count` indices at `indices`, after
+/// the checks every call taking a mesh makes ([`hom_buffer_render_triangles`],
+/// [`hom_scene_add_mesh`]): counts, stride, alignment, overflow.
 ///
 /// # Safety
 /// As [`hom_buffer_render_triangles`]'s pointers.
