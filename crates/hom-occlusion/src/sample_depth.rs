@@ -131,31 +131,21 @@ mod tests {
     use crate::raster::setup::{setup_triangle, Vertex, Viewport};
     use crate::DEPTH_MARGIN;
     use glam::Vec4;
-
-    /// A small xorshift for the random triangles.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use hom_testkit::Rng;
 
     /// `n` random triangles in clip space, a few of them crossing the near
     /// plane or the viewport's sides, set up for `vp`.
     fn random_tris(rng: &mut Rng, n: usize, vp: &Viewport, depth: (f32, f32), size: f32) -> Vec<Tri> {
         let mut out = Vec::new();
         for _ in 0..n {
-            let (cx, cy) = (rng.next() * 2.4 - 1.2, rng.next() * 2.4 - 1.2);
+            let (cx, cy) = (rng.unit() * 2.4 - 1.2, rng.unit() * 2.4 - 1.2);
             let v = [0, 1, 2].map(|_| {
-                let w = 1.0 + rng.next() * 4.0;
-                let z = depth.0 + rng.next() * (depth.1 - depth.0);
-                let near = if rng.next() < 0.03 { -0.5 } else { z };
+                let w = 1.0 + rng.unit() * 4.0;
+                let z = depth.0 + rng.unit() * (depth.1 - depth.0);
+                let near = if rng.unit() < 0.03 { -0.5 } else { z };
                 Vec4::new(
-                    (cx + (rng.next() - 0.5) * size) * w,
-                    (cy + (rng.next() - 0.5) * size) * w,
+                    (cx + (rng.unit() - 0.5) * size) * w,
+                    (cy + (rng.unit() - 0.5) * size) * w,
                     near * w,
                     w,
                 )
@@ -192,57 +182,36 @@ mod tests {
     }
 
     /// The answers equal the reference's, on odd viewports, with queries in
-    /// front of, among and behind the occluders.
+    /// front of, among and behind the occluders: [`SampleDepths`]'s, and the
+    /// hierarchical Z-buffer's own ([`crate::hzb::TiledZBuffer::triangles_hidden`],
+    /// with its tile skip) drawn by its tiled rasterizer on the pool.
     #[test]
     fn hidden_equals_the_full_z_buffer() {
-        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
         let mut depths = SampleDepths::new();
-        let (mut hidden, mut seen) = (0, 0);
-        for case in 0..300 {
-            let (w, h) = (40 + (rng.next() * 200.0) as u32, 30 + (rng.next() * 100.0) as u32);
-            let vp = Viewport::new(w, h);
-            let occluders = random_tris(&mut rng, 1 + case % 12, &vp, (0.3, 0.6), 2.5);
-            depths.begin(w, h, &occluders, RasterBackend::active(), false);
-            for _ in 0..4 {
-                let far = rng.next() < 0.5;
-                let range = if far { (0.6, 0.9) } else { (0.1, 0.9) };
-                let n = 1 + (rng.next() * 3.0) as usize;
-                let query = random_tris(&mut rng, n, &vp, range, 0.6);
-                let want = hidden_reference(&occluders, &query, w, h);
-                assert_eq!(depths.hidden(&query), want, "case {case}");
-                hidden += usize::from(want);
-                seen += usize::from(!want);
-            }
-        }
-        // Both answers occur often enough to test something.
-        assert!(hidden > 100 && seen > 100, "hidden {hidden}, seen {seen}");
-    }
-
-    /// The hierarchical Z-buffer's own per-sample answer
-    /// ([`crate::hzb::TiledZBuffer::triangles_hidden`], with its tile skip)
-    /// equals the reference too, drawn by its tiled rasterizer.
-    #[test]
-    fn tiled_z_buffer_answers_the_same() {
-        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
         let mut raster = crate::hzb::raster::TiledRasterizer::new();
         let mut zb = crate::hzb::TiledZBuffer::default();
         let (mut hidden, mut seen) = (0, 0);
         for case in 0..300 {
-            let (w, h) = (40 + (rng.next() * 200.0) as u32, 30 + (rng.next() * 100.0) as u32);
+            let (w, h) = (40 + (rng.unit() * 200.0) as u32, 30 + (rng.unit() * 100.0) as u32);
             let vp = Viewport::new(w, h);
             let occluders = random_tris(&mut rng, 1 + case % 12, &vp, (0.3, 0.6), 2.5);
+            depths.begin(w, h, &occluders, RasterBackend::active(), false);
             zb.clear(w, h);
-            raster.render_with(&occluders, &mut zb, false);
+            raster.render_with(&occluders, &mut zb, true);
             for _ in 0..4 {
-                let range = if rng.next() < 0.5 { (0.6, 0.9) } else { (0.1, 0.9) };
-                let n = 1 + (rng.next() * 3.0) as usize;
+                let far = rng.unit() < 0.5;
+                let range = if far { (0.6, 0.9) } else { (0.1, 0.9) };
+                let n = 1 + (rng.unit() * 3.0) as usize;
                 let query = random_tris(&mut rng, n, &vp, range, 0.6);
                 let want = hidden_reference(&occluders, &query, w, h);
+                assert_eq!(depths.hidden(&query), want, "case {case}");
                 assert_eq!(zb.triangles_hidden(&query), want, "case {case}");
                 hidden += usize::from(want);
                 seen += usize::from(!want);
             }
         }
+        // Both answers occur often enough to test something.
         assert!(hidden > 100 && seen > 100, "hidden {hidden}, seen {seen}");
     }
 
