@@ -6,6 +6,7 @@ use hom_capi::*;
 use hom_occlusion::geom::Aabb;
 use hom_occlusion::glam::{Mat4, Vec3};
 use hom_occlusion::{BufferOptions, ClipConvention, FaceCull, HzBuffer, MaskedBuffer, OcclusionBuffer, Visibility};
+use hom_testkit::Rng;
 use std::ffi::CStr;
 
 fn last_error() -> String {
@@ -45,17 +46,6 @@ fn view_proj(eye: Vec3, reversed: bool) -> Mat4 {
     proj * look_at_mat4(eye, Vec3::new(0.0, 1.0, 0.0), Vec3::Y)
 }
 
-/// xorshift64*, enough for scene layouts.
-struct Rng(u64);
-impl Rng {
-    fn unit(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 /// Random boxes drawn and tested through the C ABI and through the Rust
 /// front door, the same buffer kind each: every answer equal (the
 /// buffers' own tests check them against brute force). Positions carry a
@@ -63,7 +53,7 @@ impl Rng {
 #[test]
 fn answers_equal_the_front_doors() {
     let (corners, indices) = cube();
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut answers = [0usize; 3];
     for case in 0..40 {
         let reversed = case % 2 == 0;
@@ -306,7 +296,7 @@ fn scene_culls_equal_rusts() {
     use hom::cull::{CullOutput, Culler, FrustumCuller, HomConfig, HomCuller as Hom, HzbCuller, MaskedCuller};
     let (corners, indices) = cube();
     let flat: Vec<f32> = corners.concat();
-    let mut rng = Rng(0x1234_5678_9abc_def1);
+    let mut rng = Rng::new(0x1234_5678_9abc_def1);
     let mut rust = hom::scene::Scene::new("rust");
     let points: Vec<Vec3> = corners.iter().map(|&p| Vec3::from(p)).collect();
     let tris: Vec<[u32; 3]> = indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
