@@ -222,6 +222,47 @@ unsafe fn read_slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T]
     Ok(unsafe { std::slice::from_raw_parts(p, n) })
 }
 
+/// `n` writable values of `T` at `p`, checked for `NULL` (when `n > 0`),
+/// alignment (always) and size: the output twin of [`read_slice`].
+///
+/// # Safety
+/// When the checks pass, `p` must point at `n` writable values of `T` that
+/// nothing else refers to during the call.
+unsafe fn write_slice<'a, T>(p: *mut T, n: usize, what: &str) -> Result<&'a mut [T], Fail> {
+    if n > 0 && p.is_null() {
+        return Err(null(what));
+    }
+    if !p.is_aligned() {
+        return Err(invalid(format!(
+            "{what} is not aligned to {} bytes",
+            std::mem::align_of::<T>()
+        )));
+    }
+    if n == 0 {
+        return Ok(&mut []);
+    }
+    if n.checked_mul(std::mem::size_of::<T>())
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(invalid(format!("{what}: {n} values do not fit in memory")));
+    }
+    // SAFETY: not NULL, aligned, the byte size fits isize, and the caller
+    // promises `n` writable values no one else refers to; the slice lives
+    // only for this call.
+    Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
+}
+
+/// Frees what `Box::into_raw` made of a handle; `NULL` is fine.
+///
+/// # Safety
+/// `p` must be `NULL` or come from `Box::into_raw`, freed once.
+unsafe fn free_box<T>(p: *mut T) {
+    if !p.is_null() {
+        // SAFETY: the caller's promise: made by `Box::into_raw`, not freed before.
+        drop(unsafe { Box::from_raw(p) });
+    }
+}
+
 /// The column-major matrix at `m`.
 ///
 /// # Safety
@@ -299,11 +340,8 @@ pub extern "C" fn hom_buffer_new_kind(kind: i32, width: u32, height: u32, clip: 
 /// `buffer` must be `NULL` or come from `hom_buffer_new*`, freed once.
 #[no_mangle]
 pub unsafe extern "C" fn hom_buffer_free(buffer: *mut HomBuffer) {
-    if !buffer.is_null() {
-        // SAFETY: the caller's promise: made by `Box::into_raw` in
-        // `hom_buffer_new_kind`, not freed before.
-        drop(unsafe { Box::from_raw(buffer) });
-    }
+    // SAFETY: the caller's promise, passed on.
+    unsafe { free_box(buffer) }
 }
 
 /// Empties `buffer` for a new frame. Returns 0, or `HOM_ERROR_NULL`.
@@ -419,21 +457,9 @@ pub unsafe extern "C" fn hom_buffer_test_aabbs(
             }
             // SAFETY: as above.
             let boxes = unsafe { read_slice(boxes, 6 * count, "boxes") }?;
-            if count > 0 && results.is_null() {
-                return Err(null("results"));
-            }
-            if !results.is_aligned() {
-                return Err(invalid("results is not aligned to 4 bytes"));
-            }
-            let results: &mut [i32] = if count == 0 {
-                &mut []
-            } else {
-                // SAFETY: not NULL, aligned, `count` values fit in memory (the
-                // boxes did, at six times the size), writable by the caller's
-                // promise; `boxes` (floats) cannot be the same memory without
-                // the caller breaking C's own aliasing rules.
-                unsafe { std::slice::from_raw_parts_mut(results, count) }
-            };
+            // SAFETY: as above; `boxes` (floats) cannot be the same memory
+            // without the caller breaking C's own aliasing rules.
+            let results = unsafe { write_slice(results, count, "results") }?;
             for (b, out) in boxes.chunks_exact(6).zip(results.iter_mut()) {
                 *out = test_box(buffer, Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]), &m);
             }
@@ -604,10 +630,8 @@ pub extern "C" fn hom_scene_new() -> *mut HomScene {
 /// `scene` must be `NULL` or come from [`hom_scene_new`], freed once.
 #[no_mangle]
 pub unsafe extern "C" fn hom_scene_free(scene: *mut HomScene) {
-    if !scene.is_null() {
-        // SAFETY: the caller's promise: made by `Box::into_raw`, not freed before.
-        drop(unsafe { Box::from_raw(scene) });
-    }
+    // SAFETY: the caller's promise, passed on.
+    unsafe { free_box(scene) }
 }
 
 /// Adds a mesh (positions with a stride, three indices a triangle, as
@@ -765,10 +789,8 @@ pub unsafe extern "C" fn hom_culler_new(scene: *const HomScene, kind: i32) -> *m
 /// `culler` must be `NULL` or come from [`hom_culler_new`], freed once.
 #[no_mangle]
 pub unsafe extern "C" fn hom_culler_free(culler: *mut HomCuller) {
-    if !culler.is_null() {
-        // SAFETY: the caller's promise: made by `Box::into_raw`, not freed before.
-        drop(unsafe { Box::from_raw(culler) });
-    }
+    // SAFETY: the caller's promise, passed on.
+    unsafe { free_box(culler) }
 }
 
 /// Culls `scene` (the one `culler` was made for) for a `width` × `height`
@@ -800,12 +822,8 @@ pub unsafe extern "C" fn hom_culler_cull(
         let scene = &unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?.scene;
         // SAFETY: as above, for the matrix.
         let m = unsafe { matrix(view_proj, "view_proj") }?;
-        if capacity > 0 && visible.is_null() {
-            return Err(null("visible"));
-        }
-        if !visible.is_aligned() {
-            return Err(invalid("visible is not aligned to 4 bytes"));
-        }
+        // SAFETY: the caller's promise: `capacity` writable ids.
+        let visible = unsafe { write_slice(visible, capacity, "visible") }?;
         if capacity > MAX_COUNT {
             return Err(invalid(format!("capacity {capacity}: at most {MAX_COUNT}")));
         }
@@ -814,12 +832,7 @@ pub unsafe extern "C" fn hom_culler_cull(
             .cull(scene, &view, &mut c.out)
             .map_err(|e| invalid(e.to_string()))?;
         let n = c.out.visible.len().min(capacity);
-        if n > 0 {
-            // SAFETY: not NULL, aligned, `capacity` (≥ n) writable values by
-            // the caller's promise, and no Rust reference aliases them.
-            let dst = unsafe { std::slice::from_raw_parts_mut(visible, n) };
-            dst.copy_from_slice(&c.out.visible[..n]);
-        }
+        visible[..n].copy_from_slice(&c.out.visible[..n]);
         Ok(c.out.visible.len() as i64)
     })
 }
