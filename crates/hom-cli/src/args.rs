@@ -474,6 +474,11 @@ pub struct WalkArgs {
     /// PVS then the culler, and the oracle. Adds `pvs_` fields to the report.
     #[arg(long)]
     pub pvs: bool,
+    /// With --pvs: measure the PVS the map's leaf portals give instead of the map's own
+    /// (built from the BSP tree at load, object by object, per cluster; its build time is
+    /// printed).
+    #[arg(long, requires = "pvs")]
+    pub pvs_portals: bool,
     /// A PVS baked by `hom pvs bake` for this scene: objects its cell hides are not drawn, after
     /// `--culler` (frustum: the PVS alone; hom: PVS then HOM). With --oracle the report gains
     /// `pvs_` fields as with --pvs.

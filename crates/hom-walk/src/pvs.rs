@@ -68,6 +68,25 @@ impl ClusterPvs for BspMap {
     }
 }
 
+/// The PVS a map's leaf portals give ([`BspMap::portal_pvs`]: object by
+/// object, per cluster), as the yardstick's cluster visibility.
+pub struct PortalPvsView<'a> {
+    /// The map (its tree finds the eye's cluster).
+    pub map: &'a BspMap,
+    /// What each cluster sees through the portals.
+    pub portals: &'a hom_scene::bsp::PortalPvs,
+}
+
+impl ClusterPvs for PortalPvsView<'_> {
+    fn camera_cluster(&self, eye: Vec3) -> Option<i32> {
+        self.map.cluster_of(eye)
+    }
+
+    fn object_visible_from(&self, id: u32, from: i32) -> bool {
+        self.portals.object_visible_from(id, from)
+    }
+}
+
 /// A PVS baked by hom ([`hom::pvs::Pvs`]) as the yardstick's cluster
 /// visibility, for one frame's view: its "cluster" is the eye's cell (a node
 /// id), `None` where the PVS does not serve the view. Objects that have

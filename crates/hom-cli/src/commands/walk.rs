@@ -9,7 +9,7 @@ use crate::table::print_table;
 use anyhow::{bail, Context, Result};
 use hom::pvs::Pvs;
 use hom_render::Renderer;
-use hom_scene::bsp::BspMap;
+use hom_scene::bsp::{BspMap, PortalPvs};
 use hom_walk::pvs::{self, PvsSummary};
 use hom_walk::report;
 use hom_walk::{pictures, WalkOptions, WalkResult};
@@ -42,6 +42,20 @@ pub fn run(a: WalkArgs) -> Result<()> {
     if a.pvs && a.pvs_file.is_some() {
         bail!("--pvs (the map's own PVS) and --pvs-file (a baked one) measure one PVS at a time: give one");
     }
+    let portals = match (&map, a.pvs_portals) {
+        (Some(m), true) => {
+            let start = std::time::Instant::now();
+            let p = m.portal_pvs().context("building the map's leaf portals")?;
+            eprintln!(
+                "leaf portals: {} portals between {} clustered leaves, followed in {:.1} s",
+                p.portal_count(),
+                p.leaf_count(),
+                start.elapsed().as_secs_f64()
+            );
+            Some(p)
+        }
+        _ => None,
+    };
     let baked = a
         .pvs_file
         .as_deref()
@@ -69,7 +83,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         &renderer,
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
-        map.as_ref(),
+        map.as_ref().map(|m| (m, portals.as_ref())),
         baked.clone(),
     )
     .with_context(|| match &a.report {
@@ -142,7 +156,8 @@ pub fn run_walk(
 }
 
 /// [`run_walk`], measuring each frame against `pvs` (a Quake 3 map whose scene is
-/// `scene`) where given: the report's frame and summary lines gain `pvs_` fields.
+/// `scene`, with the PVS its leaf portals give where that is given, else its own)
+/// where given: the report's frame and summary lines gain `pvs_` fields.
 /// With `baked`, the culler is that PVS then `culler_name`, and with the oracle
 /// the frames are measured against it the same way.
 #[allow(clippy::too_many_arguments)]
@@ -153,7 +168,7 @@ fn run_walk_pvs(
     renderer: &Renderer,
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
-    pvs: Option<&BspMap>,
+    pvs: Option<(&BspMap, Option<&PortalPvs>)>,
     baked: Option<Arc<Pvs>>,
 ) -> Result<(WalkResult, Option<PvsSummary>)> {
     let Walkthrough { scene, path, animation } = w;
@@ -182,7 +197,11 @@ fn run_walk_pvs(
         // The map's scene is the walked one (Quake 3 maps are static).
         let camera = path.camera(record.frame);
         let frame = match (pvs, measure_baked) {
-            (Some(map), _) => Some(pvs::pvs_for_record(map, &map.scene, &camera, record)),
+            (Some((map, None)), _) => Some(pvs::pvs_for_record(map, &map.scene, &camera, record)),
+            (Some((map, Some(portals))), _) => {
+                let view = pvs::PortalPvsView { map, portals };
+                Some(pvs::pvs_for_record(&view, &map.scene, &camera, record))
+            }
             (None, Some(baked)) => {
                 let start = start_scene.as_ref().expect("copied when measuring");
                 let view = pvs::BakedPvsView::new(baked, start, &camera.to_view());

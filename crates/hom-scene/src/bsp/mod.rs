@@ -30,11 +30,13 @@
 mod entities;
 mod error;
 mod pk3;
+mod portals;
 mod pvs;
 
 pub use entities::Entity;
 pub use error::BspError;
 pub use pk3::{pk3_maps, read_pk3};
+pub use portals::PortalPvs;
 
 use pk3::{entry_map_name, read_capped, Capped};
 use pvs::{read_pvs, Pvs};
@@ -217,6 +219,9 @@ pub struct BspMap {
     /// For each object (by id): the sorted clusters of the leaves holding its faces.
     /// Empty when no leaf with a cluster holds them.
     pub object_clusters: Vec<Vec<i32>>,
+    /// For each object (by id): the sorted clustered leaves whose face lists
+    /// hold its faces (the cells it lies in for [`BspMap::leaf_portals`]).
+    pub object_leaves: Vec<Vec<u32>>,
     /// Eye height used by [`BspMap::camera_path`], metres above each spawn origin.
     pub eye_height: f32,
     /// Speed used by [`BspMap::camera_path`], metres per second.
@@ -774,24 +779,24 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     }
 
     let pvs = read_pvs(&lumps)?;
-    // Clusters of every face, via the leaves' face lists.
+    // Clustered leaves of every face, via the leaves' face lists.
     let leaffaces: Vec<i32> = lumps.records(LEAFFACES, 4)?.map(|r| le_i32(r, 0)).collect();
-    let mut face_clusters: Vec<(u32, i32)> = Vec::new();
+    let mut face_leaves: Vec<(u32, u32)> = Vec::new();
     for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
         let cluster = pvs.leaf_cluster[leaf];
         let list = range("leaf", leaf, "leaffaces", le_i32(r, 32), le_i32(r, 36), leaffaces.len())?;
-        if face_clusters.len() + list.len() > budget {
+        if face_leaves.len() + list.len() > budget {
             return Err(too_big());
         }
         for &lf in &leaffaces[list] {
             let face = index("leafface of leaf", leaf, "face", lf, face_records.len())?;
             if cluster >= 0 {
-                face_clusters.push((face as u32, cluster));
+                face_leaves.push((face as u32, leaf as u32));
             }
         }
     }
-    face_clusters.sort_unstable();
-    face_clusters.dedup();
+    face_leaves.sort_unstable();
+    face_leaves.dedup();
 
     // Entities and spawns.
     let entities = entities::parse(lumps.bytes(ENTITIES))?;
@@ -800,6 +805,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     // Objects: opaque faces, then see-through faces, grouped spatially.
     let mut builder = SceneBuilder::new(name);
     let mut object_clusters = Vec::new();
+    let mut object_leaves = Vec::new();
     for see_through in [false, true] {
         let chosen: Vec<&(usize, bool, std::ops::Range<usize>)> = faces.iter().filter(|x| x.1 == see_through).collect();
         let pieces: Vec<Piece> = chosen
@@ -817,15 +823,19 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
                 .iter()
                 .flat_map(|&g| triangles[chosen[g as usize].2.clone()].iter().copied())
                 .collect();
-            let mut clusters: Vec<i32> = Vec::new();
+            let mut leaves: Vec<u32> = Vec::new();
             for &g in &group {
                 let face = chosen[g as usize].0 as u32;
-                let from = face_clusters.partition_point(|x| x.0 < face);
-                clusters.extend(face_clusters[from..].iter().take_while(|x| x.0 == face).map(|x| x.1));
+                let from = face_leaves.partition_point(|x| x.0 < face);
+                leaves.extend(face_leaves[from..].iter().take_while(|x| x.0 == face).map(|x| x.1));
             }
+            leaves.sort_unstable();
+            leaves.dedup();
+            let mut clusters: Vec<i32> = leaves.iter().map(|&l| pvs.leaf_cluster[l as usize]).collect();
             clusters.sort_unstable();
             clusters.dedup();
             object_clusters.push(clusters);
+            object_leaves.push(leaves);
             let scene_err = |source| BspError::BadGeometry { source };
             let mesh = compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
             let mesh = builder.add_mesh(mesh);
@@ -844,6 +854,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         spawns,
         entities,
         object_clusters,
+        object_leaves,
         eye_height: options.eye_height,
         speed: options.speed,
         pvs,

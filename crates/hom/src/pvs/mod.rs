@@ -68,6 +68,7 @@ mod fusion;
 mod margins;
 mod planar_union;
 mod polygons;
+pub mod portals;
 mod region;
 pub(crate) mod solid;
 
