@@ -34,6 +34,9 @@ type Winding = Vec<DVec3>;
 /// polygon on the plane goes to neither (the caller decides).
 fn split(w: &Winding, n: DVec3, d: f64) -> (Winding, Winding) {
     let dist: Vec<f64> = w.iter().map(|p| n.dot(*p) - d).collect();
+    if dist.iter().all(|s| s.abs() <= ON) {
+        return (Vec::new(), Vec::new());
+    }
     let (mut front, mut back) = (Vec::new(), Vec::new());
     for i in 0..w.len() {
         let j = (i + 1) % w.len();
@@ -66,11 +69,14 @@ fn area2(w: &Winding) -> f64 {
     n.length()
 }
 
-/// A square on the plane `n·p = d`, larger than the world.
+/// A square on the plane `n·p = d`, larger than the world. A map's
+/// normals are not unit length in `f64`: the square's axes are made
+/// orthogonal to `n` itself, or its corners would leave the plane by a
+/// hair times the world's size.
 fn base_winding(n: DVec3, d: f64) -> Winding {
-    let centre = n * d;
-    let u = n.any_orthonormal_vector();
-    let v = n.cross(u);
+    let centre = n * (d / n.length_squared());
+    let u = n.normalize().any_orthonormal_vector();
+    let v = n.normalize().cross(u);
     let r = 4.0 * WORLD;
     vec![
         centre - u * r - v * r,
@@ -165,6 +171,63 @@ impl Builder<'_> {
     }
 }
 
+/// The portals between clustered leaves of `pvs`'s tree (hom coordinates).
+fn leaf_portals(pvs: &Pvs) -> Vec<Portal> {
+    let mut builder = Builder {
+        pvs,
+        portals: Vec::new(),
+    };
+    if !pvs.nodes.is_empty() {
+        let mut bounds = Vec::new();
+        for k in 0..3 {
+            let mut n = DVec3::ZERO;
+            n[k] = 1.0;
+            bounds.push((n, -WORLD));
+            bounds.push((-n, -WORLD));
+        }
+        builder.node(0, &mut bounds);
+    }
+    builder.portals
+}
+
+/// The leaves of `pvs`'s tree whose regions the box `lo..hi` (Quake
+/// units) may touch, a hair wide, ascending.
+fn leaves_touching(pvs: &Pvs, lo: DVec3, hi: DVec3) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut stack = vec![if pvs.nodes.is_empty() { -1 } else { 0i32 }];
+    let mut steps = 0usize;
+    while let Some(child) = stack.pop() {
+        steps += 1;
+        if steps > 4 * pvs.nodes.len() + 8 {
+            break; // A cyclic tree (checked at load; never here).
+        }
+        if child < 0 {
+            let leaf = (-(child as i64) - 1) as u32;
+            if (leaf as usize) < pvs.leaf_cluster.len() {
+                out.push(leaf);
+            }
+            continue;
+        }
+        let (plane, front, back) = pvs.nodes[child as usize];
+        let (n, d) = pvs.planes[plane as usize];
+        let (mut smin, mut smax) = (-(d as f64), -(d as f64));
+        for k in 0..3 {
+            let (p, q) = (n[k] as f64 * lo[k], n[k] as f64 * hi[k]);
+            smin += p.min(q);
+            smax += p.max(q);
+        }
+        if smax >= -ON {
+            stack.push(front);
+        }
+        if smin <= ON {
+            stack.push(back);
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
 /// [`super::to_hom`] in `f64`.
 fn quake_to_hom(q: DVec3) -> DVec3 {
     DVec3::new(q.x, q.z, -q.y) * super::INCH as f64
@@ -186,65 +249,16 @@ impl BspMap {
     /// indices; hom coordinates), built from its BSP tree as the module docs
     /// say.
     pub fn leaf_portals(&self) -> Result<PortalGraph, PortalError> {
-        let mut builder = Builder {
-            pvs: &self.pvs,
-            portals: Vec::new(),
-        };
-        if !self.pvs.nodes.is_empty() {
-            let mut bounds = Vec::new();
-            for k in 0..3 {
-                let mut n = DVec3::ZERO;
-                n[k] = 1.0;
-                bounds.push((n, -WORLD));
-                bounds.push((-n, -WORLD));
-            }
-            builder.node(0, &mut bounds);
-        }
-        PortalGraph::new(self.leaf_count(), builder.portals)
+        PortalGraph::new(self.leaf_count(), leaf_portals(&self.pvs))
     }
 
     /// The leaves whose regions `aabb` (hom coordinates) may touch (a hair
     /// wide), each once, ascending.
     pub fn leaves_touching(&self, aabb: &Aabb) -> Vec<u32> {
-        let pvs = &self.pvs;
         let (a, b) = (super::to_quake(aabb.min), super::to_quake(aabb.max));
-        let (lo, hi) = (
-            [0, 1, 2].map(|k| a[k].min(b[k]) as f64),
-            [0, 1, 2].map(|k| a[k].max(b[k]) as f64),
-        );
-        let mut out = Vec::new();
-        let mut stack = vec![if pvs.nodes.is_empty() { -1 } else { 0i32 }];
-        let mut steps = 0usize;
-        while let Some(child) = stack.pop() {
-            steps += 1;
-            if steps > 4 * pvs.nodes.len() + 8 {
-                break; // A cyclic tree (checked at load; never here).
-            }
-            if child < 0 {
-                let leaf = (-(child as i64) - 1) as u32;
-                if (leaf as usize) < pvs.leaf_cluster.len() {
-                    out.push(leaf);
-                }
-                continue;
-            }
-            let (plane, front, back) = pvs.nodes[child as usize];
-            let (n, d) = pvs.planes[plane as usize];
-            let (mut smin, mut smax) = (-(d as f64), -(d as f64));
-            for k in 0..3 {
-                let (p, q) = (n[k] as f64 * lo[k], n[k] as f64 * hi[k]);
-                smin += p.min(q);
-                smax += p.max(q);
-            }
-            if smax >= -0.1 {
-                stack.push(front);
-            }
-            if smin <= 0.1 {
-                stack.push(back);
-            }
-        }
-        out.sort_unstable();
-        out.dedup();
-        out
+        let lo = DVec3::from_array([0, 1, 2].map(|k| a[k].min(b[k]) as f64));
+        let hi = DVec3::from_array([0, 1, 2].map(|k| a[k].max(b[k]) as f64));
+        leaves_touching(&self.pvs, lo, hi)
     }
 
     /// The objects each cluster may see through the map's leaf portals: a
@@ -323,5 +337,164 @@ impl PortalPvs {
     /// Clustered leaves (the sources).
     pub fn leaf_count(&self) -> usize {
         self.leaves
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hom_testkit::Rng;
+
+    /// A random tree over the cube ±100 (Quake units): planes through random
+    /// points in random directions, leaves open (cluster = leaf) or solid.
+    fn random_tree(rng: &mut Rng, depth: u32) -> Pvs {
+        fn grow(rng: &mut Rng, pvs: &mut Pvs, depth: u32) -> i32 {
+            if depth == 0 || (!pvs.nodes.is_empty() && rng.unit() < 0.1) {
+                let leaf = pvs.leaf_cluster.len() as i32;
+                pvs.leaf_cluster.push(if rng.unit() < 0.75 { leaf } else { -1 });
+                return -(leaf + 1);
+            }
+            if !pvs.planes.is_empty() && rng.unit() < 0.15 {
+                // An earlier plane again, either way round: polygons on it.
+                let (n, d) = pvs.planes[rng.below(pvs.planes.len() as u64) as usize];
+                let s = if rng.unit() < 0.5 { 1.0 } else { -1.0 };
+                pvs.planes.push((n.map(|c| c * s), d * s));
+            } else {
+                let n = loop {
+                    let v = rng.vec3(-1.0, 1.0);
+                    if v.length() > 0.2 {
+                        break v.normalize();
+                    }
+                };
+                let at = rng.vec3(-80.0, 80.0);
+                pvs.planes.push((n.to_array(), n.dot(at)));
+            }
+            let node = pvs.nodes.len();
+            pvs.nodes.push((pvs.planes.len() as u32 - 1, 0, 0));
+            let front = grow(rng, pvs, depth - 1);
+            let back = grow(rng, pvs, depth - 1);
+            pvs.nodes[node].1 = front;
+            pvs.nodes[node].2 = back;
+            node as i32
+        }
+        let mut pvs = Pvs::default();
+        grow(rng, &mut pvs, depth);
+        pvs
+    }
+
+    /// The leaf holding `q` (Quake units), the map's rule.
+    fn leaf_at(pvs: &Pvs, q: DVec3) -> u32 {
+        let mut child = if pvs.nodes.is_empty() { -1 } else { 0 };
+        while child >= 0 {
+            let (plane, front, back) = pvs.nodes[child as usize];
+            let (n, d) = pvs.planes[plane as usize];
+            let side = n[0] as f64 * q.x + n[1] as f64 * q.y + n[2] as f64 * q.z - d as f64;
+            child = if side >= 0.0 { front } else { back };
+        }
+        (-(child as i64) - 1) as u32
+    }
+
+    /// Is `x` (hom coordinates) on the polygon, within `tol` metres?
+    fn on_polygon(points: &[DVec3], x: DVec3, tol: f64) -> bool {
+        let n = (1..points.len() - 1)
+            .map(|i| (points[i] - points[0]).cross(points[i + 1] - points[0]))
+            .sum::<DVec3>()
+            .normalize();
+        (n.dot(x - points[0])).abs() <= tol
+            && (0..points.len()).all(|i| {
+                let (a, b) = (points[i], points[(i + 1) % points.len()]);
+                (b - a).cross(x - a).dot(n) >= -tol * (b - a).length()
+            })
+    }
+
+    /// Wherever a segment passes from one open leaf into another, a portal
+    /// joins the two there, its front leaf on its normal's side: the
+    /// portals of random trees tile their planes' open parts.
+    #[test]
+    fn portals_tile_where_open_leaves_meet() {
+        let mut crossings = 0;
+        for seed in 0..200u64 {
+            let mut rng = Rng::new(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) + 1);
+            let pvs = random_tree(&mut rng, 2 + (seed % 5) as u32);
+            let portals = leaf_portals(&pvs);
+            for p in &portals {
+                assert_ne!(p.cells[0], p.cells[1]);
+                assert!(
+                    p.cells.iter().all(|&c| pvs.leaf_cluster[c as usize] >= 0),
+                    "seed {seed}: a solid leaf has a portal"
+                );
+            }
+            for _ in 0..200 {
+                let a = rng.vec3(-100.0, 100.0).as_dvec3();
+                let b = rng.vec3(-100.0, 100.0).as_dvec3();
+                let steps = 400;
+                let mut prev = (a, leaf_at(&pvs, a));
+                for i in 1..=steps {
+                    let x = a + (b - a) * (i as f64 / steps as f64);
+                    let leaf = leaf_at(&pvs, x);
+                    if leaf != prev.1 {
+                        // Bisect to the boundary.
+                        let (mut lo, mut hi) = (prev.0, x);
+                        while (hi - lo).length() > 1e-7 {
+                            let mid = (lo + hi) * 0.5;
+                            if leaf_at(&pvs, mid) == prev.1 {
+                                lo = mid;
+                            } else {
+                                hi = mid;
+                            }
+                        }
+                        let (from, to) = (prev.1, leaf_at(&pvs, hi));
+                        let open = |l: u32| pvs.leaf_cluster[l as usize] >= 0;
+                        if open(from) && open(to) && from != to {
+                            crossings += 1;
+                            let at = quake_to_hom((lo + hi) * 0.5);
+                            let portal = portals.iter().find(|p| {
+                                (p.cells == [from, to] || p.cells == [to, from]) && on_polygon(&p.points, at, 1e-5)
+                            });
+                            let Some(portal) = portal else {
+                                panic!("seed {seed}: no portal between leaves {from} and {to} at {at}");
+                            };
+                            // Its front leaf lies on its normal's side.
+                            let pts = &portal.points;
+                            let n = (1..pts.len() - 1)
+                                .map(|i| (pts[i] - pts[0]).cross(pts[i + 1] - pts[0]))
+                                .sum::<DVec3>()
+                                .normalize();
+                            let entered_front = n.dot(quake_to_hom(hi) - quake_to_hom(lo)) > 0.0;
+                            let front = if entered_front { to } else { from };
+                            assert_eq!(
+                                portal.cells[0], front,
+                                "seed {seed}: the front leaf is behind the portal"
+                            );
+                        }
+                    }
+                    prev = (x, leaf);
+                }
+            }
+        }
+        assert!(
+            crossings > 1000,
+            "the segments should cross open boundaries: {crossings}"
+        );
+    }
+
+    /// Every point of a box lies in a leaf the box is said to touch.
+    #[test]
+    fn boxes_touch_the_leaves_of_their_points() {
+        for seed in 0..100u64 {
+            let mut rng = Rng::new(seed.wrapping_mul(0x2545_f491_4f6c_dd1d) + 5);
+            let pvs = random_tree(&mut rng, 5);
+            let (a, b) = (rng.vec3(-100.0, 100.0).as_dvec3(), rng.vec3(-100.0, 100.0).as_dvec3());
+            let (lo, hi) = (a.min(b), a.max(b));
+            let touching = leaves_touching(&pvs, lo, hi);
+            for _ in 0..200 {
+                let t = DVec3::new(rng.unit_f64(), rng.unit_f64(), rng.unit_f64());
+                let leaf = leaf_at(&pvs, lo + (hi - lo) * t);
+                assert!(
+                    touching.binary_search(&leaf).is_ok(),
+                    "seed {seed}: leaf {leaf} not among {touching:?}"
+                );
+            }
+        }
     }
 }
