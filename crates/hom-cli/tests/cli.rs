@@ -341,6 +341,70 @@ fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
     );
 }
 
+/// A real map's PVS with portal cells (skips without the fetched maps):
+/// the bake and `info` say so, the walk with it culls nothing the oracle
+/// sees, and without `--portals on` they are left out.
+#[test]
+fn pvs_bake_adds_a_maps_portal_cells() {
+    let pk3 = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
+    if !pk3.exists() {
+        eprintln!(
+            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
+            pk3.display()
+        );
+        return;
+    }
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_portals_cli");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = format!("{}:oa_dm1", pk3.display());
+    let (with, without) = (dir.join("with.pvs"), dir.join("without.pvs"));
+    let o = hom(&[
+        "pvs",
+        "bake",
+        "--scene",
+        &spec,
+        "--out",
+        with.to_str().unwrap(),
+        "--portals",
+        "on",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("portal cells"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let o = hom(&["pvs", "bake", "--scene", &spec, "--out", without.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("portal cells"));
+    let o = hom(&["pvs", "info", with.to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("portal cells, hiding"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let o = hom(&[
+        "walk",
+        "--scene",
+        &spec,
+        "--culler",
+        "frustum",
+        "--pvs-file",
+        with.to_str().unwrap(),
+        "--oracle",
+        "--frames",
+        "6",
+        "--width",
+        "96",
+        "--height",
+        "96",
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(text.contains(", 0 oracle-visible objects outside the PVS"), "{text}");
+}
+
 #[test]
 fn pvs_bake_shards_merge_info_walk_and_refusals() {
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_cli");

@@ -35,13 +35,20 @@ pub fn open_map(spec: &str) -> Result<BspMap, LoadError> {
     open_map_with(spec, &hom_scene::LoadOptions::default())
 }
 
+/// Does a scene spec name a Quake 3 map (`FILE.bsp`, `FILE.pk3` or
+/// `FILE.pk3:MAP`), the scenes that carry a PVS and leaf portals?
+pub fn is_map_spec(spec: &str) -> bool {
+    let (file, _) = hom_scene::split_map_spec(Path::new(spec));
+    let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    matches!(ext.as_deref(), Some("bsp") | Some("pk3"))
+}
+
 /// [`open_map`] with the loaders' options (`--clusters`).
 pub fn open_map_with(spec: &str, load: &hom_scene::LoadOptions) -> Result<BspMap, LoadError> {
-    let (file, map) = hom_scene::split_map_spec(Path::new(spec));
-    let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("bsp") | Some("pk3")) {
+    if !is_map_spec(spec) {
         return Err(LoadError::UnknownFormat { path: spec.to_string() });
     }
+    let (file, map) = hom_scene::split_map_spec(Path::new(spec));
     let options = BspOptions {
         map,
         split: load.split.clone(),

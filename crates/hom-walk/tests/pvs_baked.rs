@@ -6,7 +6,7 @@
 use hom::cull::{Culler, FrustumCuller, PvsCuller};
 use hom::geom::{Aabb, Camera};
 use hom::glam::{Mat4, Vec3};
-use hom::pvs::{Pvs, PvsConfig, PvsError, Shard};
+use hom::pvs::{PortalCells, Pvs, PvsConfig, PvsError, Shard};
 use hom::scene::{Scene, SceneBuilder};
 use hom_render::{Framebuffer, Renderer};
 use hom_testkit::{assert_no_false_culls, cube, Rng};
@@ -190,6 +190,71 @@ fn bytes_round_trip_and_hostile_bytes_are_errors() {
     assert!(parsed_clean < 5_000, "{parsed_clean}");
     let err = Pvs::from_bytes(b"not a pvs file at all").unwrap_err();
     assert!(err.to_string().contains("not a hom PVS"), "{err}");
+}
+
+/// Portal cells beside the view cells: the eye's portal cell hides its set
+/// too, only clear of solid space; the cells survive the bytes (and every
+/// truncation is an error) and shards carrying them merge into one bake.
+#[test]
+fn portal_cells_hide_beside_the_view_cells() {
+    let (scene, eyes) = street(8);
+    // x < 0: cell 0; 0 ≤ x < 1.5: cell 1; x ≥ 1.5: solid.
+    let cells = || {
+        PortalCells::new(
+            vec![(Vec3::X, 0.0), (Vec3::X, 1.5)],
+            vec![(0, 1, -1), (1, -3, -2)],
+            vec![Some(0), Some(1), None],
+            vec![vec![0, 5, 9], vec![7]],
+        )
+        .unwrap()
+    };
+    let plain = bake(&scene, &eyes, Shard::WHOLE);
+    let with = plain.clone().with_portal_cells(cells()).unwrap();
+    let hidden = |pvs: &Pvs, eye: Vec3| {
+        let mut out = Vec::new();
+        pvs.hidden_from(eye, &mut out).map(|_| out)
+    };
+    let union = |mut a: Vec<u32>, b: &[u32]| {
+        a.extend_from_slice(b);
+        a.sort_unstable();
+        a.dedup();
+        a
+    };
+    let west = Vec3::new(-1.0, 1.7, eyes[20].z);
+    assert_eq!(hidden(&with, west), hidden(&plain, west).map(|h| union(h, &[0, 5, 9])));
+    let east = Vec3::new(0.5, 1.7, eyes[20].z);
+    assert_eq!(hidden(&with, east), hidden(&plain, east).map(|h| union(h, &[7])));
+    let near_solid = Vec3::new(1.4, 1.7, eyes[20].z);
+    assert_eq!(
+        hidden(&with, near_solid),
+        hidden(&plain, near_solid),
+        "the near plane could cut into solid space"
+    );
+
+    let bytes = with.to_bytes();
+    assert_eq!(Pvs::from_bytes(&bytes).unwrap(), with);
+    assert_ne!(bytes, plain.to_bytes());
+    for n in 0..bytes.len() {
+        assert!(Pvs::from_bytes(&bytes[..n]).is_err(), "cut at {n}");
+    }
+    let shards: Vec<Pvs> = (0..2)
+        .map(|k| {
+            bake(&scene, &eyes, Shard { index: k, count: 2 })
+                .with_portal_cells(cells())
+                .unwrap()
+        })
+        .collect();
+    assert_eq!(Pvs::merge(shards.clone()).unwrap().to_bytes(), bytes);
+    let err = Pvs::merge(vec![
+        shards[0].clone(),
+        bake(&scene, &eyes, Shard { index: 1, count: 2 }),
+    ])
+    .unwrap_err();
+    assert!(err.to_string().contains("other settings"), "{err}");
+
+    let beyond = PortalCells::new(vec![], vec![], vec![Some(0)], vec![vec![scene.objects().len() as u32]]).unwrap();
+    let err = plain.with_portal_cells(beyond).unwrap_err().to_string();
+    assert!(err.contains("does not have"), "{err}");
 }
 
 fn fnv(bytes: &[u8]) -> u64 {

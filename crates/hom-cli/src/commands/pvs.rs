@@ -1,7 +1,7 @@
 //! `hom pvs`: bake, merge, info and check precomputed visibility (Law & Tan
 //! 1999, section 5).
 
-use crate::args::{PvsBakeArgs, PvsCheckArgs, ShardArg};
+use crate::args::{OnOff, PvsBakeArgs, PvsCheckArgs, ShardArg};
 use crate::setup::progress_of;
 use anyhow::{bail, Context, Result};
 use hom::geom::{Aabb, Camera};
@@ -84,10 +84,30 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
     })
     .with_context(|| format!("baking the PVS of {}", a.scene))?;
     bar.finish_and_clear();
+    let view_seconds = start.elapsed().as_secs_f64();
+    let (pvs, portal_note) = match (a.portals, hom_walk::pvs::is_map_spec(&a.scene)) {
+        (OnOff::On, true) => {
+            let start = Instant::now();
+            let map = hom_walk::pvs::open_map(&a.scene)?;
+            let portals = map.portal_pvs().context("following the map's leaf portals")?;
+            let cells = portals.cells(&map).context("the map's portal cells")?;
+            let n = cells.cell_count();
+            let pvs = pvs.with_portal_cells(cells).context("adding the portal cells")?;
+            let note = format!(
+                "; {} portal cells ({} portals between {} leaves) in {:.1} s",
+                n,
+                portals.portal_count(),
+                portals.leaf_count(),
+                start.elapsed().as_secs_f64()
+            );
+            (pvs, note)
+        }
+        _ => (pvs, String::new()),
+    };
     let seconds = start.elapsed().as_secs_f64();
     write(&a.out, &pvs)?;
     println!(
-        "{}: {} cells of {} m, {} occluder objects, shard {}/{}{}, baked in {:.1} s, {} bytes",
+        "{}: {} cells of {} m, {} occluder objects, shard {}/{}{}, baked in {:.1} s (view cells {:.1} s{}), {} bytes",
         a.out.display(),
         pvs.cells().cell_count(),
         config.cell_size,
@@ -96,6 +116,8 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         shard.count,
         from.map_or(String::new(), |f| format!(" (from {f})")),
         seconds,
+        view_seconds,
+        portal_note,
         std::fs::metadata(&a.out).map(|m| m.len()).unwrap_or(0)
     );
     if shard == Shard::WHOLE {
@@ -208,6 +230,14 @@ pub fn info(file: &Path, picture: Option<&Path>, scene: Option<&str>) -> Result<
     );
     let stored: usize = pvs.node_sets().map(|(_, s)| s.len()).sum();
     println!("{stored} ids stored over the hierarchy's nodes");
+    if let Some(p) = pvs.portal_cells() {
+        let ids: usize = (0..p.cell_count() as u32).map(|c| p.hidden(c).len()).sum();
+        println!(
+            "{} portal cells, hiding {:.0} objects each on average",
+            p.cell_count(),
+            ids as f64 / p.cell_count().max(1) as f64
+        );
+    }
     if pvs.shard() == Shard::WHOLE {
         print_sizes(&pvs, pvs.object_count());
         if let Some(p) = picture {

@@ -20,9 +20,7 @@ use std::sync::Arc;
 /// Runs `hom walk`.
 pub fn run(a: WalkArgs) -> Result<()> {
     let map = if a.pvs {
-        let (file, _) = hom_scene::split_map_spec(Path::new(&a.view.scene));
-        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        if !matches!(ext.as_deref(), Some("bsp") | Some("pk3")) {
+        if !hom_walk::pvs::is_map_spec(&a.view.scene) {
             bail!(
                 "--pvs needs a Quake 3 map (.bsp, .pk3 or FILE.pk3:MAP), which carries a PVS; '{}' is not one",
                 a.view.scene

@@ -227,6 +227,8 @@ pub struct BspMap {
     /// Speed used by [`BspMap::camera_path`], metres per second.
     pub speed: f32,
     pvs: Pvs,
+    /// Per leaf: does its face list hold a face left undrawn?
+    undrawn: Vec<bool>,
 }
 
 /// Quake (Z-up inches) to hom (+Y-up metres).
@@ -782,6 +784,9 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     // Clustered leaves of every face, via the leaves' face lists.
     let leaffaces: Vec<i32> = lumps.records(LEAFFACES, 4)?.map(|r| le_i32(r, 0)).collect();
     let mut face_leaves: Vec<(u32, u32)> = Vec::new();
+    // Leaves whose face lists hold a face the loader leaves undrawn (sky,
+    // nodraw, caulk): sight may pass there into solid space.
+    let mut undrawn = vec![false; pvs.leaf_cluster.len()];
     for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
         let cluster = pvs.leaf_cluster[leaf];
         let list = range("leaf", leaf, "leaffaces", le_i32(r, 32), le_i32(r, 36), leaffaces.len())?;
@@ -790,6 +795,13 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         }
         for &lf in &leaffaces[list] {
             let face = index("leafface of leaf", leaf, "face", lf, face_records.len())?;
+            let texture = usize::try_from(le_i32(face_records[face], 0)).ok();
+            if texture
+                .and_then(|t| surfaces.get(t))
+                .is_none_or(|s| *s == Surface::Skip)
+            {
+                undrawn[leaf] = true;
+            }
             if cluster >= 0 {
                 face_leaves.push((face as u32, leaf as u32));
             }
@@ -855,6 +867,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         entities,
         object_clusters,
         object_leaves,
+        undrawn,
         eye_height: options.eye_height,
         speed: options.speed,
         pvs,

@@ -20,6 +20,7 @@ use super::{BspMap, Pvs};
 use glam::DVec3;
 use hom::geom::Aabb;
 use hom::pvs::portals::{Portal, PortalError, PortalGraph, PortalObjects};
+use hom::pvs::{PortalCells, PvsError};
 
 /// Half the world's extent, Quake units: q3map2's `MAX_WORLD_COORD`.
 const WORLD: f64 = 65536.0;
@@ -97,10 +98,6 @@ impl Builder<'_> {
         (DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64), d as f64)
     }
 
-    fn open(&self, leaf: u32) -> bool {
-        self.pvs.leaf_cluster.get(leaf as usize).is_some_and(|&c| c >= 0)
-    }
-
     /// The pieces of `w` in the leaves of the subtree `child`, which lies on
     /// the side `toward` (+1 front, −1 back) of the plane with normal `n`
     /// that `w` lies on.
@@ -145,13 +142,10 @@ impl Builder<'_> {
             let mut fronts = Vec::new();
             self.push(w, front, n, 1.0, &mut fronts, 0);
             for (fl, fw) in fronts {
-                if !self.open(fl) {
-                    continue;
-                }
                 let mut backs = Vec::new();
                 self.push(fw, back, n, -1.0, &mut backs, 0);
                 for (bl, bw) in backs {
-                    if self.open(bl) && bl != fl {
+                    if bl != fl {
                         let points = bw.iter().map(|p| quake_to_hom(*p)).collect();
                         self.portals.push(Portal {
                             cells: [fl, bl],
@@ -171,8 +165,46 @@ impl Builder<'_> {
     }
 }
 
-/// The portals between clustered leaves of `pvs`'s tree (hom coordinates).
-fn leaf_portals(pvs: &Pvs) -> Vec<Portal> {
+/// The portals between the leaves of `pvs`'s tree that sight may pass
+/// through (hom coordinates): clustered leaves, and the solid leaves it may
+/// reach behind a face left undrawn in a clustered leaf (`undrawn`, per
+/// leaf), through other solid leaves. The loader leaves sky, nodraw and
+/// caulk faces undrawn, and the renderer sees through them: so must the
+/// portals, though the map compiler's `vis` does not.
+fn leaf_portals(pvs: &Pvs, undrawn: &[bool]) -> Vec<Portal> {
+    let all = all_leaf_portals(pvs);
+    let open = |l: u32| pvs.leaf_cluster.get(l as usize).is_some_and(|&c| c >= 0);
+    let mut passable: Vec<bool> = (0..pvs.leaf_cluster.len() as u32).map(open).collect();
+    let mut neighbours = vec![Vec::new(); pvs.leaf_cluster.len()];
+    for p in &all {
+        neighbours[p.cells[0] as usize].push(p.cells[1]);
+        neighbours[p.cells[1] as usize].push(p.cells[0]);
+    }
+    let mut stack: Vec<u32> = Vec::new();
+    for l in 0..pvs.leaf_cluster.len() as u32 {
+        if open(l) && undrawn.get(l as usize).copied().unwrap_or(true) {
+            stack.extend(neighbours[l as usize].iter().copied().filter(|&m| !open(m)));
+        }
+    }
+    while let Some(l) = stack.pop() {
+        if passable[l as usize] {
+            continue;
+        }
+        passable[l as usize] = true;
+        stack.extend(
+            neighbours[l as usize]
+                .iter()
+                .copied()
+                .filter(|&m| !passable[m as usize]),
+        );
+    }
+    all.into_iter()
+        .filter(|p| p.cells.iter().all(|&c| passable[c as usize]))
+        .collect()
+}
+
+/// The portals between every two leaves of `pvs`'s tree (hom coordinates).
+fn all_leaf_portals(pvs: &Pvs) -> Vec<Portal> {
     let mut builder = Builder {
         pvs,
         portals: Vec::new(),
@@ -249,7 +281,7 @@ impl BspMap {
     /// indices; hom coordinates), built from its BSP tree as the module docs
     /// say.
     pub fn leaf_portals(&self) -> Result<PortalGraph, PortalError> {
-        PortalGraph::new(self.leaf_count(), leaf_portals(&self.pvs))
+        PortalGraph::new(self.leaf_count(), leaf_portals(&self.pvs, &self.undrawn))
     }
 
     /// The leaves whose regions `aabb` (hom coordinates) may touch (a hair
@@ -327,6 +359,30 @@ impl PortalPvs {
             return true;
         };
         row.get(id as usize / 64).is_none_or(|w| w & (1 << (id % 64)) != 0)
+    }
+
+    /// The map's tree as [`PortalCells`] for a `.pvs` file: hom
+    /// coordinates, one cell per cluster, each hiding the objects it cannot
+    /// see. `map` must be the map this was built from.
+    pub fn cells(&self, map: &BspMap) -> Result<PortalCells, PvsError> {
+        let planes = map
+            .pvs
+            .planes
+            .iter()
+            .map(|&(n, d)| (glam::Vec3::new(n[0], n[2], -n[1]), d * super::INCH))
+            .collect();
+        let leaf_cell = map.pvs.leaf_cluster.iter().map(|&c| u32::try_from(c).ok()).collect();
+        let objects = map.scene.objects().len() as u32;
+        let hidden = self
+            .visible
+            .iter()
+            .map(|row| {
+                (0..objects)
+                    .filter(|&id| row[id as usize / 64] & (1 << (id % 64)) == 0)
+                    .collect()
+            })
+            .collect();
+        PortalCells::new(planes, map.pvs.nodes.clone(), leaf_cell, hidden)
     }
 
     /// Portals between clustered leaves.
@@ -416,7 +472,8 @@ mod tests {
         for seed in 0..200u64 {
             let mut rng = Rng::new(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) + 1);
             let pvs = random_tree(&mut rng, 2 + (seed % 5) as u32);
-            let portals = leaf_portals(&pvs);
+            // Nothing undrawn: the portals join open leaves only.
+            let portals = leaf_portals(&pvs, &vec![false; pvs.leaf_cluster.len()]);
             for p in &portals {
                 assert_ne!(p.cells[0], p.cells[1]);
                 assert!(
@@ -476,6 +533,48 @@ mod tests {
             crossings > 1000,
             "the segments should cross open boundaries: {crossings}"
         );
+    }
+
+    /// Behind a leaf with an undrawn face, sight enters solid space: the
+    /// portals then reach the solid leaves next to it and on through solid
+    /// leaves, and only there.
+    #[test]
+    fn undrawn_faces_open_the_solid_space_behind_them() {
+        let mut opened = 0;
+        for seed in 0..60u64 {
+            let mut rng = Rng::new(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) + 11);
+            let pvs = random_tree(&mut rng, 5);
+            let leaves = pvs.leaf_cluster.len();
+            let open = |l: u32| pvs.leaf_cluster[l as usize] >= 0;
+            let undrawn: Vec<bool> = (0..leaves).map(|_| rng.unit() < 0.3).collect();
+            let all = all_leaf_portals(&pvs);
+            let kept = leaf_portals(&pvs, &undrawn);
+            // Solid leaves sight reaches: next to an open leaf with an undrawn face, then on.
+            let mut reach = vec![false; leaves];
+            let mut changed = true;
+            while changed {
+                changed = false;
+                for p in &all {
+                    for (a, b) in [(p.cells[0], p.cells[1]), (p.cells[1], p.cells[0])] {
+                        let from = (open(a) && undrawn[a as usize]) || (!open(a) && reach[a as usize]);
+                        if from && !open(b) && !reach[b as usize] {
+                            reach[b as usize] = true;
+                            changed = true;
+                        }
+                    }
+                }
+            }
+            let passable = |l: u32| open(l) || reach[l as usize];
+            let want: Vec<[u32; 2]> = all
+                .iter()
+                .filter(|p| p.cells.iter().all(|&c| passable(c)))
+                .map(|p| p.cells)
+                .collect();
+            let got: Vec<[u32; 2]> = kept.iter().map(|p| p.cells).collect();
+            assert_eq!(got, want, "seed {seed}");
+            opened += got.iter().filter(|c| !open(c[0]) || !open(c[1])).count();
+        }
+        assert!(opened > 20, "some portals should reach into solid space: {opened}");
     }
 
     /// Every point of a box lies in a leaf the box is said to touch.

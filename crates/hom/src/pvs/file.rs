@@ -15,6 +15,7 @@
 //! | cells: one bit per leaf (x fastest), then two `f32` heights per set bit | |
 //! | moving objects, occluder objects: a count, then ids | |
 //! | per node of the shard's blocks: a count, then ids | |
+//! | portal cells: 0 (none) or 1, then a count of planes and per plane its normal and distance (4 × `f32`); a count of nodes and per node its plane, front and back child (varint, then two `i32`: a leaf `c` as `−(c + 1)`); a count of leaves and per leaf its cell + 1 (0: solid); a count of cells and per cell a count, then ids | |
 //! | FNV-1a 64 of everything before it | u64 |
 //!
 //! Counts and ids are LEB128 varints, ids ascending and stored as the
@@ -23,12 +24,13 @@
 //! every count is bounded by the bytes left, every id by the object count,
 //! every list checked ascending, the settings validated.
 
-use super::{CellGrid, Fnv, Pvs, PvsConfig, Shard, MAX_NODES};
+use super::{CellGrid, Fnv, PortalCells, Pvs, PvsConfig, Shard, MAX_NODES};
 use glam::Vec2;
 use thiserror::Error;
 
 const MAGIC: &[u8; 8] = b"HOM-PVS\n";
-const VERSION: u32 = 1;
+/// 2: portal cells (version 1 had none).
+const VERSION: u32 = 2;
 
 /// Why bytes are not a PVS.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -107,6 +109,32 @@ impl Pvs {
         write_ids(&mut w, &self.occluder_objects);
         for s in &self.sets {
             write_ids(&mut w, s);
+        }
+        match &self.portal_cells {
+            None => w.push(0),
+            Some(p) => {
+                w.push(1);
+                write_varint(&mut w, p.planes.len() as u32);
+                for (n, d) in &p.planes {
+                    for v in [n.x, n.y, n.z, *d] {
+                        w.extend_from_slice(&v.to_bits().to_le_bytes());
+                    }
+                }
+                write_varint(&mut w, p.nodes.len() as u32);
+                for &(plane, front, back) in &p.nodes {
+                    write_varint(&mut w, plane);
+                    w.extend_from_slice(&front.to_le_bytes());
+                    w.extend_from_slice(&back.to_le_bytes());
+                }
+                write_varint(&mut w, p.leaf_cell.len() as u32);
+                for c in &p.leaf_cell {
+                    write_varint(&mut w, c.map_or(0, |c| c + 1));
+                }
+                write_varint(&mut w, p.hidden.len() as u32);
+                for set in &p.hidden {
+                    write_ids(&mut w, set);
+                }
+            }
         }
         let mut h = Fnv::NEW;
         h.bytes(&w);
@@ -210,6 +238,11 @@ impl Pvs {
         for _ in 0..nodes {
             sets.push(r.ids(object_count)?);
         }
+        let portal_cells = match r.byte("the portal cells' flag")? {
+            0 => None,
+            1 => Some(r.portal_cells(object_count)?),
+            _ => return Err(r.malformed("the portal cells' flag is neither 0 nor 1")),
+        };
         if r.left() != 0 {
             return Err(r.malformed("bytes left after the last set"));
         }
@@ -222,6 +255,7 @@ impl Pvs {
             occluder_objects,
             shard,
             sets,
+            portal_cells,
         })
     }
 }
@@ -295,6 +329,45 @@ impl Reader<'_> {
             }
         }
         Err(self.malformed("a count or id longer than five bytes"))
+    }
+
+    /// A count of items, each at least `size` bytes long: bounded by the bytes left.
+    fn count(&mut self, size: usize, what: &'static str) -> Result<usize, PvsFileError> {
+        let n = self.varint()? as usize;
+        if n.saturating_mul(size) > self.left() {
+            return Err(self.malformed(what));
+        }
+        Ok(n)
+    }
+
+    fn portal_cells(&mut self, object_count: u32) -> Result<PortalCells, PvsFileError> {
+        let plane_count = self.count(16, "more portal planes than bytes")?;
+        let mut planes = Vec::with_capacity(plane_count);
+        for _ in 0..plane_count {
+            let mut f = || self.f32("a portal plane");
+            let (x, y, z, d) = (f()?, f()?, f()?, f()?);
+            planes.push((glam::Vec3::new(x, y, z), d));
+        }
+        let node_count = self.count(9, "more portal nodes than bytes")?;
+        let mut nodes = Vec::with_capacity(node_count);
+        for _ in 0..node_count {
+            let plane = self.varint()?;
+            let front = self.u32("a portal node")? as i32;
+            let back = self.u32("a portal node")? as i32;
+            nodes.push((plane, front, back));
+        }
+        let leaf_count = self.count(1, "more portal leaves than bytes")?;
+        let mut leaf_cell = Vec::with_capacity(leaf_count);
+        for _ in 0..leaf_count {
+            leaf_cell.push(self.varint()?.checked_sub(1));
+        }
+        let cell_count = self.count(1, "more portal cells than bytes")?;
+        let mut hidden = Vec::with_capacity(cell_count);
+        for _ in 0..cell_count {
+            hidden.push(self.ids(object_count)?);
+        }
+        PortalCells::new(planes, nodes, leaf_cell, hidden)
+            .map_err(|_| self.malformed("the portal cells do not make a tree"))
     }
 
     /// An ascending list of ids below `limit`.

@@ -68,12 +68,14 @@ mod fusion;
 mod margins;
 mod planar_union;
 mod polygons;
+mod portal_cells;
 pub mod portals;
 mod region;
 pub(crate) mod solid;
 
 pub use cells::CellGrid;
 pub use file::PvsFileError;
+pub use portal_cells::PortalCells;
 use solid::SolidSpace;
 
 use crate::geom::{Aabb, View};
@@ -237,6 +239,9 @@ pub enum PvsError {
     /// Shards that do not make one bake.
     #[error("cannot merge these shards: {0}")]
     Merge(String),
+    /// Portal cells that do not make a tree, or name objects the scene lacks.
+    #[error("portal cells: {0}")]
+    BadPortalCells(&'static str),
 }
 
 /// The most nodes a PVS may hold (a cell hierarchy over 16 km² at 8 m cells).
@@ -257,6 +262,9 @@ pub struct Pvs {
     pub(crate) shard: Shard,
     /// Per node of the baked blocks (all blocks once whole): sorted ids.
     pub(crate) sets: Vec<Vec<u32>>,
+    /// What the portals hide from each cell of the space's own tree
+    /// ([`Pvs::with_portal_cells`]).
+    pub(crate) portal_cells: Option<PortalCells>,
 }
 
 impl Pvs {
@@ -353,7 +361,29 @@ impl Pvs {
             occluder_objects,
             shard,
             sets: per_block.into_iter().flatten().collect(),
+            portal_cells: None,
         })
+    }
+
+    /// This PVS with portal cells beside its view cells (see
+    /// [`PortalCells`]: both sets are hidden). Moving objects are taken out
+    /// of the cells' sets. Every shard of a bake takes the same cells.
+    pub fn with_portal_cells(mut self, mut cells: PortalCells) -> Result<Pvs, PvsError> {
+        if cells.hidden.iter().flatten().any(|&id| id >= self.object_count) {
+            return Err(PvsError::BadPortalCells(
+                "a cell hides an object the scene does not have",
+            ));
+        }
+        for set in &mut cells.hidden {
+            set.retain(|id| self.moving.binary_search(id).is_err());
+        }
+        self.portal_cells = Some(cells);
+        Ok(self)
+    }
+
+    /// The portal cells, when the PVS has them.
+    pub fn portal_cells(&self) -> Option<&PortalCells> {
+        self.portal_cells.as_ref()
     }
 
     /// The cell hierarchy.
@@ -457,7 +487,8 @@ impl Pvs {
     /// Appends to `out` (sorted) the objects hidden from `eye`, and returns
     /// the leaf cell's node id, or `None` (appending nothing) when `eye` lies
     /// in no cell or this is only a shard. Callers check [`Pvs::serves`] for
-    /// the view first.
+    /// the view first. With portal cells, what the eye's portal cell hides
+    /// is hidden too, where [`PortalCells::cell_for`] gives one.
     pub fn hidden_from(&self, eye: Vec3, out: &mut Vec<u32>) -> Option<usize> {
         if self.shard != Shard::WHOLE {
             return None;
@@ -473,6 +504,18 @@ impl Pvs {
             let mid = out.len();
             out.extend_from_slice(set);
             merge_in_place(&mut out[start..], mid - start);
+        }
+        let portal = self
+            .portal_cells
+            .as_ref()
+            .and_then(|p| Some(p.hidden(p.cell_for(eye, self.config.near_clearance)?)));
+        if let Some(set) = portal.filter(|s| !s.is_empty()) {
+            // Not disjoint from the view cells' sets: a sorted union.
+            let mut tail = out.split_off(start);
+            tail.extend_from_slice(set);
+            tail.sort_unstable();
+            tail.dedup();
+            out.extend(tail);
         }
         path.last().copied()
     }
@@ -492,6 +535,7 @@ impl Pvs {
                 && s.object_count == first.object_count
                 && s.moving == first.moving
                 && s.occluder_objects == first.occluder_objects
+                && s.portal_cells == first.portal_cells
                 && s.shard.count == count;
             if !same {
                 return Err(PvsError::Merge(format!(
