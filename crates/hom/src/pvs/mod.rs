@@ -49,6 +49,12 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! **Portal cells** ([`PortalCells`], [`Pvs::with_portal_cells`]) sit
+//! beside the view cells: a tree of planes whose open leaves each hide what
+//! no line through the space's portals reaches ([`portals`]: Teller &
+//! Séquin's cell-to-object visibility, lines followed as windows). A Quake 3
+//! map's BSP tree and leaf portals give them (`hom_scene::bsp`).
+//!
 //! **Fusion** (many occluders hiding together) is `fusion.rs`'s point
 //! sampling of the scene's solid space eroded as one (Wonka et al. 2000;
 //! [`SolidSpace`], under [`crate::experimental::pvs_fusion`]), sound and
