@@ -298,8 +298,9 @@ impl BspMap {
     /// object lies in the leaves whose face lists hold its faces
     /// ([`BspMap::object_leaves`]), as the map's own PVS takes it; objects in
     /// no clustered leaf are visible from every cluster. Uses
-    /// every thread of the current rayon pool.
-    pub fn portal_pvs(&self) -> Result<PortalPvs, PortalError> {
+    /// every thread of the current rayon pool; `progress(done, total)` after
+    /// each clustered leaf.
+    pub fn portal_pvs(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> Result<PortalPvs, PortalError> {
         let graph = self.leaf_portals()?;
         let scene_objects = self.scene.objects();
         let touching = &self.object_leaves;
@@ -310,7 +311,7 @@ impl BspMap {
         let sources: Vec<u32> = (0..self.leaf_count() as u32)
             .filter(|&l| self.leaf_cluster(l).is_some())
             .collect();
-        let per_leaf = graph.visible_objects_from(&sources, &objects);
+        let per_leaf = graph.visible_objects_from(&sources, &objects, progress);
         let clusters = self.pvs.clusters.max(
             sources
                 .iter()

@@ -396,10 +396,26 @@ impl PortalGraph {
     }
 
     /// [`PortalGraph::visible_objects`] from each of `sources`, on every
-    /// thread of the current rayon pool.
-    pub fn visible_objects_from(&self, sources: &[u32], objects: &PortalObjects) -> Vec<Vec<u64>> {
+    /// thread of the current rayon pool; `progress(done, total)` after each.
+    pub fn visible_objects_from(
+        &self,
+        sources: &[u32],
+        objects: &PortalObjects,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Vec<Vec<u64>> {
         use rayon::prelude::*;
-        sources.par_iter().map(|&c| self.visible_objects(c, objects)).collect()
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        sources
+            .par_iter()
+            .map(|&c| {
+                let visible = self.visible_objects(c, objects);
+                progress(
+                    done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1,
+                    sources.len(),
+                );
+                visible
+            })
+            .collect()
     }
 
     /// The objects potentially visible from any point of cell `from`, a bit
@@ -774,6 +790,34 @@ mod tests {
         }
         assert!(hidden_total > 200, "the flow should hide something: {hidden_total}");
         eprintln!("{hidden_total} hidden");
+    }
+
+    /// From many cells at once: each cell's set as from it alone, and the
+    /// progress reaches the total.
+    #[test]
+    fn many_sources_report_progress() {
+        let mut rng = Rng::new(5);
+        let solid = (0..5 * 2 * 5).map(|_| rng.unit() < 0.3).collect();
+        let maze = Maze::new([5, 2, 5], solid);
+        let graph = maze.graph();
+        let objects = PortalObjects::new(
+            graph.cell_count(),
+            (0..graph.cell_count() as u32).map(|c| (Aabb::new(Vec3::ZERO, Vec3::ONE), vec![c])),
+        )
+        .unwrap();
+        let sources: Vec<u32> = (0..graph.cell_count() as u32).collect();
+        let calls = std::sync::atomic::AtomicUsize::new(0);
+        let most = std::sync::atomic::AtomicUsize::new(0);
+        let all = graph.visible_objects_from(&sources, &objects, &|done, total| {
+            assert_eq!(total, sources.len());
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            most.fetch_max(done, std::sync::atomic::Ordering::Relaxed);
+        });
+        assert_eq!(calls.into_inner(), sources.len());
+        assert_eq!(most.into_inner(), sources.len());
+        for (&c, v) in sources.iter().zip(&all) {
+            assert_eq!(v, &graph.visible_objects(c, &objects));
+        }
     }
 
     /// A corridor that turns twice: what lies past the second turn is hidden
