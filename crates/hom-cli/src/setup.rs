@@ -2,7 +2,7 @@
 //! viewport overridden, the culler, and the progress bar.
 
 use crate::args::{HomArgs, View};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use hom::cull::{Coherence, Culler};
 use hom::experimental::HvPriming;
 use hom::occlusion::Opacity;
@@ -182,6 +182,20 @@ pub fn progress_of(len: usize, what: &str, units: &str) -> ProgressBar {
     );
     bar.set_prefix(what.to_string());
     bar
+}
+
+/// What a Quake 3 map's clusters see through its leaf portals
+/// ([`BspMap::portal_pvs`]), with a progress bar over its leaves.
+pub fn follow_portals(map: &BspMap) -> Result<hom_scene::bsp::PortalPvs> {
+    let bar = progress_of(0, "portals", "leaves");
+    let portals = map
+        .portal_pvs(&|done, total| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        })
+        .context("following the map's leaf portals")?;
+    bar.finish_and_clear();
+    Ok(portals)
 }
 
 /// The walk's level of detail from `--lod` and its options: every mesh's

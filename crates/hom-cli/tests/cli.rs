@@ -127,10 +127,9 @@ fn pvs_needs_a_quake_map() {
     assert_clean_failure(&o, "--pvs needs a Quake 3 map");
 }
 
-/// `--pvs` on a real map (skips when `scripts/fetch-scenes.sh --tests-only` has not run):
-/// frame and summary lines keep their fields and gain the yardstick's.
-#[test]
-fn walk_pvs_adds_pvs_fields_to_the_report() {
+/// OpenArena's maps, or `None` (saying so) when `scripts/fetch-scenes.sh
+/// --tests-only` has not fetched them.
+fn openarena_maps() -> Option<std::path::PathBuf> {
     let pk3 = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
     if !pk3.exists() {
@@ -138,8 +137,16 @@ fn walk_pvs_adds_pvs_fields_to_the_report() {
             "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
             pk3.display()
         );
-        return;
+        return None;
     }
+    Some(pk3)
+}
+
+/// `--pvs` on a real map (skips when `scripts/fetch-scenes.sh --tests-only` has not run):
+/// frame and summary lines keep their fields and gain the yardstick's.
+#[test]
+fn walk_pvs_adds_pvs_fields_to_the_report() {
+    let Some(pk3) = openarena_maps() else { return };
     let dir = std::env::temp_dir().join(format!("hom-cli-pvs-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let report = dir.join("r.jsonl");
@@ -346,15 +353,7 @@ fn occluders_info_checks_the_walk_frames_it_is_asked_for() {
 /// sees, and without `--portals on` they are left out.
 #[test]
 fn pvs_bake_adds_a_maps_portal_cells() {
-    let pk3 = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../.cache/scenes/debian/usr/share/games/openarena/baseoa/pak1-maps.pk3");
-    if !pk3.exists() {
-        eprintln!(
-            "skipping: {} is missing; run scripts/fetch-scenes.sh --tests-only",
-            pk3.display()
-        );
-        return;
-    }
+    let Some(pk3) = openarena_maps() else { return };
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_portals_cli");
     std::fs::create_dir_all(&dir).unwrap();
     let spec = format!("{}:oa_dm1", pk3.display());

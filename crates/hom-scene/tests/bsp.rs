@@ -253,6 +253,14 @@ fn clusters_and_visibility() {
     assert_eq!(m.cluster_of(hom([20.0, 5.0, 5.0])), Some(0));
     assert_eq!(m.cluster_of(hom([-20.0, 5.0, 5.0])), Some(1));
     assert_eq!(m.cluster_of(hom([-20.0, 5.0, 2000.0])), None, "solid leaf");
+    // Clear of solid space by 0.1 m (3.9 inches): the boundary between two
+    // clustered leaves is no wall, the solid leaf above z = 1000 at x < 0 is.
+    assert!(m.is_open(hom([-20.0, 5.0, 5.0]), 0.1));
+    assert!(m.is_open(hom([-0.5, 5.0, 5.0]), 0.1));
+    assert!(m.is_open(hom([20.0, 5.0, 998.0]), 0.1));
+    assert!(!m.is_open(hom([-20.0, 5.0, 998.0]), 0.1));
+    assert!(!m.is_open(hom([-20.0, 5.0, 2000.0]), 0.1));
+    assert!(!m.is_open(hom([f32::NAN, 5.0, 5.0]), 0.1));
     assert!(m.cluster_visible(0, 0));
     assert!(!m.cluster_visible(0, 1));
     assert!(m.cluster_visible(1, 0) && m.cluster_visible(1, 1));

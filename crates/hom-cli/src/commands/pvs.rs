@@ -89,14 +89,7 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         (OnOff::On, true) => {
             let start = Instant::now();
             let map = hom_walk::pvs::open_map(&a.scene)?;
-            let bar = progress_of(0, "portals", "leaves");
-            let portals = map
-                .portal_pvs(&|done, total| {
-                    bar.set_length(total as u64);
-                    bar.set_position(done as u64);
-                })
-                .context("following the map's leaf portals")?;
-            bar.finish_and_clear();
+            let portals = crate::setup::follow_portals(&map)?;
             let cells = portals.cells(&map).context("the map's portal cells")?;
             let n = cells.cell_count();
             let pvs = pvs.with_portal_cells(cells).context("adding the portal cells")?;

@@ -43,14 +43,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
     let portals = match (&map, a.pvs_portals) {
         (Some(m), true) => {
             let start = std::time::Instant::now();
-            let bar = crate::setup::progress_of(0, "portals", "leaves");
-            let p = m
-                .portal_pvs(&|done, total| {
-                    bar.set_length(total as u64);
-                    bar.set_position(done as u64);
-                })
-                .context("building the map's leaf portals")?;
-            bar.finish_and_clear();
+            let p = crate::setup::follow_portals(m)?;
             eprintln!(
                 "leaf portals: {} portals between {} clustered leaves, followed in {:.1} s",
                 p.portal_count(),

@@ -269,43 +269,19 @@ impl BspMap {
     /// inside) them may see through walls that are drawn from one side only
     /// of the solid, so PVS checks take their viewpoints where this holds.
     pub fn is_open(&self, eye: Vec3, clearance: f32) -> bool {
-        let pvs = &self.pvs;
         if !eye.is_finite() || !clearance.is_finite() {
             return false;
         }
         let (a, b) = (to_quake(eye - clearance), to_quake(eye + clearance));
-        let (lo, hi) = ([0, 1, 2].map(|k| a[k].min(b[k])), [0, 1, 2].map(|k| a[k].max(b[k])));
-        let mut stack = vec![if pvs.nodes.is_empty() { -1 } else { 0i32 }];
-        let mut steps = 0usize;
-        while let Some(child) = stack.pop() {
-            steps += 1;
-            if steps > 4 * pvs.nodes.len() + 8 {
-                return false; // A cyclic tree: claim nothing.
-            }
-            if child < 0 {
-                let leaf = (-(child as i64) - 1) as usize;
-                if pvs.leaf_cluster.get(leaf).is_none_or(|&c| c < 0) {
-                    return false;
-                }
-                continue;
-            }
-            let (plane, front, back) = pvs.nodes[child as usize];
-            let (n, d) = pvs.planes[plane as usize];
-            let (mut smin, mut smax) = (-d, -d);
-            for k in 0..3 {
-                let (p, q) = (n[k] * lo[k], n[k] * hi[k]);
-                smin += p.min(q);
-                smax += p.max(q);
-            }
-            // `cluster_of`'s rule (side ≥ 0 is the front), a hair wide.
-            if smax >= -1e-2 {
-                stack.push(front);
-            }
-            if smin < 1e-2 {
-                stack.push(back);
-            }
-        }
-        true
+        let lo = glam::DVec3::from_array([0, 1, 2].map(|k| a[k].min(b[k]) as f64));
+        let hi = glam::DVec3::from_array([0, 1, 2].map(|k| a[k].max(b[k]) as f64));
+        // `cluster_of`'s rule (side ≥ 0 is the front), a hair wide; a cyclic
+        // tree claims nothing.
+        self.pvs.leaves_touching(lo, hi, 1e-2).is_some_and(|leaves| {
+            leaves
+                .iter()
+                .all(|&l| self.pvs.leaf_cluster.get(l as usize).is_some_and(|&c| c >= 0))
+        })
     }
 
     /// Clusters in the map's visibility data (0 when it has none).

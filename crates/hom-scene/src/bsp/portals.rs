@@ -18,7 +18,6 @@
 
 use super::{BspMap, Pvs};
 use glam::DVec3;
-use hom::geom::Aabb;
 use hom::pvs::portals::{Portal, PortalError, PortalGraph, PortalObjects};
 use hom::pvs::{PortalCells, PvsError};
 
@@ -222,44 +221,6 @@ fn all_leaf_portals(pvs: &Pvs) -> Vec<Portal> {
     builder.portals
 }
 
-/// The leaves of `pvs`'s tree whose regions the box `lo..hi` (Quake
-/// units) may touch, a hair wide, ascending.
-fn leaves_touching(pvs: &Pvs, lo: DVec3, hi: DVec3) -> Vec<u32> {
-    let mut out = Vec::new();
-    let mut stack = vec![if pvs.nodes.is_empty() { -1 } else { 0i32 }];
-    let mut steps = 0usize;
-    while let Some(child) = stack.pop() {
-        steps += 1;
-        if steps > 4 * pvs.nodes.len() + 8 {
-            break; // A cyclic tree (checked at load; never here).
-        }
-        if child < 0 {
-            let leaf = (-(child as i64) - 1) as u32;
-            if (leaf as usize) < pvs.leaf_cluster.len() {
-                out.push(leaf);
-            }
-            continue;
-        }
-        let (plane, front, back) = pvs.nodes[child as usize];
-        let (n, d) = pvs.planes[plane as usize];
-        let (mut smin, mut smax) = (-(d as f64), -(d as f64));
-        for k in 0..3 {
-            let (p, q) = (n[k] as f64 * lo[k], n[k] as f64 * hi[k]);
-            smin += p.min(q);
-            smax += p.max(q);
-        }
-        if smax >= -ON {
-            stack.push(front);
-        }
-        if smin <= ON {
-            stack.push(back);
-        }
-    }
-    out.sort_unstable();
-    out.dedup();
-    out
-}
-
 /// [`super::to_hom`] in `f64`.
 fn quake_to_hom(q: DVec3) -> DVec3 {
     DVec3::new(q.x, q.z, -q.y) * super::INCH as f64
@@ -282,15 +243,6 @@ impl BspMap {
     /// say.
     pub fn leaf_portals(&self) -> Result<PortalGraph, PortalError> {
         PortalGraph::new(self.leaf_count(), leaf_portals(&self.pvs, &self.undrawn))
-    }
-
-    /// The leaves whose regions `aabb` (hom coordinates) may touch (a hair
-    /// wide), each once, ascending.
-    pub fn leaves_touching(&self, aabb: &Aabb) -> Vec<u32> {
-        let (a, b) = (super::to_quake(aabb.min), super::to_quake(aabb.max));
-        let lo = DVec3::from_array([0, 1, 2].map(|k| a[k].min(b[k]) as f64));
-        let hi = DVec3::from_array([0, 1, 2].map(|k| a[k].max(b[k]) as f64));
-        leaves_touching(&self.pvs, lo, hi)
     }
 
     /// The objects each cluster may see through the map's leaf portals: a
@@ -586,7 +538,7 @@ mod tests {
             let pvs = random_tree(&mut rng, 5);
             let (a, b) = (rng.vec3(-100.0, 100.0).as_dvec3(), rng.vec3(-100.0, 100.0).as_dvec3());
             let (lo, hi) = (a.min(b), a.max(b));
-            let touching = leaves_touching(&pvs, lo, hi);
+            let touching = pvs.leaves_touching(lo, hi, ON).expect("a tree");
             for _ in 0..200 {
                 let t = DVec3::new(rng.unit_f64(), rng.unit_f64(), rng.unit_f64());
                 let leaf = leaf_at(&pvs, lo + (hi - lo) * t);

@@ -20,6 +20,44 @@ pub(super) struct Pvs {
     pub(super) bits: Vec<u8>,
 }
 
+impl Pvs {
+    /// The leaves whose regions the box `lo..hi` (Quake units) may touch,
+    /// `hair` units wide, each once, ascending; `None` for a tree with a
+    /// cycle.
+    pub(super) fn leaves_touching(&self, lo: glam::DVec3, hi: glam::DVec3, hair: f64) -> Option<Vec<u32>> {
+        let mut out = Vec::new();
+        let mut stack = vec![if self.nodes.is_empty() { -1 } else { 0i32 }];
+        let mut steps = 0usize;
+        while let Some(child) = stack.pop() {
+            steps += 1;
+            if steps > 4 * self.nodes.len() + 8 {
+                return None;
+            }
+            if child < 0 {
+                out.push((-(child as i64) - 1) as u32);
+                continue;
+            }
+            let (plane, front, back) = self.nodes[child as usize];
+            let (n, d) = self.planes[plane as usize];
+            let (mut smin, mut smax) = (-(d as f64), -(d as f64));
+            for k in 0..3 {
+                let (p, q) = (n[k] as f64 * lo[k], n[k] as f64 * hi[k]);
+                smin += p.min(q);
+                smax += p.max(q);
+            }
+            if smax >= -hair {
+                stack.push(front);
+            }
+            if smin <= hair {
+                stack.push(back);
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        Some(out)
+    }
+}
+
 pub(super) fn read_pvs(lumps: &Lumps) -> Result<Pvs, BspError> {
     let mut planes = Vec::new();
     for (k, r) in lumps.records(PLANES, 16)?.enumerate() {
