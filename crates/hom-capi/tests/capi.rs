@@ -16,23 +16,12 @@ fn last_error() -> String {
         .into_owned()
 }
 
-/// A unit cube's 8 corners and 36 indices.
+/// A unit cube's 8 corners (0..1 on each axis) and 36 indices, as C
+/// passes them: the test kit's cube, moved off the origin.
 fn cube() -> (Vec<[f32; 3]>, Vec<u32>) {
-    let p = (0..8)
-        .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
-        .collect();
-    let faces = [
-        [0, 1, 3, 2],
-        [4, 6, 7, 5],
-        [0, 4, 5, 1],
-        [2, 3, 7, 6],
-        [0, 2, 6, 4],
-        [1, 5, 7, 3],
-    ];
-    let t = faces
-        .iter()
-        .flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]])
-        .collect();
+    let mesh = hom_testkit::cube();
+    let p = mesh.positions().iter().map(|v| (*v + 0.5).to_array()).collect();
+    let t = mesh.triangles().iter().flatten().copied().collect();
     (p, t)
 }
 
