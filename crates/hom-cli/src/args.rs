@@ -343,8 +343,9 @@ pub struct HomArgs {
     pub no_cost_model: bool,
     /// HOM, HZB, masked, otree: where each visible object of at most 256 triangles that the
     /// occluders cover is checked, after the traversal, against their depth at every sample it
-    /// covers (culled when it lies behind them at every one): `off` (default), `if-drawn` (where
-    /// the buffer holds that depth: HZB) or `on` (HOM too, drawing it for the check).
+    /// covers (culled when it lies behind them at every one): `off`, `if-drawn` (default: where
+    /// the buffer holds that depth or a bound of it: HZB, masked) or `on` (HOM too, drawing it
+    /// for the check).
     #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
     pub depth_check: Option<DepthCheck>,
     /// HV: most triangles per octree leaf (default 16).
@@ -616,8 +617,8 @@ pub struct BenchArgs {
     pub budget: Option<u32>,
     #[command(flatten)]
     pub clusters: Clusters,
-    /// Comma-separated cullers to compare (default: frustum,hom).
-    #[arg(long, value_delimiter = ',', default_value = "frustum,hom")]
+    /// Comma-separated cullers to compare (default: frustum,hom,masked: the paper's and the default).
+    #[arg(long, value_delimiter = ',', default_value = "frustum,hom,masked")]
     pub cullers: Vec<String>,
     /// Walk only the first N frames of each path.
     #[arg(long)]
@@ -644,7 +645,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_cost_model: bool,
     /// HOM, HZB, masked, otree: where the per-sample depth check runs after the traversal:
-    /// `off` (default), `if-drawn` (where the buffer holds per-sample depth: HZB) or `on` (HOM too).
+    /// `off`, `if-drawn` (default: where the buffer holds per-sample depth or a bound of it: HZB,
+    /// masked) or `on` (HOM too).
     #[arg(long, value_parser = hom_walk::bench::parse_depth_check)]
     pub depth_check: Option<DepthCheck>,
     /// HV: temporal priming (last frame's visible nodes drawn first).

@@ -215,6 +215,46 @@ mod tests {
         assert!(hidden > 100 && seen > 100, "hidden {hidden}, seen {seen}");
     }
 
+    /// The masked buffer's answer ([`crate::masked::MaskedZBuffer::triangles_hidden`],
+    /// with its subtile skip) equals the same question asked sample by sample
+    /// of its bounds ([`crate::masked::MaskedZBuffer::bound`]), and is
+    /// conservative: never hidden where the full z-buffer sees the query.
+    #[test]
+    fn masked_hidden_is_its_bounds_and_conservative() {
+        let mut rng = Rng::new(0x51ed_270b_a4f3_c3d1);
+        let mut raster = crate::masked::raster::MaskedRasterizer::with_backend(RasterBackend::active());
+        let mut zb = crate::masked::MaskedZBuffer::default();
+        let (mut hidden, mut found) = (0, 0);
+        for case in 0..300 {
+            let (w, h) = (40 + (rng.unit() * 200.0) as u32, 30 + (rng.unit() * 100.0) as u32);
+            let vp = Viewport::new(w, h);
+            let occluders = random_tris(&mut rng, 1 + case % 12, &vp, (0.3, 0.6), 2.5);
+            zb.clear(w, h);
+            raster.render(&occluders, &mut zb);
+            for _ in 0..4 {
+                let range = if rng.unit() < 0.5 { (0.6, 0.9) } else { (0.1, 0.9) };
+                let n = 1 + (rng.unit() * 3.0) as usize;
+                let query = random_tris(&mut rng, n, &vp, range, 0.6);
+                let by_bounds = query.iter().all(|t| {
+                    (t.y0..t.y1).all(|y| {
+                        (t.x0..t.x1).all(|x| {
+                            let (x, y) = (u32::from(x), u32::from(y));
+                            !t.covers(x, y) || t.depth_at(x, y) > zb.bound(x, y) + DEPTH_MARGIN
+                        })
+                    })
+                });
+                let got = zb.triangles_hidden(&query);
+                assert_eq!(got, by_bounds, "case {case}");
+                let want = hidden_reference(&occluders, &query, w, h);
+                assert!(!got || want, "case {case}: masked hides a query the z-buffer sees");
+                hidden += usize::from(want);
+                found += usize::from(got);
+            }
+        }
+        // The layers find most of what is hidden, so the equalities test something.
+        assert!(found * 2 > hidden && hidden > 100, "found {found} of {hidden}");
+    }
+
     /// A query behind a full-screen occluder is hidden; moved in front of it,
     /// or beside it where no occluder is, it is seen; an empty query is hidden.
     #[test]

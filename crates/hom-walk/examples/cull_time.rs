@@ -10,7 +10,8 @@
 //! (PASSES, default 3, counts the warm-up; more passes give a profiler more
 //! cull time to sample beside the occluder bake). `CULL_THREADS=N` sets the
 //! pool's thread count (default 2), `CULL_BUDGET=L` the occluder budget;
-//! `CULL_NO_COST_MODEL=1` keeps HOM and HZB from resting. Between frames,
+//! `CULL_NO_COST_MODEL=1` keeps HOM and HZB from resting, `CULL_DEPTH_CHECK=C`
+//! sets the per-sample depth check (off, if-drawn, on). Between frames,
 //! as a renderer would, `CULL_GAP_US=N` idles N µs (the pool's threads fall
 //! asleep) and `CULL_THRASH_MB=M` writes M MiB (the caches lose the
 //! culler's data); neither is timed.
@@ -53,6 +54,9 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     }
     if std::env::var("CULL_NO_COST_MODEL").is_ok() {
         settings.hom.cost_model = false;
+    }
+    if let Ok(check) = std::env::var("CULL_DEPTH_CHECK") {
+        settings.hom.depth_check = hom_walk::bench::parse_depth_check(&check)?;
     }
     let mut c = make(culler, &scene, &settings)?;
     let threads = env("CULL_THREADS").unwrap_or(2);

@@ -81,7 +81,7 @@ impl Default for BenchOptions {
             hierarchy: Vec::new(),
             occluders: Vec::new(),
             cost_model: true,
-            depth_check: DepthCheck::Off,
+            depth_check: DepthCheck::default(),
             speed: None,
             cuts: None,
             hv_priming: false,

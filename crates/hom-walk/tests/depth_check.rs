@@ -3,10 +3,10 @@
 //! random scenes, moving or not, and slanted; and it culls an object close
 //! behind a sloped hider, which the box tests cannot.
 
-use hom::cull::{CullOutput, Culler, DepthCheck, HomConfig, HomCuller, HzbCuller};
+use hom::cull::{CullOutput, Culler, DepthCheck, HomConfig, HomCuller, HzbCuller, MaskedCuller};
 use hom::geom::Camera;
 use hom::glam::{Mat4, Quat, Vec3};
-use hom::scene::SceneBuilder;
+use hom::scene::{Scene, SceneBuilder};
 use hom_testkit::{
     assert_no_false_culls, cube, occluder_cullers, permissive_hom, random_moving_scene, random_slanted_scene,
 };
@@ -48,11 +48,9 @@ proptest! {
 }
 
 /// Two parallel walls turned 60° from the view, taller than the view, the
-/// second 0.3 m behind the first and narrower: its box's nearest corner lies in front of much of
-/// the first wall, so no box test culls it; the per-sample check does, in
-/// HOM (drawing its occluders' depth for it) and in HZB, and only when on.
-#[test]
-fn a_wall_close_behind_a_sloped_wall_is_culled_by_the_check_alone() {
+/// second `behind` metres behind the first and narrower, seen from the
+/// origin at `width` × `height`: the scene, the camera, the near and the far wall.
+fn sloped_walls(behind: f32, width: u32, height: u32) -> (Scene, Camera, u32, u32) {
     let mut b = SceneBuilder::new("sloped walls");
     let turn = Quat::from_rotation_y(60f32.to_radians());
     let normal = turn * Vec3::Z;
@@ -67,9 +65,18 @@ fn a_wall_close_behind_a_sloped_wall_is_culled_by_the_check_alone() {
         .unwrap()
     };
     let near = wall(&mut b, 0.0, 10.0);
-    let far = wall(&mut b, 0.3, 6.0);
-    let scene = b.build().unwrap();
-    let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, 96, 72);
+    let far = wall(&mut b, behind, 6.0);
+    let camera = Camera::new(Vec3::ZERO, -Vec3::Z, Vec3::Y, 1.0, 0.1, 100.0, width, height);
+    (b.build().unwrap(), camera, near, far)
+}
+
+/// The far wall 0.3 m behind: its box's nearest corner lies in front of
+/// much of the first wall, so no box test culls it; the per-sample check
+/// does, in HOM (drawing its occluders' depth for it) and in HZB, and only
+/// when on.
+#[test]
+fn a_wall_close_behind_a_sloped_wall_is_culled_by_the_check_alone() {
+    let (scene, camera, near, far) = sloped_walls(0.3, 96, 72);
     let culled = |culler: &mut dyn Culler| -> CullOutput {
         let out = assert_no_false_culls(&scene, &camera, culler);
         assert!(out.visible.contains(&near), "{}: the near wall is seen", culler.name());
@@ -97,5 +104,26 @@ fn a_wall_close_behind_a_sloped_wall_is_culled_by_the_check_alone() {
                 "{stats:?}"
             );
         }
+    }
+}
+
+/// The masked buffer asks its own layers: a bound per 8×4 subtile, too
+/// coarse for 0.3 m at 96 × 72 but enough for 1 m at 384 × 288, where its
+/// box test still fails (the near wall's bound across the far wall's
+/// rectangle spans metres). Culled by the check, in both modes, and only then.
+#[test]
+fn the_masked_buffer_checks_against_its_subtile_bounds() {
+    let (scene, camera, near, far) = sloped_walls(1.0, 384, 288);
+    for check in [DepthCheck::Off, DepthCheck::IfDrawn, DepthCheck::On] {
+        let mut culler = MaskedCuller::new(&scene, checking(check).with_buffer(()));
+        let out = assert_no_false_culls(&scene, &camera, &mut culler);
+        assert!(out.visible.contains(&near), "check {check}: the near wall is seen");
+        assert_eq!(out.occluded.contains(&far), check != DepthCheck::Off, "check {check}");
+        let stats = out.stats.depth_check;
+        assert_eq!(
+            stats.is_some_and(|s| s.culled >= 1),
+            check != DepthCheck::Off,
+            "{stats:?}"
+        );
     }
 }

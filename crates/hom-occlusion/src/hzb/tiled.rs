@@ -247,9 +247,10 @@ impl TiledZBuffer {
     /// Whether `tris` (set up for this viewport by the renderer's rule) lie
     /// behind the drawn depth at every sample they cover, by more than
     /// [`DEPTH_MARGIN`]: the per-sample question a box test cannot answer
-    /// (`sample_depth.rs`). A row's run within a tile is decided at once
-    /// when its nearest depth lies behind the tile's farthest. Triangles
-    /// that cover no sample are hidden.
+    /// (`sample_depth.rs`). A triangle's box at its nearest depth is asked
+    /// of the pyramid first (when built); a row's run within a tile is
+    /// decided at once when its nearest depth lies behind the tile's
+    /// farthest. Triangles that cover no sample are hidden.
     pub fn triangles_hidden(&self, tris: &[Tri]) -> bool {
         tris.iter().all(|t| self.triangle_hidden(t))
     }
@@ -260,7 +261,22 @@ impl TiledZBuffer {
     fn triangle_hidden(&self, t: &Tri) -> bool {
         let edges = ScanEdges::new(t);
         let (ra, rb) = (edges.rows.0, edges.rows.1.min(self.height));
-        if ra >= rb {
+        let (xa, xb) = (u32::from(t.x0), u32::from(t.x1).min(self.width));
+        if ra >= rb || xa >= xb {
+            return true;
+        }
+        // Most hidden triangles lie wholly behind what hides them: their box
+        // at their nearest depth, against the pyramid when it is built.
+        let pyramid_built = !self.upper.is_empty() || (self.tiles_x <= 1 && self.tiles_y <= 1);
+        let rect = ScreenRect {
+            x0: xa,
+            y0: ra,
+            x1: xb,
+            y1: rb,
+            z_near: t.depth_bounds(xa, xb - 1, ra, rb - 1).0,
+            z_far: 1.0,
+        };
+        if pyramid_built && self.is_behind(&rect) {
             return true;
         }
         let mut stepper = Stepper::new(t, &edges, ra);

@@ -39,8 +39,15 @@
 //! subtiles, so a rectangle over a well-covered region is accepted a block
 //! at a time. Samples past the viewport's edge count as covered (nothing
 //! there is seen).
+//!
+//! Triangles are tested per sample against the same bounds
+//! ([`MaskedZBuffer::triangles_hidden`], the per-sample depth check): an
+//! object close behind a sloped hider lies beyond each subtile's bound
+//! where its box's nearest depth does not lie beyond the farthest.
 
 use crate::geom::ScreenRect;
+use crate::raster::scanline::{ScanEdges, Stepper};
+use crate::raster::setup::Tri;
 use crate::DEPTH_MARGIN;
 
 /// Tile width in samples (one `u32` of mask per row).
@@ -271,6 +278,121 @@ impl MaskedZBuffer {
                         }
                     }
                 }
+            }
+        }
+        true
+    }
+
+    /// Whether `tris` (set up for this viewport by the renderer's rule) lie
+    /// beyond the buffer's bound ([`MaskedZBuffer::bound`]) by more than
+    /// [`DEPTH_MARGIN`] at every sample they cover: the per-sample depth
+    /// check, asked of the masked layers. Coarse levels first: a triangle's
+    /// box at its nearest depth against the blocks (when built), then per
+    /// tile its nearest depth over its rows there against the tile's
+    /// farthest bound, per subtile against its reference depth, and only
+    /// then sample by sample. An empty list is hidden.
+    pub fn triangles_hidden(&self, tris: &[Tri]) -> bool {
+        tris.iter().all(|t| self.triangle_hidden(t))
+    }
+
+    /// One triangle, a tile row (8 rows) at a time.
+    fn triangle_hidden(&self, t: &Tri) -> bool {
+        let edges = ScanEdges::new(t);
+        let (ra, rb) = (edges.rows.0, edges.rows.1.min(self.height));
+        let (xa, xb) = (u32::from(t.x0), u32::from(t.x1).min(self.width));
+        if ra >= rb || xa >= xb {
+            return true;
+        }
+        let rect = ScreenRect {
+            x0: xa,
+            y0: ra,
+            x1: xb,
+            y1: rb,
+            z_near: t.depth_bounds(xa, xb - 1, ra, rb - 1).0,
+            z_far: 1.0,
+        };
+        if !self.blocks.is_empty() && self.is_behind(&rect) {
+            return true;
+        }
+        let mut stepper = Stepper::new(t, &edges, ra);
+        let mut spans = [(0u32, 0u32); MASK_TILE_H as usize];
+        let mut row = ra;
+        while row < rb {
+            let band_end = rb.min((row / MASK_TILE_H + 1) * MASK_TILE_H);
+            let spans = &mut spans[..(band_end - row) as usize];
+            stepper.rows(spans);
+            let (lo, hi) = spans
+                .iter()
+                .filter(|s| s.0 < s.1)
+                .fold((u32::MAX, 0), |(lo, hi), s| (lo.min(s.0), hi.max(s.1.min(self.width))));
+            let mut x = lo;
+            while x < hi {
+                let end = hi.min((x / MASK_TILE_W + 1) * MASK_TILE_W);
+                if !self.tile_rows_hidden(t, row, spans, x, end) {
+                    return false;
+                }
+                x = end;
+            }
+            row = band_end;
+        }
+        true
+    }
+
+    /// Whether `t`'s samples in columns `x..end` (one tile's) of rows
+    /// `row..row + spans.len()` (one tile row's; `spans` their covered
+    /// columns) all lie beyond their bounds.
+    #[inline]
+    fn tile_rows_hidden(&self, t: &Tri, row: u32, spans: &[(u32, u32)], x: u32, end: u32) -> bool {
+        let tile = &self.tiles[((row / MASK_TILE_H) * self.tiles_x + x / MASK_TILE_W) as usize];
+        let last_row = row + spans.len() as u32 - 1;
+        if t.depth_bounds(x, end - 1, row, last_row).0 > tile.far + DEPTH_MARGIN {
+            return true;
+        }
+        // The subtile rows (4 samples high) the band holds, then their subtiles.
+        let mut r = row;
+        while r <= last_row {
+            let sub_end = (last_row + 1).min((r / SUB_H + 1) * SUB_H);
+            let sub_spans = &spans[(r - row) as usize..(sub_end - row) as usize];
+            let mut sx = x;
+            while sx < end {
+                let s_end = end.min((sx / SUB_W + 1) * SUB_W);
+                if !Self::subtile_hidden(tile, t, r, sub_spans, sx, s_end) {
+                    return false;
+                }
+                sx = s_end;
+            }
+            r = sub_end;
+        }
+        true
+    }
+
+    /// Whether `t`'s samples in columns `x..end` (one subtile's) of rows
+    /// `row..row + spans.len()` (one subtile row's) all lie beyond their bounds.
+    #[inline]
+    fn subtile_hidden(tile: &MaskTile, t: &Tri, row: u32, spans: &[(u32, u32)], x: u32, end: u32) -> bool {
+        if spans.iter().all(|&(lo, hi)| lo.max(x) >= hi.min(end)) {
+            return true; // the triangle covers none of it
+        }
+        let k = subtile(x % MASK_TILE_W, row % MASK_TILE_H);
+        let last_row = row + spans.len() as u32 - 1;
+        let z0 = tile.z0[k];
+        if t.depth_bounds(x, end - 1, row, last_row).0 > z0 + DEPTH_MARGIN {
+            return true;
+        }
+        let z1 = z0.min(tile.z1[k]);
+        for (py, &(lo, hi)) in (row..).zip(spans) {
+            let (lo, hi) = (lo.max(x), hi.min(end));
+            if lo >= hi {
+                continue;
+            }
+            let zr = t.depth_row(py);
+            let mask = tile.mask[(py % MASK_TILE_H) as usize];
+            let seen = (lo..hi).any(|px| {
+                let bound = if mask >> (px % MASK_TILE_W) & 1 == 1 { z1 } else { z0 };
+                t.depth_in_row(zr, px as i32 - i32::from(t.x0)) <= bound + DEPTH_MARGIN
+            });
+            if seen {
+                return false;
             }
         }
         true

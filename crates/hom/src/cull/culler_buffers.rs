@@ -290,8 +290,20 @@ impl SampleDepthQuery for HzBuffer {
     }
 }
 
-/// No per-sample depth: never checked.
-impl SampleDepthQuery for MaskedBuffer {}
+impl SampleDepthQuery for MaskedBuffer {
+    /// Asked of its own layers: per sample, the bound of its subtile's
+    /// reference or working layer. Coarser than a depth per sample, so it
+    /// culls no more than HZB's check, but it costs only its comparisons.
+    fn triangles_hidden(&mut self, tris: &[Tri], _: &mut SampleDepths, _: bool) -> Option<bool> {
+        Some(self.zbuffer().triangles_hidden(tris))
+    }
+
+    /// Every sample holds a finite bound: behind it lies the greatest float.
+    fn rect_is_covered(&mut self, r: &ScreenRect) -> bool {
+        let beyond_all = ScreenRect { z_near: f32::MAX, ..*r };
+        self.zbuffer().is_behind(&beyond_all)
+    }
+}
 
 /// No per-sample depth: never checked.
 impl SampleDepthQuery for OcclusionTree {}

@@ -115,7 +115,8 @@ pub struct OccluderCullerConfig<O> {
     /// there (building and rebuilding the occluder database still use the pool).
     pub threads: Threads,
     /// After the traversal, check each visible object the occluders cover
-    /// against their depth at every sample (`depth_check.rs`); off by default.
+    /// against their depth at every sample (`depth_check.rs`); by default
+    /// where the buffer holds that depth or a bound of it (HZB, masked).
     pub depth_check: DepthCheck,
 }
 
@@ -129,7 +130,7 @@ impl<O: Default> Default for OccluderCullerConfig<O> {
             hierarchy: Hierarchy::Bvh,
             buffer: O::default(),
             threads: Threads::Pool,
-            depth_check: DepthCheck::Off,
+            depth_check: DepthCheck::IfDrawn,
         }
     }
 }
