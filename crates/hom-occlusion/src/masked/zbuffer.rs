@@ -46,9 +46,12 @@
 //! where its box's nearest depth does not lie beyond the farthest.
 
 use crate::geom::ScreenRect;
+use crate::occlusion_map::hole::worst_hole_of_level;
+use crate::occlusion_map::pyramid::level_sides;
+use crate::occlusion_map::{worst_hole_of_coverage, Hole, Level};
 use crate::raster::scanline::{ScanEdges, Stepper};
 use crate::raster::setup::Tri;
-use crate::DEPTH_MARGIN;
+use crate::{MapOptions, DEPTH_MARGIN};
 
 /// Tile width in samples (one `u32` of mask per row).
 pub const MASK_TILE_W: u32 = 32;
@@ -206,25 +209,74 @@ impl MaskedZBuffer {
         let wpr = (self.width as usize).div_ceil(64);
         bits.clear();
         bits.resize(wpr * self.height as usize, 0);
-        for (k, t) in self.tiles.iter().enumerate() {
+        for k in 0..self.tiles.len() {
             let (tx, ty) = (k as u32 % self.tiles_x, k as u32 / self.tiles_x);
-            // Per half of the tile (subtile row), the bytes whose subtile has
-            // a finite reference depth, and those with a finite working layer.
-            let bytes = |z: &[f32; SUBTILES], sy: usize| {
-                (0..4).fold(0u32, |b, sx| {
-                    b | (u32::from(z[sy * 4 + sx].is_finite()) * (0xFF << (sx * 8)))
-                })
-            };
-            let all = [bytes(&t.z0, 0), bytes(&t.z0, 1)];
-            let layer = [bytes(&t.z1, 0), bytes(&t.z1, 1)];
-            for j in 0..MASK_TILE_H.min(self.height - ty * MASK_TILE_H) {
-                let (inside, sy) = (!self.outside[k][j as usize], (j / SUB_H) as usize);
-                let row = inside & (all[sy] | (t.mask[j as usize] & layer[sy]));
-                let (x, y) = (tx * MASK_TILE_W, (ty * MASK_TILE_H + j) as usize);
-                // Tiles are 32 wide: a tile row never straddles two words.
-                bits[y * wpr + x as usize / 64] |= u64::from(row) << (x % 64);
+            for (j, row) in self.covered_rows(k).into_iter().enumerate() {
+                let (x, y) = (tx * MASK_TILE_W, ty as usize * MASK_TILE_H as usize + j);
+                if y < self.height as usize {
+                    // Tiles are 32 wide: a tile row never straddles two words.
+                    bits[y * wpr + x as usize / 64] |= u64::from(row) << (x % 64);
+                }
             }
         }
+    }
+
+    /// Tile `k`'s samples inside the viewport with a finite bound, a row of bits each.
+    #[inline]
+    fn covered_rows(&self, k: usize) -> [u32; MASK_TILE_H as usize] {
+        let t = &self.tiles[k];
+        // Per half of the tile (subtile row), the bytes whose subtile has
+        // a finite reference depth, and those with a finite working layer.
+        let bytes = |z: &[f32; SUBTILES], sy: usize| {
+            (0..4).fold(0u32, |b, sx| {
+                b | (u32::from(z[sy * 4 + sx].is_finite()) * (0xFF << (sx * 8)))
+            })
+        };
+        let all = [bytes(&t.z0, 0), bytes(&t.z0, 1)];
+        let layer = [bytes(&t.z1, 0), bytes(&t.z1, 1)];
+        std::array::from_fn(|j| {
+            let sy = j / SUB_H as usize;
+            !self.outside[k][j] & (all[sy] | (t.mask[j] & layer[sy]))
+        })
+    }
+
+    /// The worst hole of the coverage (the samples with a finite bound) in
+    /// an occlusion pyramid of `map`'s geometry: what
+    /// [`crate::occlusion_map::worst_hole_of_coverage`] finds from
+    /// [`MaskedZBuffer::coverage_bits`], without the bits or the levels
+    /// below the coarsest where its pixels are whole tiles (sides multiples
+    /// of 32 samples, at 1024² 256): each pixel's count is its tiles' covered
+    /// samples plus those past the viewport's edge, which count as covered.
+    /// `bits` is scratch for the other viewports.
+    pub fn worst_hole(&self, map: &MapOptions, hole_opacity: f32, bits: &mut Vec<u64>) -> Option<Hole> {
+        let (w, h) = (self.width, self.height);
+        if w == 0 || h == 0 {
+            return None;
+        }
+        let block = map.map_block(w, h);
+        let (k, (tw, th)) = level_sides(w, h, block, map.min_level_side).enumerate().last()?;
+        let size = block << k;
+        if !size.is_multiple_of(MASK_TILE_W) {
+            self.coverage_bits(bits);
+            return worst_hole_of_coverage(bits, w, h, map, hole_opacity);
+        }
+        let mut top = Level {
+            width: tw,
+            height: th,
+            samples_per_pixel: size * size,
+            counts: vec![0; (tw * th) as usize],
+        };
+        let (per_x, per_y) = (size / MASK_TILE_W, size / MASK_TILE_H);
+        for k in 0..self.tiles.len() {
+            let (tx, ty) = (k as u32 % self.tiles_x, k as u32 / self.tiles_x);
+            let covered: u32 = self.covered_rows(k).iter().map(|r| r.count_ones()).sum();
+            top.counts[((ty / per_y) * tw + tx / per_x) as usize] += covered;
+        }
+        for (i, c) in top.counts.iter_mut().enumerate() {
+            let (x, y) = (i as u32 % tw * size, i as u32 / tw * size);
+            *c += size * size - size.min(w - x) * size.min(h - y);
+        }
+        worst_hole_of_level(&top, size, (w, h), hole_opacity)
     }
 
     /// The tiles and their bits past the viewport's edge, for the rasterizer's bands.
@@ -568,6 +620,63 @@ mod tests {
     /// sample's bound stays at or beyond its truth (the nearest depth of the
     /// inserts covering it), and the rectangle test never calls a rectangle
     /// behind where a sample's truth is not nearer.
+    /// Inserts the samples `x0..x1` × `y0..y1` (within the viewport) at depth `z`, as a triangle would.
+    fn insert_rect(zb: &mut MaskedZBuffer, (x0, x1): (u32, u32), (y0, y1): (u32, u32), z: f32) {
+        let (tiles_x, _) = zb.tiles();
+        let (tiles, outside, _) = zb.rows_mut();
+        for ty in y0 / 8..=(y1 - 1) / 8 {
+            for tx in x0 / 32..=(x1 - 1) / 32 {
+                let m: [u32; 8] = std::array::from_fn(|j| {
+                    let y = ty * 8 + j as u32;
+                    if y >= y0 && y < y1 {
+                        row_bits(i64::from(x0) - i64::from(tx * 32), i64::from(x1) - i64::from(tx * 32))
+                    } else {
+                        0
+                    }
+                });
+                let k = (ty * tiles_x + tx) as usize;
+                tiles[k].insert(&m, &[z; SUBTILES], &outside[k]);
+            }
+        }
+    }
+
+    /// The worst hole counted straight from the tiles equals the one found
+    /// from the coverage bits through a whole pyramid, on viewports whose
+    /// coarsest pixels are whole tiles and on the others (the bits path).
+    #[test]
+    fn worst_hole_equals_the_pyramid_of_the_coverage_bits() {
+        let mut rng = Rng::new(11);
+        let map = MapOptions::default();
+        let (mut direct, mut holes, mut bits) = (0, 0, Vec::new());
+        for case in 0..300 {
+            let (w, h) = (1 + rng.below(400) as u32, 1 + rng.below(300) as u32);
+            let mut zb = MaskedZBuffer::default();
+            zb.clear(w, h);
+            for _ in 0..rng.below(60) {
+                let (x0, y0) = (rng.below(u64::from(w)) as u32, rng.below(u64::from(h)) as u32);
+                let x1 = (x0 + 1 + rng.below(u64::from(w)) as u32).min(w);
+                let y1 = (y0 + 1 + rng.below(u64::from(h)) as u32).min(h);
+                insert_rect(&mut zb, (x0, x1), (y0, y1), rng.unit());
+            }
+            let block = map.map_block(w, h);
+            let k = level_sides(w, h, block, map.min_level_side).count() - 1;
+            direct += usize::from((block << k).is_multiple_of(MASK_TILE_W));
+            let mut want_bits = Vec::new();
+            zb.coverage_bits(&mut want_bits);
+            for opacity in [0.25, 0.6, 1.0] {
+                let want = worst_hole_of_coverage(&want_bits, w, h, &map, opacity);
+                assert_eq!(
+                    zb.worst_hole(&map, opacity, &mut bits),
+                    want,
+                    "case {case}: {w}x{h}, {opacity}"
+                );
+                holes += usize::from(want.is_some());
+            }
+        }
+        assert!(direct > 100 && direct < 290, "{direct} of 300 counted from the tiles");
+        assert!(holes > 200 && holes < 850, "{holes} holes of 900");
+    }
+
     #[test]
     fn bounds_stay_conservative_whatever_the_order() {
         let mut rng = Rng::new(5);
@@ -589,22 +698,7 @@ mod tests {
                         *t = t.min(z);
                     }
                 }
-                let (tiles_x, _) = zb.tiles();
-                let (tiles, outside, _) = zb.rows_mut();
-                for ty in y0 / 8..=(y1 - 1) / 8 {
-                    for tx in x0 / 32..=(x1 - 1) / 32 {
-                        let m: [u32; 8] = std::array::from_fn(|j| {
-                            let y = ty * 8 + j as u32;
-                            if y >= y0 && y < y1 {
-                                row_bits(i64::from(x0) - i64::from(tx * 32), i64::from(x1) - i64::from(tx * 32))
-                            } else {
-                                0
-                            }
-                        });
-                        let k = (ty * tiles_x + tx) as usize;
-                        tiles[k].insert(&m, &[z; SUBTILES], &outside[k]);
-                    }
-                }
+                insert_rect(&mut zb, (x0, x1), (y0, y1), z);
             }
             zb.build_blocks();
             for t in &zb.tiles {

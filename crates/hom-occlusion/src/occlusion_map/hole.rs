@@ -2,7 +2,7 @@
 //! section 6.2): the worst hole of the last frame's coarsest occlusion map,
 //! as a normalized-device rectangle the selection turns into a sub-frustum.
 
-use super::Pyramid;
+use super::{Level, Pyramid};
 
 /// A hole region of the coarsest map: normalized device rectangle and its mean opacity.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,6 +19,13 @@ pub struct Hole {
 /// greedily over neighbouring hole pixels, as an NDC rectangle.
 pub fn find_worst_hole(p: &Pyramid, hole_opacity: f32) -> Option<Hole> {
     let top = p.levels().last()?;
+    let size = p.block() << (p.levels().len() - 1);
+    worst_hole_of_level(top, size, p.viewport(), hole_opacity)
+}
+
+/// [`find_worst_hole`] over a pyramid's coarsest level `top`, whose pixels
+/// stand for `size` × `size` samples of a `viewport`.
+pub(crate) fn worst_hole_of_level(top: &Level, size: u32, viewport: (u32, u32), hole_opacity: f32) -> Option<Hole> {
     let hole = |x: u32, y: u32| top.opacity(x, y) < hole_opacity;
     let (mut sx, mut sy, mut worst) = (0, 0, f32::MAX);
     for y in 0..top.height {
@@ -56,8 +63,8 @@ pub fn find_worst_hole(p: &Pyramid, hole_opacity: f32) -> Option<Hole> {
         }
     }
     let n = ((x1 - x0) * (y1 - y0)) as f32;
-    let size = (p.block() << (p.levels().len() - 1)) as f32;
-    let (w, h) = (p.viewport().0 as f32, p.viewport().1 as f32);
+    let size = size as f32;
+    let (w, h) = (viewport.0 as f32, viewport.1 as f32);
     let ndc_x = |px: f32| (px * size / w).min(1.0) * 2.0 - 1.0;
     let ndc_y = |py: f32| 1.0 - (py * size / h).min(1.0) * 2.0;
     Some(Hole {

@@ -14,11 +14,11 @@ mod depth_cells;
 #[forbid(unsafe_code)]
 mod estimation_buffer;
 #[forbid(unsafe_code)]
-mod hole;
+pub(crate) mod hole;
 #[forbid(unsafe_code)]
 mod overlap;
 #[forbid(unsafe_code)]
-mod pyramid;
+pub(crate) mod pyramid;
 #[forbid(unsafe_code)]
 pub(crate) mod raster;
 

@@ -59,23 +59,15 @@ impl Pyramid {
     pub fn new(width: u32, height: u32, block: u32, min_side: u32) -> Pyramid {
         assert!((1..=64).contains(&block), "block must be 1..=64, got {block}");
         assert!(width > 0 && height > 0, "viewport must not be empty");
-        let mut levels = Vec::new();
-        let (mut w, mut h) = (width.div_ceil(block), height.div_ceil(block));
-        let mut spp = block * block;
-        loop {
-            levels.push(Level {
+        let levels = level_sides(width, height, block, min_side)
+            .enumerate()
+            .map(|(k, (w, h))| Level {
                 width: w,
                 height: h,
-                samples_per_pixel: spp,
+                samples_per_pixel: (block * block) << (2 * k),
                 counts: vec![0; (w * h) as usize],
-            });
-            if (w <= min_side.max(1) && h <= min_side.max(1)) || (w == 1 && h == 1) {
-                break;
-            }
-            w = w.div_ceil(2);
-            h = h.div_ceil(2);
-            spp *= 4;
-        }
+            })
+            .collect();
         Pyramid {
             block,
             viewport: (width, height),
@@ -198,6 +190,17 @@ impl Pyramid {
     pub fn base_mut(&mut self) -> &mut Level {
         &mut self.levels[0]
     }
+}
+
+/// The sides of each level of [`Pyramid::new`]'s pyramid, from the base
+/// (pixels of `block` × `block` samples) up: each halves the one below,
+/// rounded up, until both sides are at most `min_side` (or one pixel).
+pub(crate) fn level_sides(width: u32, height: u32, block: u32, min_side: u32) -> impl Iterator<Item = (u32, u32)> {
+    let last = move |(w, h): (u32, u32)| (w <= min_side.max(1) && h <= min_side.max(1)) || (w == 1 && h == 1);
+    let base = (width.div_ceil(block), height.div_ceil(block));
+    std::iter::successors(Some(base), move |&s| {
+        (!last(s)).then(|| (s.0.div_ceil(2), s.1.div_ceil(2)))
+    })
 }
 
 /// Most levels (the base and those above it) a band builds on its own.

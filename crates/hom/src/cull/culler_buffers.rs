@@ -199,9 +199,12 @@ impl CullerBuffer for MaskedBuffer {
         MaskedBuffer::new(width, height, buffer)
     }
 
+    /// Counted from its tiles (`MaskedZBuffer::worst_hole`), without a
+    /// per-sample mask or the finer levels: 0.10–0.15 ms a frame on the
+    /// Quake 3 maps through the coverage bits.
     fn worst_hole(&self, hole_opacity: f32) -> Option<Hole> {
-        let zb = self.last_zbuffer();
-        coverage_hole(zb.width(), zb.height(), hole_opacity, |bits| zb.coverage_bits(bits))
+        self.last_zbuffer()
+            .worst_hole(&MapOptions::default(), hole_opacity, &mut Vec::new())
     }
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
