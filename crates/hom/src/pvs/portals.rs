@@ -202,27 +202,29 @@ fn polygon_plane(points: &[DVec3]) -> Option<(DVec3, f64)> {
     Some((n, n.dot(centre / points.len() as f64)))
 }
 
-/// The part of a convex polygon with `n·p − d ≥ −SLACK`.
-fn clip(points: &[DVec3], n: DVec3, d: f64) -> Vec<DVec3> {
-    let dist: Vec<f64> = points.iter().map(|p| n.dot(*p) - d + SLACK).collect();
-    if dist.iter().all(|&s| s >= 0.0) {
-        return points.to_vec();
+/// Clips the convex polygon `poly` in place to its part with
+/// `n·p − d ≥ −SLACK`, emptied when fewer than 3 corners remain; `scratch`
+/// is reused, so the bake's millions of clips allocate nothing.
+fn clip(poly: &mut Vec<DVec3>, n: DVec3, d: f64, scratch: &mut Vec<DVec3>) {
+    let dist = |p: DVec3| n.dot(p) - d + SLACK;
+    if poly.iter().all(|&p| dist(p) >= 0.0) {
+        return;
     }
-    let mut out = Vec::with_capacity(points.len() + 1);
-    for i in 0..points.len() {
-        let j = (i + 1) % points.len();
-        let (a, b, da, db) = (points[i], points[j], dist[i], dist[j]);
+    scratch.clear();
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (da, db) = (dist(a), dist(b));
         if da >= 0.0 {
-            out.push(a);
+            scratch.push(a);
         }
         if (da >= 0.0) != (db >= 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
+            scratch.push(a + (b - a) * (da / (da - db)));
         }
     }
-    if out.len() < 3 {
-        out.clear();
+    if scratch.len() < 3 {
+        scratch.clear();
     }
-    out
+    std::mem::swap(poly, scratch);
 }
 
 /// Planes with `source` behind and `pass` in front (unit normals, pointing
@@ -464,6 +466,9 @@ struct Search<'a> {
     touched: Vec<u32>,
     queue: std::collections::VecDeque<u32>,
     separators: Vec<(DVec3, f64)>,
+    /// Polygons reused from step to step: the windows being followed, a
+    /// step's results, and clipping's scratch.
+    polygons: [Vec<DVec3>; 5],
 }
 
 impl<'a> Search<'a> {
@@ -474,20 +479,21 @@ impl<'a> Search<'a> {
             touched: Vec::new(),
             queue: Default::default(),
             separators: Vec::new(),
+            polygons: Default::default(),
         }
     }
 
     /// Merges windows for portal `t` (lines leaving the source within
     /// `source`, crossing `t` within `window`); queues `t` when they grew.
-    fn offer(&mut self, t: u32, source: Vec<DVec3>, window: Vec<DVec3>, source_normal: DVec3) {
+    fn offer(&mut self, t: u32, source: &[DVec3], window: &[DVec3], source_normal: DVec3) {
         let target = &self.graph.directed[t as usize];
         let slot = &mut self.at[t as usize];
         let grew = match slot {
             None => {
                 self.touched.push(t);
                 *slot = Some(Windows {
-                    source,
-                    window,
+                    source: source.to_vec(),
+                    window: window.to_vec(),
                     growth: 0,
                     queued: false,
                 });
@@ -495,8 +501,8 @@ impl<'a> Search<'a> {
             }
             Some(w) if w.growth == u8::MAX => false,
             Some(w) => {
-                let source_in = contains(&w.source, &source, source_normal);
-                let window_in = contains(&w.window, &window, target.normal);
+                let source_in = contains(&w.source, source, source_normal);
+                let window_in = contains(&w.window, window, target.normal);
                 if source_in && window_in {
                     false
                 } else {
@@ -506,11 +512,11 @@ impl<'a> Search<'a> {
                         w.window = target.points.clone();
                         w.growth = u8::MAX;
                     } else if !window_in {
-                        w.window.extend(window);
+                        w.window.extend_from_slice(window);
                         w.window = hull(&w.window, target.normal);
                     }
                     if !source_in && w.growth != u8::MAX {
-                        w.source.extend(source);
+                        w.source.extend_from_slice(source);
                         w.source = hull(&w.source, source_normal);
                     }
                     true
@@ -534,20 +540,33 @@ impl<'a> Search<'a> {
         for t in self.touched.drain(..) {
             self.at[t as usize] = None;
         }
+        let [mut src, mut win, mut s2, mut w2, mut scratch] = std::mem::take(&mut self.polygons);
         for &t in &graph.leaving[source.to as usize] {
-            if let Some((src, w)) = step(source, source, &source.points, &[], &graph.directed[t as usize]) {
-                self.offer(t, src, w, source.normal);
+            let target = &graph.directed[t as usize];
+            if step(
+                source,
+                source,
+                &source.points,
+                &[],
+                target,
+                (&mut w2, &mut s2),
+                &mut scratch,
+            ) {
+                self.offer(t, &s2, &w2, source.normal);
             }
         }
         while let Some(t) = self.queue.pop_front() {
             let target = &graph.directed[t as usize];
             let windows = self.at[t as usize].as_mut().expect("queued portals have windows");
             windows.queued = false;
-            let (src, win) = if windows.growth == u8::MAX {
-                (source.points.clone(), windows.window.clone())
+            src.clear();
+            src.extend_from_slice(if windows.growth == u8::MAX {
+                &source.points
             } else {
-                (windows.source.clone(), windows.window.clone())
-            };
+                &windows.source
+            });
+            win.clear();
+            win.extend_from_slice(&windows.window);
             // The planes every line through the source and the window
             // stays in front of, past the window.
             let mut seps = std::mem::take(&mut self.separators);
@@ -564,44 +583,52 @@ impl<'a> Search<'a> {
                 if (next ^ 1) == t {
                     continue; // Back through the same portal.
                 }
-                if let Some((s2, w2)) = step(source, target, &src, &seps, after) {
-                    self.offer(next, s2, w2, source.normal);
+                if step(source, target, &src, &seps, after, (&mut w2, &mut s2), &mut scratch) {
+                    self.offer(next, &s2, &w2, source.normal);
                 }
             }
             self.separators = seps;
         }
+        self.polygons = [src, win, s2, w2, scratch];
     }
 }
 
 /// What is left of `target` for lines leaving the source portal within
 /// `source` and crossing `pass` (the last portal crossed; `planes` separate
-/// the two), and of `source` for lines that cross `target`: `None` when
-/// either is clipped away.
+/// the two), into `window`, and of `source` for lines that cross `target`,
+/// into `left`: `false` when either is clipped away.
+#[allow(clippy::too_many_arguments)]
 fn step(
     source_portal: &Directed,
     pass: &Directed,
     source: &[DVec3],
     planes: &[(DVec3, f64)],
     target: &Directed,
-) -> Option<(Vec<DVec3>, Vec<DVec3>)> {
+    (window, left): (&mut Vec<DVec3>, &mut Vec<DVec3>),
+    scratch: &mut Vec<DVec3>,
+) -> bool {
+    window.clear();
+    window.extend_from_slice(&target.points);
     // A line that crossed a portal stays in front of it.
-    let mut w = clip(&target.points, source_portal.normal, source_portal.d);
-    if w.len() >= 3 && !std::ptr::eq(pass, source_portal) {
-        w = clip(&w, pass.normal, pass.d);
+    clip(window, source_portal.normal, source_portal.d, scratch);
+    if window.len() >= 3 && !std::ptr::eq(pass, source_portal) {
+        clip(window, pass.normal, pass.d, scratch);
     }
     // A portal in the pass's plane leads back where the line came from.
-    if w.len() < 3 || w.iter().all(|p| (pass.normal.dot(*p) - pass.d).abs() <= SLACK) {
-        return None;
+    if window.len() < 3 || window.iter().all(|p| (pass.normal.dot(*p) - pass.d).abs() <= SLACK) {
+        return false;
     }
     for &(n, d) in planes {
-        w = clip(&w, n, d);
-        if w.len() < 3 {
-            return None;
+        clip(window, n, d, scratch);
+        if window.len() < 3 {
+            return false;
         }
     }
     // Lines crossing the target start behind its plane.
-    let src = clip(source, -target.normal, -target.d);
-    (src.len() >= 3).then_some((src, w))
+    left.clear();
+    left.extend_from_slice(source);
+    clip(left, -target.normal, -target.d, scratch);
+    left.len() >= 3
 }
 
 #[cfg(test)]
