@@ -247,8 +247,7 @@ impl MaskedZBuffer {
     /// below the coarsest where its pixels are whole tiles (sides multiples
     /// of 32 samples, at 1024² 256): each pixel's count is its tiles' covered
     /// samples plus those past the viewport's edge, which count as covered.
-    /// `bits` is scratch for the other viewports.
-    pub fn worst_hole(&self, map: &MapOptions, hole_opacity: f32, bits: &mut Vec<u64>) -> Option<Hole> {
+    pub fn worst_hole(&self, map: &MapOptions, hole_opacity: f32) -> Option<Hole> {
         let (w, h) = (self.width, self.height);
         if w == 0 || h == 0 {
             return None;
@@ -257,8 +256,9 @@ impl MaskedZBuffer {
         let (k, (tw, th)) = level_sides(w, h, block, map.min_level_side).enumerate().last()?;
         let size = block << k;
         if !size.is_multiple_of(MASK_TILE_W) {
-            self.coverage_bits(bits);
-            return worst_hole_of_coverage(bits, w, h, map, hole_opacity);
+            let mut bits = Vec::new();
+            self.coverage_bits(&mut bits);
+            return worst_hole_of_coverage(&bits, w, h, map, hole_opacity);
         }
         let mut top = Level {
             width: tw,
@@ -647,7 +647,7 @@ mod tests {
     fn worst_hole_equals_the_pyramid_of_the_coverage_bits() {
         let mut rng = Rng::new(11);
         let map = MapOptions::default();
-        let (mut direct, mut holes, mut bits) = (0, 0, Vec::new());
+        let (mut direct, mut holes) = (0, 0);
         for case in 0..300 {
             let (w, h) = (1 + rng.below(400) as u32, 1 + rng.below(300) as u32);
             let mut zb = MaskedZBuffer::default();
@@ -665,11 +665,7 @@ mod tests {
             zb.coverage_bits(&mut want_bits);
             for opacity in [0.25, 0.6, 1.0] {
                 let want = worst_hole_of_coverage(&want_bits, w, h, &map, opacity);
-                assert_eq!(
-                    zb.worst_hole(&map, opacity, &mut bits),
-                    want,
-                    "case {case}: {w}x{h}, {opacity}"
-                );
+                assert_eq!(zb.worst_hole(&map, opacity), want, "case {case}: {w}x{h}, {opacity}");
                 holes += usize::from(want.is_some());
             }
         }

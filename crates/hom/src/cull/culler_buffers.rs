@@ -203,8 +203,7 @@ impl CullerBuffer for MaskedBuffer {
     /// per-sample mask or the finer levels: 0.10–0.15 ms a frame on the
     /// Quake 3 maps through the coverage bits.
     fn worst_hole(&self, hole_opacity: f32) -> Option<Hole> {
-        self.last_zbuffer()
-            .worst_hole(&MapOptions::default(), hole_opacity, &mut Vec::new())
+        self.last_zbuffer().worst_hole(&MapOptions::default(), hole_opacity)
     }
 
     fn describe(_: &()) -> Vec<(&'static str, String)> {
