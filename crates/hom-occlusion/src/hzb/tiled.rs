@@ -12,7 +12,7 @@
 //! viewport's edge hold `f32::NEG_INFINITY` (nothing there can be seen).
 
 use crate::geom::ScreenRect;
-use crate::raster::scanline::{ScanEdges, Stepper};
+use crate::raster::scanline::all_tiles_of;
 use crate::raster::setup::Tri;
 use crate::DEPTH_MARGIN;
 
@@ -259,48 +259,14 @@ impl TiledZBuffer {
     /// is passed whole when the triangle's nearest depth over it lies behind
     /// the tile's farthest, else sample by sample.
     fn triangle_hidden(&self, t: &Tri) -> bool {
-        let edges = ScanEdges::new(t);
-        let (ra, rb) = (edges.rows.0, edges.rows.1.min(self.height));
-        let (xa, xb) = (u32::from(t.x0), u32::from(t.x1).min(self.width));
-        if ra >= rb || xa >= xb {
-            return true;
-        }
-        // Most hidden triangles lie wholly behind what hides them: their box
-        // at their nearest depth, against the pyramid when it is built.
         let pyramid_built = !self.upper.is_empty() || (self.tiles_x <= 1 && self.tiles_y <= 1);
-        let rect = ScreenRect {
-            x0: xa,
-            y0: ra,
-            x1: xb,
-            y1: rb,
-            z_near: t.depth_bounds(xa, xb - 1, ra, rb - 1).0,
-            z_far: 1.0,
-        };
-        if pyramid_built && self.is_behind(&rect) {
-            return true;
-        }
-        let mut stepper = Stepper::new(t, &edges, ra);
-        let mut spans = [(0u32, 0u32); TILE as usize];
-        let mut row = ra;
-        while row < rb {
-            let band_end = rb.min((row / TILE + 1) * TILE);
-            let spans = &mut spans[..(band_end - row) as usize];
-            stepper.rows(spans);
-            let (lo, hi) = spans
-                .iter()
-                .filter(|s| s.0 < s.1)
-                .fold((u32::MAX, 0), |(lo, hi), s| (lo.min(s.0), hi.max(s.1.min(self.width))));
-            let mut x = lo;
-            while x < hi {
-                let end = hi.min((x / TILE + 1) * TILE);
-                if !self.tile_hidden(t, row, spans, x, end) {
-                    return false;
-                }
-                x = end;
-            }
-            row = band_end;
-        }
-        true
+        all_tiles_of(
+            t,
+            (self.width, self.height),
+            (TILE, TILE),
+            |rect| pyramid_built && self.is_behind(rect),
+            |row, spans, x, end| self.tile_hidden(t, row, spans, x, end),
+        )
     }
 
     /// Whether `t`'s samples in columns `x..end` (one tile's) of rows

@@ -49,7 +49,7 @@ use crate::geom::ScreenRect;
 use crate::occlusion_map::hole::worst_hole_of_level;
 use crate::occlusion_map::pyramid::level_sides;
 use crate::occlusion_map::{worst_hole_of_coverage, Hole, Level};
-use crate::raster::scanline::{ScanEdges, Stepper};
+use crate::raster::scanline::all_tiles_of;
 use crate::raster::setup::Tri;
 use crate::{MapOptions, DEPTH_MARGIN};
 
@@ -349,45 +349,13 @@ impl MaskedZBuffer {
 
     /// One triangle, a tile row (8 rows) at a time.
     fn triangle_hidden(&self, t: &Tri) -> bool {
-        let edges = ScanEdges::new(t);
-        let (ra, rb) = (edges.rows.0, edges.rows.1.min(self.height));
-        let (xa, xb) = (u32::from(t.x0), u32::from(t.x1).min(self.width));
-        if ra >= rb || xa >= xb {
-            return true;
-        }
-        let rect = ScreenRect {
-            x0: xa,
-            y0: ra,
-            x1: xb,
-            y1: rb,
-            z_near: t.depth_bounds(xa, xb - 1, ra, rb - 1).0,
-            z_far: 1.0,
-        };
-        if !self.blocks.is_empty() && self.is_behind(&rect) {
-            return true;
-        }
-        let mut stepper = Stepper::new(t, &edges, ra);
-        let mut spans = [(0u32, 0u32); MASK_TILE_H as usize];
-        let mut row = ra;
-        while row < rb {
-            let band_end = rb.min((row / MASK_TILE_H + 1) * MASK_TILE_H);
-            let spans = &mut spans[..(band_end - row) as usize];
-            stepper.rows(spans);
-            let (lo, hi) = spans
-                .iter()
-                .filter(|s| s.0 < s.1)
-                .fold((u32::MAX, 0), |(lo, hi), s| (lo.min(s.0), hi.max(s.1.min(self.width))));
-            let mut x = lo;
-            while x < hi {
-                let end = hi.min((x / MASK_TILE_W + 1) * MASK_TILE_W);
-                if !self.tile_rows_hidden(t, row, spans, x, end) {
-                    return false;
-                }
-                x = end;
-            }
-            row = band_end;
-        }
-        true
+        all_tiles_of(
+            t,
+            (self.width, self.height),
+            (MASK_TILE_W, MASK_TILE_H),
+            |rect| !self.blocks.is_empty() && self.is_behind(rect),
+            |row, spans, x, end| self.tile_rows_hidden(t, row, spans, x, end),
+        )
     }
 
     /// Whether `t`'s samples in columns `x..end` (one tile's) of rows

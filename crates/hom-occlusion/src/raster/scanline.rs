@@ -9,6 +9,7 @@
 //! rasterizer for triangles too wide for its vector row masks.
 
 use super::setup::{Tri, ONE};
+use crate::geom::ScreenRect;
 
 /// A triangle's edges arranged for scan-line stepping, computed once per
 /// triangle. A sloped edge bounds a row's covered columns from the left
@@ -207,6 +208,65 @@ impl Stepper {
         }
         self.py += 1;
     }
+}
+
+/// The per-sample depth check's walk over one triangle, shared by the
+/// buffers that answer it (`TiledZBuffer::triangles_hidden`,
+/// `MaskedZBuffer::triangles_hidden`): `true` when `t` covers no sample of
+/// the `width` × `height` viewport, when `whole` holds for its box at its
+/// nearest depth (most hidden triangles lie wholly behind what hides them),
+/// or when `tile(row, spans, x, end)` holds for every tile of `tile_w` ×
+/// `tile_h` samples (`tile_h` at most 8) it covers: columns `x..end` of rows
+/// `row..row + spans.len()`, `spans` their covered columns. Stops at the
+/// first tile that does not.
+#[inline(always)] // the callers pass constant tile sizes: their divisions become shifts
+pub(crate) fn all_tiles_of(
+    t: &Tri,
+    (width, height): (u32, u32),
+    (tile_w, tile_h): (u32, u32),
+    whole: impl FnOnce(&ScreenRect) -> bool,
+    mut tile: impl FnMut(u32, &[(u32, u32)], u32, u32) -> bool,
+) -> bool {
+    debug_assert!((1..=8).contains(&tile_h), "tile height {tile_h}");
+    let edges = ScanEdges::new(t);
+    let (ra, rb) = (edges.rows.0, edges.rows.1.min(height));
+    let (xa, xb) = (u32::from(t.x0), u32::from(t.x1).min(width));
+    if ra >= rb || xa >= xb {
+        return true;
+    }
+    let rect = ScreenRect {
+        x0: xa,
+        y0: ra,
+        x1: xb,
+        y1: rb,
+        z_near: t.depth_bounds(xa, xb - 1, ra, rb - 1).0,
+        z_far: 1.0,
+    };
+    if whole(&rect) {
+        return true;
+    }
+    let mut stepper = Stepper::new(t, &edges, ra);
+    let mut spans = [(0u32, 0u32); 8];
+    let mut row = ra;
+    while row < rb {
+        let band_end = rb.min((row / tile_h + 1) * tile_h);
+        let spans = &mut spans[..(band_end - row) as usize];
+        stepper.rows(spans);
+        let (lo, hi) = spans
+            .iter()
+            .filter(|s| s.0 < s.1)
+            .fold((u32::MAX, 0), |(lo, hi), s| (lo.min(s.0), hi.max(s.1.min(width))));
+        let mut x = lo;
+        while x < hi {
+            let end = hi.min((x / tile_w + 1) * tile_w);
+            if !tile(row, spans, x, end) {
+                return false;
+            }
+            x = end;
+        }
+        row = band_end;
+    }
+    true
 }
 
 /// Rows a [`TileRows`] steps at once: the eight rows of a masked tile row.
