@@ -162,7 +162,11 @@ fn a_hidden_wall_a_wall_marked_never_and_a_despawned_wall_occlude_nothing() {
         app.update();
         if what == "hidden" || what == "never" {
             // A change of role keeps the entity's object: only its occluder flag changes.
-            assert_eq!(app.world().resource::<OcclusionScene>().object_of(s.wall), object, "{what}");
+            assert_eq!(
+                app.world().resource::<OcclusionScene>().object_of(s.wall),
+                object,
+                "{what}"
+            );
         }
         let seen = visible(&app, s.camera);
         assert!(seen.contains(&s.behind) && seen.contains(&s.front), "{what}: {seen:?}");
