@@ -167,7 +167,7 @@ pub(crate) fn cull_cameras(
             ClipConvention::ReversedZ,
         );
         #[cfg(feature = "trace")]
-        let span = bevy::log::info_span!("hom_bevy", stage = "cull").entered();
+        let span = tracing::info_span!("hom_bevy", stage = "cull").entered();
         let cull_start = Instant::now();
         let culled = c.culler.culler().cull(scene, &view, &mut c.out);
         c.culler.culler().frame_done(None);
@@ -182,7 +182,7 @@ pub(crate) fn cull_cameras(
             continue;
         }
         #[cfg(feature = "trace")]
-        let _span = bevy::log::info_span!("hom_bevy", stage = "filter").entered();
+        let _span = tracing::info_span!("hom_bevy", stage = "filter").entered();
         c.hidden.resize(scene.objects().len(), false);
         for &id in &c.out.occluded {
             c.hidden[id as usize] = true;

@@ -72,6 +72,8 @@
 //! cull, hom's own `hom_cull` spans (selection, raster, traversal, …), which
 //! bevy's `trace_tracy` or `trace_chrome` show.
 
+#![forbid(unsafe_code)]
+
 mod cull;
 mod mirror;
 

@@ -157,7 +157,7 @@ pub(crate) fn sync_scene(
     mut unmarked: Unmarked,
 ) {
     #[cfg(feature = "trace")]
-    let _span = bevy::log::info_span!("hom_bevy", stage = "sync").entered();
+    let _span = tracing::info_span!("hom_bevy", stage = "sync").entered();
     let start = Instant::now();
     let mirror = &mut *mirror;
     for event in mesh_events.read() {
