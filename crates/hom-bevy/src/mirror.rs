@@ -197,9 +197,14 @@ pub(crate) fn sync_scene(
         }
         if let Some(t) = mirror.tracked.get(&entity).copied() {
             let m = matrix(transform);
-            for id in std::iter::once(t.object).chain(t.stand_in) {
-                // The id is live: it was added for this entity and not removed.
-                let _ = mirror.scene.set_transform(id, m);
+            let placed = std::iter::once(t.object)
+                .chain(t.stand_in)
+                .all(|id| mirror.scene.set_transform(id, m).is_ok());
+            if !placed {
+                // A transform hom refuses (not finite): out until it is
+                // usable again, never culled where it stood before.
+                mirror.untrack(entity);
+                mirror.pending.insert(entity);
             }
         }
     }
@@ -270,6 +275,8 @@ impl OcclusionScene {
         let may_occlude = may_occlude(&parts, settings);
         let m = matrix(parts.transform);
         let Ok(object) = self.scene.add_object("entity", mesh, m) else {
+            // A transform hom refuses (not finite): tried again each frame.
+            self.pending.insert(entity);
             return false;
         };
         let _ = self.scene.set_occluder(object, may_occlude && made_of.1.is_none());

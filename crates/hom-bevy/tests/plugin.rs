@@ -229,6 +229,51 @@ fn a_mesh_that_loads_later_takes_part_once_loaded() {
 }
 
 #[test]
+fn a_mesh_with_a_nan_vertex_or_no_triangles_is_left_to_bevy() {
+    let mut app = app();
+    let s = wall_scene(&mut app, BufferKind::Masked);
+    let mut broken = Mesh::from(Cuboid::new(40.0, 30.0, 1.0));
+    if let Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) = broken.attribute_mut(Mesh::ATTRIBUTE_POSITION) {
+        p[0] = [f32::NAN, 0.0, 0.0];
+    }
+    let nan_wall = app.world_mut().resource_mut::<Assets<Mesh>>().add(broken);
+    let lines = app.world_mut().resource_mut::<Assets<Mesh>>().add(Mesh::new(
+        bevy::mesh::PrimitiveTopology::LineList,
+        bevy::asset::RenderAssetUsages::default(),
+    ));
+    app.world_mut().entity_mut(s.wall).insert(Mesh3d(nan_wall));
+    let line_entity = spawn(&mut app, &lines, Vec3::new(0.0, 0.0, -3.0));
+    app.update();
+    let mirror = app.world().resource::<OcclusionScene>();
+    assert_eq!(mirror.object_of(s.wall), None);
+    assert_eq!(mirror.object_of(line_entity), None);
+    assert!(visible(&app, s.camera).contains(&s.behind), "a NaN wall hides nothing");
+}
+
+#[test]
+fn a_transform_that_is_not_finite_takes_the_entity_out_until_it_is() {
+    let mut app = app();
+    let s = wall_scene(&mut app, BufferKind::Masked);
+    app.update();
+    assert!(!visible(&app, s.camera).contains(&s.behind));
+    app.world_mut()
+        .entity_mut(s.wall)
+        .insert(Transform::from_xyz(f32::NAN, 0.0, -10.0));
+    app.update();
+    assert_eq!(app.world().resource::<OcclusionScene>().object_of(s.wall), None);
+    assert!(visible(&app, s.camera).contains(&s.behind), "a NaN wall hides nothing");
+    app.world_mut()
+        .entity_mut(s.wall)
+        .insert(Transform::from_xyz(0.0, 0.0, -10.0));
+    app.update();
+    assert!(app.world().resource::<OcclusionScene>().object_of(s.wall).is_some());
+    assert!(
+        !visible(&app, s.camera).contains(&s.behind),
+        "back in place, it hides again"
+    );
+}
+
+#[test]
 fn the_debug_view_shows_the_wall_covering_the_buffer() {
     let mut app = app();
     app.init_asset::<Image>();
