@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Builds hom's C ABI (crates/hom-capi) and, with the system's C and C++
-# compilers, its C test, C++ test and C example against the static library,
-# warnings as errors; runs all three. CI runs it (`.ci/run`).
+# compilers, its C test, C++ test and C examples against the static library,
+# warnings as errors; runs them. CI runs it (`.ci/run`).
 #
 #   scripts/c-api-check.sh           debug library: the checks
-#   scripts/c-api-check.sh --bench   release library: the C example and its
-#                                    Rust twin (`--example street`), three times each
+#   scripts/c-api-check.sh --bench   release library: hom-occlusion's `engine_loop`
+#                                    and its C port (`c/engine_loop.c`), alternately, three times each
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -27,11 +27,12 @@ inc=crates/hom-capi/include
 libs=(-lpthread -ldl -lm)
 
 if [[ $bench == 1 ]]; then
-    cargo build -q --release -p hom-capi --lib --example street
-    cc -O2 -std=c11 -I"$inc" crates/hom-capi/c/example.c target/release/libhom_capi.a "${libs[@]}" -o "$out/example"
+    cargo build -q --release -p hom-capi --lib
+    cargo build -q --release -p hom-occlusion --example engine_loop
+    cc -O2 -std=c11 -I"$inc" crates/hom-capi/c/engine_loop.c target/release/libhom_capi.a "${libs[@]}" -o "$out/engine_loop"
     for _ in 1 2 3; do
-        target/release/examples/street
-        "$out/example"
+        target/release/examples/engine_loop | tail -n 1
+        "$out/engine_loop"
     done
     exit 0
 fi
@@ -41,6 +42,8 @@ lib=target/debug/libhom_capi.a
 cc -Wall -Wextra -Werror -std=c11 -I"$inc" crates/hom-capi/c/test.c "$lib" "${libs[@]}" -o "$out/test"
 c++ -Wall -Wextra -Werror -std=c++17 -I"$inc" crates/hom-capi/c/test.cpp "$lib" "${libs[@]}" -o "$out/test_cpp"
 cc -Wall -Wextra -Werror -std=c11 -I"$inc" crates/hom-capi/c/example.c "$lib" "${libs[@]}" -o "$out/example"
+cc -Wall -Wextra -Werror -std=c11 -I"$inc" crates/hom-capi/c/engine_loop.c "$lib" "${libs[@]}" -o "$out/engine_loop"
 "$out/test"
 "$out/test_cpp"
 "$out/example" 8 # a few frames of a debug build
+"$out/engine_loop" 8

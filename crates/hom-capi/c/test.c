@@ -126,6 +126,35 @@ int main(void) {
               "remove once");
         hom_scene_free(scene);
     }
+    {
+        /* The wall as one convex box (outline) hides the box behind it; the
+         * wall quad is one cluster of its two triangles; a cluster size of 0 is refused. */
+        static const float cube[24] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+        static const uint32_t tris[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+                                          2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+        const float box[16] = {20, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1, 0, -10, -5, -11, 1};
+        float mvp[16];
+        for (int c = 0; c < 4; c++)
+            for (int r = 0; r < 4; r++) {
+                float sum = 0;
+                for (int k = 0; k < 4; k++) sum += view_proj[k * 4 + r] * box[c * 4 + k];
+                mvp[c * 4 + r] = sum;
+            }
+        HomBuffer *b = hom_buffer_new(320, 240, HOM_CLIP_ZERO_TO_ONE);
+        CHECK(hom_buffer_render_convex_stand_in(b, cube, 8, 12, tris, 36, mvp) == 0, "convex stand-in");
+        CHECK(hom_buffer_render_convex_stand_in(b, cube, 8, 12, tris, 35, mvp) == HOM_ERROR_INVALID, "35 indices");
+        CHECK(hom_buffer_test_aabb(b, behind_min, behind_max, view_proj) == HOM_OCCLUDED, "behind the box wall");
+        hom_buffer_free(b);
+        HomCluster one[2];
+        uint32_t order[2] = {9, 9};
+        CHECK(hom_cluster_triangles(wall, 4, 16, quad, 6, 64, 3.0f, one, 2, order) == 1, "one cluster");
+        CHECK(one[0].first_triangle == 0 && one[0].triangle_count == 2, "of both triangles");
+        CHECK(order[0] + order[1] == 1, "each triangle once");
+        CHECK(hom_cluster_triangles(wall, 4, 16, quad, 6, 0, 3.0f, one, 2, NULL) == HOM_ERROR_INVALID,
+              "clusters of no triangles");
+        CHECK(hom_cluster_triangles(wall, 4, 16, quad, 6, 64, 3.0f, NULL, 2, NULL) == HOM_ERROR_NULL,
+              "NULL clusters with room for two");
+    }
     if (failures) {
         fprintf(stderr, "hom C test: %d failures\n", failures);
         return 1;

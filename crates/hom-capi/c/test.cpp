@@ -57,6 +57,36 @@ int main() {
             failures += std::strstr(e.what(), "mesh 7") == nullptr;
         }
     }
+    {
+        // A convex wall (a box) drawn as its outline hides the box; a batch answers as single tests;
+        // the wall quad is one cluster of two triangles.
+        static const float cube[24] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 1};
+        static const uint32_t tris[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+                                          2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+        const float box[16] = {20, 0, 0, 0, 0, 10, 0, 0, 0, 0, 1, 0, -10, -5, -11, 1};
+        float mvp[16];
+        for (int c = 0; c < 4; c++)
+            for (int r = 0; r < 4; r++) {
+                float s = 0;
+                for (int k = 0; k < 4; k++) s += m[k * 4 + r] * box[c * 4 + k];
+                mvp[c * 4 + r] = s;
+            }
+        hom::Buffer b(320, 240, hom::Clip::ZeroToOne);
+        b.render_convex_stand_in(cube, 8, 12, tris, 36, mvp);
+        const float boxes[12] = {-1, -1, -20, 1, 1, -15, 30, -1, -20, 31, 1, -15};
+        int32_t answers[2] = {-1, -1};
+        b.test_aabbs(boxes, 2, m, answers);
+        failures += answers[0] != HOM_OCCLUDED || answers[1] == HOM_OCCLUDED;
+        failures += b.test_aabb(lo, hi, m) != hom::Visibility::Occluded;
+        const hom::Clusters cut = hom::cluster_triangles(wall, 4, 12, quad, 6);
+        failures += cut.clusters.size() != 1 || cut.clusters[0].triangle_count != 2 || cut.order.size() != 2;
+        try {
+            hom::cluster_triangles(wall, 4, 12, quad, 6, 0);
+            failures++;
+        } catch (const hom::Error &e) {
+            failures += e.code() != HOM_ERROR_INVALID;
+        }
+    }
     if (failures != 0) {
         std::fprintf(stderr, "hom C++ test: %d failures\n", failures);
         return 1;

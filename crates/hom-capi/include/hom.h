@@ -140,6 +140,29 @@ typedef struct HomBufferStats {
   double raster_ms;
 } HomBufferStats;
 
+/*
+ One cluster of a mesh cut by [`hom_cluster_triangles`]: its world box
+ and its range of the reordered triangles.
+ */
+typedef struct HomCluster {
+  /*
+   The box's smallest corner.
+   */
+  float min[3];
+  /*
+   The box's largest corner.
+   */
+  float max[3];
+  /*
+   Its first triangle in the order written to `order`.
+   */
+  uint32_t first_triangle;
+  /*
+   How many triangles it has.
+   */
+  uint32_t triangle_count;
+} HomCluster;
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -190,6 +213,25 @@ int32_t hom_buffer_render_triangles(struct HomBuffer *buffer,
                                     const uint32_t *indices,
                                     size_t index_count,
                                     const float *model_to_clip);
+
+/*
+ Draws an occluder that is one convex solid (a box, a convex hull), as
+ [`hom_buffer_render_triangles`] takes its mesh (`indices`: its closed
+ surface, using its corners only): as its outline shrunk by more than the
+ snapping error, a fan of a few triangles at or behind its front (a box:
+ 1–4 where its 12 would be drawn two-sided). Not for a solid that is not
+ convex: its outline covers its hollows. 0, or a negative code.
+
+ # Safety
+ As [`hom_buffer_render_triangles`].
+ */
+int32_t hom_buffer_render_convex_stand_in(struct HomBuffer *buffer,
+                                          const float *positions,
+                                          size_t vertex_count,
+                                          size_t stride_bytes,
+                                          const uint32_t *indices,
+                                          size_t index_count,
+                                          const float *model_to_clip);
 
 /*
  Tests the box `min`..`max` (three floats each, in the space
@@ -251,6 +293,34 @@ int32_t hom_buffer_stats(struct HomBuffer *buffer, struct HomBufferStats *out);
  a call that succeeded. Valid until the next call on this thread.
  */
 const char *hom_last_error(void);
+
+/*
+ Cuts a mesh (as [`hom_buffer_render_triangles`] takes one) into clusters
+ of at most `max_triangles` triangles whose centroids spread at most
+ `max_extent` (hom's defaults: 64 and 3.0): a mesh that spans the level
+ (the ground, a track) is then tested and drawn cluster by cluster.
+ Writes up to `capacity` clusters to `clusters` and, when `order` is not
+ `NULL`, the original index of each triangle in cluster order
+ (`index_count / 3` of them: lay the index buffer out in it, and draw a
+ visible cluster's `triangle_count` triangles from `first_triangle`).
+ Returns how many clusters there are — more than `capacity` means the
+ list was cut: call again with room for all — or a negative code.
+
+ # Safety
+ As [`hom_buffer_render_triangles`]'s pointers; `clusters` must point at
+ `capacity` writable clusters (or be `NULL` with `capacity` 0), `order`
+ at `index_count / 3` writable `uint32_t` or be `NULL`.
+ */
+int64_t hom_cluster_triangles(const float *positions,
+                              size_t vertex_count,
+                              size_t stride_bytes,
+                              const uint32_t *indices,
+                              size_t index_count,
+                              uint32_t max_triangles,
+                              float max_extent,
+                              struct HomCluster *clusters,
+                              size_t capacity,
+                              uint32_t *order);
 
 /*
  A new, empty scene; `NULL` only if hom fails inside.

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace hom {
 
@@ -67,8 +68,20 @@ class Buffer {
                                           model_to_clip));
     }
 
+    /// An occluder that is one convex solid (a box, a hull), drawn as its shrunk outline.
+    void render_convex_stand_in(const float *positions, std::size_t vertex_count, std::size_t stride_bytes,
+                                const uint32_t *indices, std::size_t index_count, const float model_to_clip[16]) {
+        check(hom_buffer_render_convex_stand_in(buffer_, positions, vertex_count, stride_bytes, indices, index_count,
+                                                model_to_clip));
+    }
+
     Visibility test_aabb(const float min[3], const float max[3], const float model_to_clip[16]) {
         return static_cast<Visibility>(check(hom_buffer_test_aabb(buffer_, min, max, model_to_clip)));
+    }
+
+    /// `count` boxes of six floats each; answers (HOM_VISIBLE, ...) to `results`. Many at once run on all threads.
+    void test_aabbs(const float *boxes, std::size_t count, const float model_to_clip[16], int32_t *results) {
+        check(hom_buffer_test_aabbs(buffer_, boxes, count, model_to_clip, results));
     }
 
     Visibility test_rect(float min_x, float min_y, float max_x, float max_y, float nearest_depth) {
@@ -93,6 +106,31 @@ class Buffer {
     }
     HomBuffer *buffer_;
 };
+
+/// A mesh cut into clusters (hom_cluster_triangles): the clusters, and each
+/// triangle's original index in cluster order.
+struct Clusters {
+    std::vector<HomCluster> clusters;
+    std::vector<uint32_t> order;
+};
+
+inline Clusters cluster_triangles(const float *positions, std::size_t vertex_count, std::size_t stride_bytes,
+                                  const uint32_t *indices, std::size_t index_count, uint32_t max_triangles = 64,
+                                  float max_extent = 3.0f) {
+    const int64_t n = hom_cluster_triangles(positions, vertex_count, stride_bytes, indices, index_count,
+                                            max_triangles, max_extent, nullptr, 0, nullptr);
+    if (n < 0) {
+        throw Error(static_cast<int32_t>(n), hom_last_error());
+    }
+    Clusters out{std::vector<HomCluster>(static_cast<std::size_t>(n)), std::vector<uint32_t>(index_count / 3)};
+    const int64_t again = hom_cluster_triangles(positions, vertex_count, stride_bytes, indices, index_count,
+                                                max_triangles, max_extent, out.clusters.data(), out.clusters.size(),
+                                                out.order.data());
+    if (again < 0) {
+        throw Error(static_cast<int32_t>(again), hom_last_error());
+    }
+    return out;
+}
 
 /// A scene of meshes and objects; see hom.h's hom_scene_*.
 class Scene {

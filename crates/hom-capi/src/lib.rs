@@ -7,6 +7,12 @@
 //! `include/hom.h` (cbindgen's output, checked against this file by the
 //! tests); `include/hom.hpp` wraps it in C++ RAII.
 //!
+//! Occluders that are one convex solid (a box inside a building) go in as
+//! their outline ([`hom_buffer_render_convex_stand_in`]); a mesh that spans
+//! the level is cut once into clusters to test and draw
+//! ([`hom_cluster_triangles`]). `c/engine_loop.c` is hom-occlusion's
+//! `engine_loop` example through this ABI.
+//!
 //! For a whole scene, `HomScene` holds meshes and objects (ids never
 //! reused) and `HomCuller` culls it per frame with hom's occluder selection,
 //! coherence and cost model: [`hom_culler_cull`] writes the visible object ids.
@@ -28,18 +34,23 @@
 //! - No panic crosses the boundary: one is caught and becomes
 //!   [`HOM_ERROR_INTERNAL`].
 //! - A buffer is used by one thread at a time; different buffers, by any.
+//!   One [`hom_buffer_test_aabbs`] call of many boxes (1,024 or more) tests
+//!   them on all of hom's threads itself, as Rust's `SharedBuffer` lets an
+//!   engine's jobs do.
 //! - Triangles are two-sided, as hom's own default.
 //!
 //! This crate is the one place outside `hom-occlusion` where `unsafe` lives:
 //! each function that takes a pointer reads it once, after the checks above,
 //! into Rust values; nothing keeps a pointer past the call.
 
+use hom_occlusion::clusters::{cluster_triangles, ClusterOptions};
 use hom_occlusion::geom::Aabb;
-use hom_occlusion::glam::{Mat4, Vec2, Vec3};
+use hom_occlusion::glam::{Mat4, Vec2, Vec3, Vec3A};
 use hom_occlusion::{
-    BufferOptions, ClipConvention, FaceCull, HomBuffer as MapBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer,
+    BufferOptions, ClipConvention, FaceCull, HomBuffer as MapBuffer, HzBuffer, MaskedBuffer, OcclusionBuffer, Threads,
     Visibility,
 };
+use rayon::prelude::*;
 use std::cell::RefCell;
 use std::ffi::{c_char, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -80,7 +91,24 @@ const MAX_COUNT: usize = u32::MAX as usize;
 /// An occlusion buffer (opaque to C).
 pub struct HomBuffer {
     inner: Box<dyn OcclusionBuffer + Send>,
+    /// Tests [`hom_buffer_test_aabbs`] answered on the pool since the last
+    /// clear: the buffer's own statistics count only its `&mut` tests.
+    shared_tests: SharedTests,
+    /// The last draw's positions and triangles, kept for their capacity.
+    mesh: (Vec<Vec3>, Vec<[u32; 3]>),
 }
+
+/// Counts of the tests answered through the shared buffer.
+#[derive(Clone, Copy, Debug, Default)]
+struct SharedTests {
+    tests: u64,
+    occluded: u64,
+    view_culled: u64,
+}
+
+/// [`hom_buffer_test_aabbs`] tests on the pool from this many boxes; fewer
+/// are not worth the fork.
+const PARALLEL_TESTS: usize = 1024;
 
 /// A buffer's work since its last clear ([`hom_buffer_stats`]).
 #[repr(C)]
@@ -329,7 +357,11 @@ pub extern "C" fn hom_buffer_new_kind(kind: i32, width: u32, height: u32, clip: 
                     )))
                 }
             };
-            Ok(Box::into_raw(Box::new(HomBuffer { inner })))
+            Ok(Box::into_raw(Box::new(HomBuffer {
+                inner,
+                shared_tests: SharedTests::default(),
+                mesh: (Vec::new(), Vec::new()),
+            })))
         },
     )
 }
@@ -354,7 +386,9 @@ pub unsafe extern "C" fn hom_buffer_clear(buffer: *mut HomBuffer) -> i32 {
         |code| code,
         || {
             // SAFETY: the caller's promise, passed on.
-            unsafe { buffer_mut(buffer) }?.inner.clear();
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            buffer.inner.clear();
+            buffer.shared_tests = SharedTests::default();
             Ok(0)
         },
     )
@@ -387,12 +421,48 @@ pub unsafe extern "C" fn hom_buffer_render_triangles(
             let buffer = unsafe { buffer_mut(buffer) }?;
             // SAFETY: the caller's promise, passed on.
             let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+            let HomBuffer { inner, mesh, .. } = buffer;
             // SAFETY: as above.
-            let (points, triangles) =
-                unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
-            buffer
-                .inner
-                .render_triangles(&points, &triangles, &m, FaceCull::None)
+            unsafe { mesh_data_into(mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
+            inner
+                .render_triangles(&mesh.0, &mesh.1, &m, FaceCull::None)
+                .map_err(|e| invalid(e.to_string()))?;
+            Ok(0)
+        },
+    )
+}
+
+/// Draws an occluder that is one convex solid (a box, a convex hull), as
+/// [`hom_buffer_render_triangles`] takes its mesh (`indices`: its closed
+/// surface, using its corners only): as its outline shrunk by more than the
+/// snapping error, a fan of a few triangles at or behind its front (a box:
+/// 1–4 where its 12 would be drawn two-sided). Not for a solid that is not
+/// convex: its outline covers its hollows. 0, or a negative code.
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`].
+#[no_mangle]
+pub unsafe extern "C" fn hom_buffer_render_convex_stand_in(
+    buffer: *mut HomBuffer,
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+    model_to_clip: *const f32,
+) -> i32 {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise, passed on.
+            let buffer = unsafe { buffer_mut(buffer) }?;
+            // SAFETY: the caller's promise, passed on.
+            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+            let HomBuffer { inner, mesh, .. } = buffer;
+            // SAFETY: as above.
+            unsafe { mesh_data_into(mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
+            inner
+                .render_convex_stand_in(&mesh.0, &mesh.1, &m)
                 .map_err(|e| invalid(e.to_string()))?;
             Ok(0)
         },
@@ -460,9 +530,41 @@ pub unsafe extern "C" fn hom_buffer_test_aabbs(
             // SAFETY: as above; `boxes` (floats) cannot be the same memory
             // without the caller breaking C's own aliasing rules.
             let results = unsafe { write_slice(results, count, "results") }?;
-            for (b, out) in boxes.chunks_exact(6).zip(results.iter_mut()) {
-                *out = test_box(buffer, Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]), &m);
+            if count < PARALLEL_TESTS || buffer.inner.options().threads == Threads::CallingThread {
+                for (b, out) in boxes.chunks_exact(6).zip(results.iter_mut()) {
+                    *out = test_box(buffer, Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]), &m);
+                }
+                return Ok(0);
             }
+            // Many boxes: on the pool, through the drawn buffer lent for
+            // tests from many threads (`share`), counted here since the
+            // shared tests are not in the buffer's own statistics.
+            let shared = buffer.inner.share();
+            // Whole boxes as arrays: no bounds checks left in the loop.
+            let (boxes, _) = boxes.as_chunks::<6>();
+            let counts = results
+                .par_iter_mut()
+                .zip(boxes.par_iter())
+                .map(|(out, b)| {
+                    // `Aabb::new` in SSE lanes: a third of the scalar work a box.
+                    let (a, b) = (Vec3A::new(b[0], b[1], b[2]), Vec3A::new(b[3], b[4], b[5]));
+                    if a.is_nan() || b.is_nan() {
+                        // As single tests: answered before the buffer, not counted.
+                        *out = HOM_VISIBLE;
+                        return [0, 0, 0];
+                    }
+                    let aabb = Aabb {
+                        min: a.min(b).into(),
+                        max: a.max(b).into(),
+                    };
+                    *out = code_of(shared.test_aabb(&aabb, &m));
+                    [1, u64::from(*out == HOM_OCCLUDED), u64::from(*out == HOM_VIEW_CULLED)]
+                })
+                .reduce(|| [0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+            let counted = &mut buffer.shared_tests;
+            counted.tests += counts[0];
+            counted.occluded += counts[1];
+            counted.view_culled += counts[2];
             Ok(0)
         },
     )
@@ -515,9 +617,9 @@ pub unsafe extern "C" fn hom_buffer_stats(buffer: *mut HomBuffer, out: *mut HomB
             let stats = HomBufferStats {
                 triangles_submitted: s.triangles_submitted,
                 triangles_drawn: s.triangles_drawn,
-                tests: s.tests,
-                occluded: s.occluded,
-                view_culled: s.view_culled,
+                tests: s.tests + buffer.shared_tests.tests,
+                occluded: s.occluded + buffer.shared_tests.occluded,
+                view_culled: s.view_culled + buffer.shared_tests.view_culled,
                 setup_ms: s.setup_ms,
                 raster_ms: s.raster_ms,
             };
@@ -543,6 +645,79 @@ pub const HOM_CULLER_HOM: i32 = 1;
 pub const HOM_CULLER_HZB: i32 = 2;
 /// Culler kind: masked occlusion culling.
 pub const HOM_CULLER_MASKED: i32 = 3;
+
+/// One cluster of a mesh cut by [`hom_cluster_triangles`]: its world box
+/// and its range of the reordered triangles.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HomCluster {
+    /// The box's smallest corner.
+    pub min: [f32; 3],
+    /// The box's largest corner.
+    pub max: [f32; 3],
+    /// Its first triangle in the order written to `order`.
+    pub first_triangle: u32,
+    /// How many triangles it has.
+    pub triangle_count: u32,
+}
+
+/// Cuts a mesh (as [`hom_buffer_render_triangles`] takes one) into clusters
+/// of at most `max_triangles` triangles whose centroids spread at most
+/// `max_extent` (hom's defaults: 64 and 3.0): a mesh that spans the level
+/// (the ground, a track) is then tested and drawn cluster by cluster.
+/// Writes up to `capacity` clusters to `clusters` and, when `order` is not
+/// `NULL`, the original index of each triangle in cluster order
+/// (`index_count / 3` of them: lay the index buffer out in it, and draw a
+/// visible cluster's `triangle_count` triangles from `first_triangle`).
+/// Returns how many clusters there are — more than `capacity` means the
+/// list was cut: call again with room for all — or a negative code.
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`]'s pointers; `clusters` must point at
+/// `capacity` writable clusters (or be `NULL` with `capacity` 0), `order`
+/// at `index_count / 3` writable `uint32_t` or be `NULL`.
+#[no_mangle]
+pub unsafe extern "C" fn hom_cluster_triangles(
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+    max_triangles: u32,
+    max_extent: f32,
+    clusters: *mut HomCluster,
+    capacity: usize,
+    order: *mut u32,
+) -> i64 {
+    guard(i64::from, || {
+        // SAFETY: the caller's promise, passed on.
+        let (points, triangles) = unsafe { mesh_data(positions, vertex_count, stride_bytes, indices, index_count) }?;
+        if capacity > MAX_COUNT {
+            return Err(invalid(format!("capacity {capacity}: at most {MAX_COUNT}")));
+        }
+        // SAFETY: the caller's promise: `capacity` writable clusters.
+        let out = unsafe { write_slice(clusters, capacity, "clusters") }?;
+        let options = ClusterOptions {
+            max_triangles,
+            max_extent,
+        };
+        let cut = cluster_triangles(&points, &triangles, &options).map_err(|e| invalid(e.to_string()))?;
+        for (o, c) in out.iter_mut().zip(&cut.clusters) {
+            *o = HomCluster {
+                min: c.bounds.min.to_array(),
+                max: c.bounds.max.to_array(),
+                first_triangle: c.triangles.start,
+                triangle_count: c.triangles.end - c.triangles.start,
+            };
+        }
+        if !order.is_null() {
+            // SAFETY: the caller's promise: room for one index a triangle.
+            let order = unsafe { write_slice(order, cut.order.len(), "order") }?;
+            order.copy_from_slice(&cut.order);
+        }
+        Ok(cut.clusters.len() as i64)
+    })
+}
 
 /// A scene: meshes and the objects placing them (opaque to C).
 pub struct HomScene {
@@ -578,6 +753,25 @@ unsafe fn mesh_data(
     indices: *const u32,
     index_count: usize,
 ) -> Result<(Vec<Vec3>, Vec<[u32; 3]>), Fail> {
+    let mut mesh = (Vec::new(), Vec::new());
+    // SAFETY: the caller's promise, passed on.
+    unsafe { mesh_data_into(&mut mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
+    Ok(mesh)
+}
+
+/// [`mesh_data`] into `mesh`'s vectors (emptied first): a buffer's draws
+/// reuse its own, allocating nothing frame after frame.
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`]'s pointers.
+unsafe fn mesh_data_into(
+    mesh: &mut (Vec<Vec3>, Vec<[u32; 3]>),
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+) -> Result<(), Fail> {
     if vertex_count > MAX_COUNT || index_count > MAX_COUNT {
         return Err(invalid(format!(
             "{vertex_count} vertices, {index_count} indices: at most {MAX_COUNT} each"
@@ -603,12 +797,14 @@ unsafe fn mesh_data(
     // SAFETY: the caller's promise: the positions span these floats.
     let raw = unsafe { read_slice(positions, floats, "positions") }?;
     let step = stride_bytes / 4;
-    let points = (0..vertex_count)
-        .map(|i| Vec3::from_slice(&raw[i * step..i * step + 3]))
-        .collect();
     // SAFETY: the caller's promise, passed on.
     let flat = unsafe { read_slice(indices, index_count, "indices") }?;
-    Ok((points, flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()))
+    let (points, triangles) = mesh;
+    points.clear();
+    points.extend((0..vertex_count).map(|i| Vec3::from_slice(&raw[i * step..i * step + 3])));
+    triangles.clear();
+    triangles.extend(flat.chunks_exact(3).map(|t| [t[0], t[1], t[2]]));
+    Ok(())
 }
 
 /// A new, empty scene; `NULL` only if hom fails inside.

@@ -431,3 +431,190 @@ fn scene_culls_equal_rusts() {
         hom_scene_free(std::ptr::null_mut());
     }
 }
+
+/// Convex stand-ins drawn through the C ABI cover what the front door's
+/// do, and a batch big enough to be tested on the pool answers box for box
+/// as the front door, counted in the statistics like single tests.
+#[test]
+fn convex_stand_ins_and_a_pooled_batch_equal_the_front_doors() {
+    let (corners, indices) = cube();
+    let points: Vec<Vec3> = corners.iter().map(|&p| Vec3::from(p)).collect();
+    let tris: Vec<[u32; 3]> = indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let mut rng = Rng::new(0x5eed_cafe);
+    for case in 0..6 {
+        let reversed = case % 2 == 0;
+        let (clip, convention) = if reversed {
+            (HOM_CLIP_REVERSED_Z, ClipConvention::ReversedZ)
+        } else {
+            (HOM_CLIP_ZERO_TO_ONE, ClipConvention::ZeroToOne)
+        };
+        let options = BufferOptions {
+            clip: convention,
+            ..BufferOptions::default()
+        };
+        let mut rust = HzBuffer::new(160, 120, options).unwrap();
+        let c = hom_buffer_new(160, 120, clip);
+        assert!(!c.is_null(), "{}", last_error());
+        let vp = view_proj(Vec3::new(rng.unit() * 4.0 - 2.0, 1.5, 14.0), reversed);
+        // SAFETY: `c` is live; every pointer below points at what its count says.
+        unsafe {
+            for _ in 0..8 {
+                let at = Vec3::new(rng.unit() * 12.0 - 6.0, 0.0, rng.unit() * 8.0 - 4.0);
+                let size = Vec3::new(0.5 + rng.unit() * 4.0, 0.5 + rng.unit() * 4.0, 0.2 + rng.unit());
+                let m = vp * Mat4::from_translation(at) * Mat4::from_scale(size);
+                let flat: Vec<f32> = corners.iter().flatten().copied().collect();
+                let code = hom_buffer_render_convex_stand_in(
+                    c,
+                    flat.as_ptr(),
+                    8,
+                    12,
+                    indices.as_ptr(),
+                    36,
+                    m.to_cols_array().as_ptr(),
+                );
+                assert_eq!(code, 0, "{}", last_error());
+                rust.render_convex_stand_in(&points, &tris, &m).unwrap();
+            }
+            let n = 3000;
+            let mut boxes = Vec::with_capacity(6 * n);
+            for _ in 0..n {
+                let min = [rng.unit() * 16.0 - 8.0, rng.unit() * 2.0, rng.unit() * 30.0 - 20.0];
+                boxes.extend(min);
+                boxes.extend([min[0] + rng.unit(), min[1] + rng.unit(), min[2] + rng.unit()]);
+            }
+            boxes[6 * 7 + 4] = f32::NAN;
+            let mut got = vec![-9; n];
+            let code = hom_buffer_test_aabbs(c, boxes.as_ptr(), n, vp.to_cols_array().as_ptr(), got.as_mut_ptr());
+            assert_eq!(code, 0, "{}", last_error());
+            let mut counts = [0u64; 3];
+            for (k, (b, &g)) in boxes.chunks(6).zip(&got).enumerate() {
+                let want = if k == 7 {
+                    HOM_VISIBLE
+                } else {
+                    let aabb = Aabb::new(Vec3::from_slice(&b[..3]), Vec3::from_slice(&b[3..]));
+                    match rust.test_aabb(&aabb, &vp) {
+                        Visibility::Visible => HOM_VISIBLE,
+                        Visibility::Occluded => HOM_OCCLUDED,
+                        Visibility::ViewCulled => HOM_VIEW_CULLED,
+                    }
+                };
+                assert_eq!(g, want, "case {case} box {k}");
+                counts[g as usize] += 1;
+            }
+            assert!(counts.iter().all(|&k| k > 100), "every answer occurs: {counts:?}");
+            let mut stats = HomBufferStats::default();
+            assert_eq!(hom_buffer_stats(c, &mut stats), 0);
+            // The NaN box is answered before the buffer, as in single tests.
+            assert_eq!(stats.tests, n as u64 - 1, "case {case}");
+            assert_eq!(
+                (stats.occluded, stats.view_culled),
+                (counts[1], counts[2]),
+                "case {case}"
+            );
+            assert_eq!(hom_buffer_clear(c), 0);
+            assert_eq!(hom_buffer_stats(c, &mut stats), 0);
+            assert_eq!(stats.tests, 0, "a clear empties the pooled counts too");
+            hom_buffer_free(c);
+        }
+    }
+}
+
+/// A mesh cut through the C ABI gives the front door's clusters, in order,
+/// with the triangle order; a short array is cut and the count says so;
+/// bad sizes and meshes are errors.
+#[test]
+fn clusters_equal_the_front_doors() {
+    use hom_occlusion::clusters::{cluster_triangles, ClusterOptions};
+    // A 40 × 30 grid of 1 m quads, gently rolling.
+    let (w, h) = (40u32, 30u32);
+    let mut positions = Vec::new();
+    for j in 0..=h {
+        for i in 0..=w {
+            positions.extend([i as f32, (i as f32 * 0.3).sin() * 0.2, j as f32]);
+        }
+    }
+    let at = |i: u32, j: u32| j * (w + 1) + i;
+    let mut indices = Vec::new();
+    for j in 0..h {
+        for i in 0..w {
+            indices.extend([
+                at(i, j),
+                at(i, j + 1),
+                at(i + 1, j),
+                at(i + 1, j),
+                at(i, j + 1),
+                at(i + 1, j + 1),
+            ]);
+        }
+    }
+    let points: Vec<Vec3> = positions.chunks(3).map(Vec3::from_slice).collect();
+    let tris: Vec<[u32; 3]> = indices.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+    let options = ClusterOptions {
+        max_triangles: 32,
+        max_extent: 4.0,
+    };
+    let want = cluster_triangles(&points, &tris, &options).unwrap();
+    let nv = points.len();
+    // SAFETY: every pointer points at what its count says.
+    unsafe {
+        let count = hom_cluster_triangles(
+            positions.as_ptr(),
+            nv,
+            12,
+            indices.as_ptr(),
+            indices.len(),
+            32,
+            4.0,
+            std::ptr::null_mut(),
+            0,
+            std::ptr::null_mut(),
+        );
+        assert_eq!(count, want.clusters.len() as i64, "{}", last_error());
+        let mut clusters = vec![HomCluster::default(); count as usize];
+        let mut order = vec![u32::MAX; tris.len()];
+        let again = hom_cluster_triangles(
+            positions.as_ptr(),
+            nv,
+            12,
+            indices.as_ptr(),
+            indices.len(),
+            32,
+            4.0,
+            clusters.as_mut_ptr(),
+            clusters.len(),
+            order.as_mut_ptr(),
+        );
+        assert_eq!(again, count);
+        assert_eq!(order, want.order);
+        for (got, c) in clusters.iter().zip(&want.clusters) {
+            assert_eq!(got.min, c.bounds.min.to_array());
+            assert_eq!(got.max, c.bounds.max.to_array());
+            assert_eq!(got.first_triangle..got.first_triangle + got.triangle_count, c.triangles);
+        }
+        // Bad options and meshes: a code and a message, nothing written.
+        let mut one = [HomCluster::default()];
+        let mut bad = |max_triangles: u32, extent: f32, idx: &[u32], pos: &[f32]| {
+            hom_cluster_triangles(
+                pos.as_ptr(),
+                pos.len() / 3,
+                12,
+                idx.as_ptr(),
+                idx.len(),
+                max_triangles,
+                extent,
+                one.as_mut_ptr(),
+                1,
+                std::ptr::null_mut(),
+            )
+        };
+        assert_eq!(bad(0, 4.0, &indices, &positions), i64::from(HOM_ERROR_INVALID));
+        assert!(!last_error().is_empty());
+        assert_eq!(bad(32, f32::NAN, &indices, &positions), i64::from(HOM_ERROR_INVALID));
+        assert_eq!(bad(32, 4.0, &[0, 1, 99_999], &positions), i64::from(HOM_ERROR_INVALID));
+        assert!(last_error().contains("99999"), "{}", last_error());
+        let mut nan = positions.clone();
+        nan[4] = f32::NAN;
+        assert_eq!(bad(32, 4.0, &indices, &nan), i64::from(HOM_ERROR_INVALID));
+        assert_eq!(one[0], HomCluster::default());
+    }
+}

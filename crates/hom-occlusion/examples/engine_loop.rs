@@ -10,7 +10,7 @@
 //! ([`hom_occlusion::clusters`]), its parts behind the buildings are not
 //! drawn either.
 //!
-//! `cargo run --release --example engine_loop -p hom-occlusion`
+//! `cargo run --release --example engine_loop -p hom-occlusion [-- FRAMES]` (240 by default)
 
 use hom_occlusion::clusters::{cluster_triangles, ClusterOptions};
 use hom_occlusion::geom::Aabb;
@@ -126,7 +126,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut buf = HzBuffer::new(width, height, options)?;
     let proj = perspective_infinite_reverse(1.0, width as f32 / height as f32, 0.1);
 
-    let frames = 240;
+    let frames: usize = match std::env::args().nth(1) {
+        Some(a) => a
+            .parse()
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or("usage: engine_loop [FRAMES >= 1]")?,
+        None => 240,
+    };
     let (mut drawn_total, mut tested_total, mut cull_ms) = (0usize, 0usize, 0.0f64);
     let mut ground_drawn = 0usize;
     for frame in 0..frames {
@@ -187,7 +194,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "{frames} frames: {:.1} % of the objects drawn, {:.1} % of the ground's triangles \
-         ({} clusters), {:.2} ms culling per frame",
+         ({} clusters), {:.3} ms culling per frame",
         100.0 * drawn_total as f64 / tested_total as f64,
         100.0 * ground_drawn as f64 / (frames * ground_triangles.len()) as f64,
         ground.clusters.len(),
