@@ -1,6 +1,6 @@
 //! With the `trace` feature, each stage of the plugin's frame runs inside a
 //! `hom_bevy` span, and hom's cull inside it shows its own `hom_cull`
-//! stages (`cargo test -p hom-bevy --features trace`).
+//! stages (the crate's own tests turn `trace` on: `cargo test -p hom-bevy`).
 #![cfg(feature = "trace")]
 
 use bevy::app::App;

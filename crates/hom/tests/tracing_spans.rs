@@ -1,6 +1,6 @@
 //! With the `tracing` feature, every stage of a cull runs inside a
 //! `hom_cull` span named by its `stage` field, in the order `CullOutput`
-//! records them (`cargo test -p hom --features tracing`).
+//! records them (hom's own tests turn `tracing` on: `cargo test -p hom`).
 #![cfg(feature = "tracing")]
 
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
