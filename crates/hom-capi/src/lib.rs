@@ -217,10 +217,21 @@ fn code_of(v: Visibility) -> i32 {
 /// The answer for the box `min`..`max` placed by `m`: `HOM_VISIBLE` for a
 /// NaN corner, never culled (`Aabb::new`'s min/max would drop the NaN).
 fn test_box(buffer: &mut HomBuffer, min: Vec3, max: Vec3, m: &Mat4) -> i32 {
-    if min.is_nan() || max.is_nan() {
-        return HOM_VISIBLE;
+    match box_of(min.into(), max.into()) {
+        Some(b) => code_of(buffer.inner.test_aabb(&b, m)),
+        None => HOM_VISIBLE,
     }
-    code_of(buffer.inner.test_aabb(&Aabb::new(min, max), m))
+}
+
+/// The box with corners `a` and `b` in either order (as `Aabb::new`, in SSE
+/// lanes: the pooled batch calls it for every box), or `None` for a NaN
+/// corner, which every test answers `HOM_VISIBLE` before the buffer.
+#[inline]
+fn box_of(a: Vec3A, b: Vec3A) -> Option<Aabb> {
+    (!a.is_nan() && !b.is_nan()).then(|| Aabb {
+        min: a.min(b).into(),
+        max: a.max(b).into(),
+    })
 }
 
 /// `n` values of `T` at `p`, checked for `NULL` (when `n > 0`), alignment and size.
@@ -394,6 +405,33 @@ pub unsafe extern "C" fn hom_buffer_clear(buffer: *mut HomBuffer) -> i32 {
     )
 }
 
+/// What the draw calls share: the checks, the mesh read into the
+/// buffer's own vectors, then `render` (one of the buffer's draws).
+///
+/// # Safety
+/// As [`hom_buffer_render_triangles`]'s pointers.
+#[allow(clippy::too_many_arguments)] // the C call's arguments, passed on
+unsafe fn draw(
+    buffer: *mut HomBuffer,
+    positions: *const f32,
+    vertex_count: usize,
+    stride_bytes: usize,
+    indices: *const u32,
+    index_count: usize,
+    model_to_clip: *const f32,
+    render: impl FnOnce(&mut dyn OcclusionBuffer, &[Vec3], &[[u32; 3]], &Mat4) -> Result<(), hom_occlusion::OcclusionError>,
+) -> Result<i32, Fail> {
+    // SAFETY: the caller's promise, passed on (each of the three below).
+    let buffer = unsafe { buffer_mut(buffer) }?;
+    // SAFETY: as above.
+    let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
+    let HomBuffer { inner, mesh, .. } = buffer;
+    // SAFETY: as above.
+    unsafe { mesh_data_into(mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
+    render(inner.as_mut(), &mesh.0, &mesh.1, &m).map_err(|e| invalid(e.to_string()))?;
+    Ok(0)
+}
+
 /// Draws occluder triangles: `vertex_count` positions, three floats each,
 /// `stride_bytes` apart (12 for packed `float[3]`), `index_count` indices
 /// (three a triangle) into them, placed by the column-major
@@ -418,16 +456,18 @@ pub unsafe extern "C" fn hom_buffer_render_triangles(
         |code| code,
         || {
             // SAFETY: the caller's promise, passed on.
-            let buffer = unsafe { buffer_mut(buffer) }?;
-            // SAFETY: the caller's promise, passed on.
-            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
-            let HomBuffer { inner, mesh, .. } = buffer;
-            // SAFETY: as above.
-            unsafe { mesh_data_into(mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
-            inner
-                .render_triangles(&mesh.0, &mesh.1, &m, FaceCull::None)
-                .map_err(|e| invalid(e.to_string()))?;
-            Ok(0)
+            unsafe {
+                draw(
+                    buffer,
+                    positions,
+                    vertex_count,
+                    stride_bytes,
+                    indices,
+                    index_count,
+                    model_to_clip,
+                    |b, p, t, m| b.render_triangles(p, t, m, FaceCull::None),
+                )
+            }
         },
     )
 }
@@ -455,16 +495,18 @@ pub unsafe extern "C" fn hom_buffer_render_convex_stand_in(
         |code| code,
         || {
             // SAFETY: the caller's promise, passed on.
-            let buffer = unsafe { buffer_mut(buffer) }?;
-            // SAFETY: the caller's promise, passed on.
-            let m = unsafe { matrix(model_to_clip, "model_to_clip") }?;
-            let HomBuffer { inner, mesh, .. } = buffer;
-            // SAFETY: as above.
-            unsafe { mesh_data_into(mesh, positions, vertex_count, stride_bytes, indices, index_count) }?;
-            inner
-                .render_convex_stand_in(&mesh.0, &mesh.1, &m)
-                .map_err(|e| invalid(e.to_string()))?;
-            Ok(0)
+            unsafe {
+                draw(
+                    buffer,
+                    positions,
+                    vertex_count,
+                    stride_bytes,
+                    indices,
+                    index_count,
+                    model_to_clip,
+                    |b, p, t, m| b.render_convex_stand_in(p, t, m),
+                )
+            }
         },
     )
 }
@@ -546,16 +588,10 @@ pub unsafe extern "C" fn hom_buffer_test_aabbs(
                 .par_iter_mut()
                 .zip(boxes.par_iter())
                 .map(|(out, b)| {
-                    // `Aabb::new` in SSE lanes: a third of the scalar work a box.
-                    let (a, b) = (Vec3A::new(b[0], b[1], b[2]), Vec3A::new(b[3], b[4], b[5]));
-                    if a.is_nan() || b.is_nan() {
+                    let Some(aabb) = box_of(Vec3A::new(b[0], b[1], b[2]), Vec3A::new(b[3], b[4], b[5])) else {
                         // As single tests: answered before the buffer, not counted.
                         *out = HOM_VISIBLE;
                         return [0, 0, 0];
-                    }
-                    let aabb = Aabb {
-                        min: a.min(b).into(),
-                        max: a.max(b).into(),
                     };
                     *out = code_of(shared.test_aabb(&aabb, &m));
                     [1, u64::from(*out == HOM_OCCLUDED), u64::from(*out == HOM_VIEW_CULLED)]
