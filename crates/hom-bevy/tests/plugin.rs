@@ -3,37 +3,26 @@
 //! brute-force ray casting through every sample of its buffer.
 
 use bevy::app::App;
-use bevy::asset::{AssetApp, AssetPlugin, Assets, Handle};
+use bevy::asset::{AssetApp, Assets, Handle};
 use bevy::camera::primitives::Aabb;
 use bevy::camera::visibility::{Visibility, VisibleEntities};
-use bevy::camera::{Camera3d, CameraPlugin, PerspectiveProjection, Projection};
+use bevy::camera::{Camera3d, PerspectiveProjection, Projection};
 use bevy::ecs::prelude::*;
 use bevy::image::Image;
 use bevy::math::primitives::Cuboid;
 use bevy::math::{Mat4, UVec2, Vec3, Vec4};
-use bevy::mesh::{Mesh, Mesh3d, MeshPlugin};
-use bevy::prelude::{TaskPoolPlugin, Transform, TransformPlugin};
+use bevy::mesh::{Mesh, Mesh3d};
+use bevy::prelude::Transform;
 use hom_bevy::{
-    BufferKind, HomOcclusionPlugin, NeverOccluder, Occluder, OcclusionCulling, OcclusionDebugView, OcclusionScene,
-    OcclusionSettings, OcclusionStats,
+    BufferKind, NeverOccluder, Occluder, OcclusionCulling, OcclusionDebugView, OcclusionScene, OcclusionSettings,
+    OcclusionStats,
 };
 use std::any::TypeId;
 
-const BUFFERS: [BufferKind; 3] = [BufferKind::Hom, BufferKind::Hzb, BufferKind::Masked];
+mod common;
+use common::app;
 
-/// A headless app with the plugin: transforms, meshes, cameras and their visibility.
-fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        TaskPoolPlugin::default(),
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        CameraPlugin,
-        HomOcclusionPlugin,
-    ));
-    app
-}
+const BUFFERS: [BufferKind; 3] = [BufferKind::Hom, BufferKind::Hzb, BufferKind::Masked];
 
 fn camera(app: &mut App, buffer: BufferKind, eye: Vec3, target: Vec3, resolution: UVec2) -> Entity {
     app.world_mut()

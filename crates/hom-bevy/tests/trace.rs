@@ -3,67 +3,20 @@
 //! stages (the crate's own tests turn `trace` on: `cargo test -p hom-bevy`).
 #![cfg(feature = "trace")]
 
-use bevy::app::App;
-use bevy::asset::{AssetPlugin, Assets};
-use bevy::camera::{Camera3d, CameraPlugin};
+use bevy::asset::Assets;
+use bevy::camera::Camera3d;
 use bevy::math::primitives::Cuboid;
 use bevy::math::{UVec2, Vec3};
-use bevy::mesh::{Mesh, Mesh3d, MeshPlugin};
-use bevy::prelude::{TaskPoolPlugin, Transform, TransformPlugin};
-use hom_bevy::{HomOcclusionPlugin, OcclusionCulling};
-use std::sync::{Arc, Mutex};
-use tracing::field::{Field, Visit};
-use tracing::span::{Attributes, Id, Record};
-use tracing::{Event, Metadata, Subscriber};
+use bevy::mesh::{Mesh, Mesh3d};
+use bevy::prelude::Transform;
+use hom_bevy::OcclusionCulling;
+use hom_testkit::SpanRecorder;
 
-/// Records each entered span as `name:stage`.
-#[derive(Clone, Default)]
-struct Stages {
-    spans: Arc<Mutex<Vec<String>>>,
-    entered: Arc<Mutex<Vec<String>>>,
-}
-
-struct StageField(String);
-impl Visit for StageField {
-    fn record_debug(&mut self, field: &Field, value: &dyn std::fmt::Debug) {
-        if field.name() == "stage" {
-            self.0 = format!("{value:?}").trim_matches('"').to_string();
-        }
-    }
-}
-
-impl Subscriber for Stages {
-    fn enabled(&self, _: &Metadata<'_>) -> bool {
-        true
-    }
-    fn new_span(&self, span: &Attributes<'_>) -> Id {
-        let mut stage = StageField(String::new());
-        span.record(&mut stage);
-        let mut spans = self.spans.lock().unwrap();
-        spans.push(format!("{}:{}", span.metadata().name(), stage.0));
-        Id::from_u64(spans.len() as u64)
-    }
-    fn record(&self, _: &Id, _: &Record<'_>) {}
-    fn record_follows_from(&self, _: &Id, _: &Id) {}
-    fn event(&self, _: &Event<'_>) {}
-    fn enter(&self, id: &Id) {
-        let span = self.spans.lock().unwrap()[id.into_u64() as usize - 1].clone();
-        self.entered.lock().unwrap().push(span);
-    }
-    fn exit(&self, _: &Id) {}
-}
+mod common;
 
 #[test]
 fn each_stage_of_the_plugins_frame_is_a_span() {
-    let mut app = App::new();
-    app.add_plugins((
-        TaskPoolPlugin::default(),
-        TransformPlugin,
-        AssetPlugin::default(),
-        MeshPlugin,
-        CameraPlugin,
-        HomOcclusionPlugin,
-    ));
+    let mut app = common::app();
     let wall = app
         .world_mut()
         .resource_mut::<Assets<Mesh>>()
@@ -79,11 +32,11 @@ fn each_stage_of_the_plugins_frame_is_a_span() {
         },
         Transform::from_translation(Vec3::ZERO).looking_at(Vec3::NEG_Z, Vec3::Y),
     ));
-    let stages = Stages::default();
+    let stages = SpanRecorder::default();
     // Global (this file's one test): bevy may run its systems on other threads.
     tracing::subscriber::set_global_default(stages.clone()).expect("the only subscriber");
     app.update();
-    let entered = stages.entered.lock().unwrap().clone();
+    let entered = stages.entered();
     let at = |s: &str| {
         entered
             .iter()

@@ -11,7 +11,12 @@
 //!   (`tests/`, `benches/`). Inside a crate's own `#[cfg(test)]` modules
 //!   they do not type-check, because the kit links the *other* compilation
 //!   of that crate (the one without `cfg(test)`); there use [`Rng`] only.
+//! - [`SpanRecorder`]: a `tracing` subscriber recording the spans entered.
+
 #![forbid(unsafe_code)]
+
+mod spans;
+pub use spans::SpanRecorder;
 
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller, HzbCuller, MaskedCuller};
 use hom::geom::{Aabb, Camera};
