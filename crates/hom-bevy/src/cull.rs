@@ -13,8 +13,8 @@ use bevy::platform::cell::SyncCell;
 use bevy::transform::components::GlobalTransform;
 use hom::cull::{CullOutput, Culler, HomConfig, HomCuller, HzbCuller, MaskedCuller};
 use hom::geom::{ClipConvention, View};
-use hom::glam::{Mat4, Vec2};
-use hom::occlusion::{OcclusionBuffer, Visibility};
+use hom::glam::Mat4;
+use hom::occlusion::OcclusionBuffer;
 use hom::scene::Scene;
 use std::time::Instant;
 use wgpu_types::{Extent3d, TextureDimension, TextureFormat};
@@ -281,18 +281,10 @@ pub(crate) fn debug_views(
 /// the far plane there is hidden), black elsewhere; row 0 at the top.
 fn coverage_image(buffer: &mut dyn OcclusionBuffer) -> Image {
     let (w, h) = (buffer.width(), buffer.height());
-    let mut data = Vec::with_capacity(w as usize * h as usize * 4);
-    let pixel = Vec2::new(2.0 / w as f32, 2.0 / h as f32);
-    for y in 0..h {
-        for x in 0..w {
-            // The middle half of pixel (x, y), in NDC (y up).
-            let centre = Vec2::new(-1.0 + (x as f32 + 0.5) * pixel.x, 1.0 - (y as f32 + 0.5) * pixel.y);
-            let covered =
-                buffer.test_rect(centre - pixel * 0.25, centre + pixel * 0.25, 0.999_999) == Visibility::Occluded;
-            let v = if covered { 255 } else { 0 };
-            data.extend_from_slice(&[v, v, v, 255]);
-        }
-    }
+    let data = hom::occlusion::details::coverage(buffer, w, h)
+        .into_iter()
+        .flat_map(|v| [v, v, v, 255])
+        .collect();
     Image::new(
         Extent3d {
             width: w,

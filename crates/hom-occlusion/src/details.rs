@@ -22,3 +22,23 @@ pub use crate::weld::{number_welded, weld};
 pub fn vec_bytes<T>(v: &Vec<T>) -> usize {
     crate::vec_bytes(v)
 }
+
+/// What `buffer` covers, on a `width` × `height` grid over its viewport
+/// (row-major, row 0 at the top): 255 where the middle half of a cell is
+/// hidden at a depth just short of the far plane, else 0. For debug views:
+/// hom-bevy's `OcclusionDebugView` and `hom view`'s inset.
+pub fn coverage(buffer: &mut dyn crate::OcclusionBuffer, width: u32, height: u32) -> Vec<u8> {
+    use glam::Vec2;
+    let shared = buffer.share();
+    let cell = Vec2::new(2.0 / width as f32, 2.0 / height as f32);
+    let mut out = Vec::with_capacity(width as usize * height as usize);
+    for y in 0..height {
+        for x in 0..width {
+            // The cell's centre in NDC (y up).
+            let centre = Vec2::new(-1.0 + (x as f32 + 0.5) * cell.x, 1.0 - (y as f32 + 0.5) * cell.y);
+            let hidden = shared.test_rect(centre - cell * 0.25, centre + cell * 0.25, 0.999_999);
+            out.push(if hidden == crate::Visibility::Occluded { 255 } else { 0 });
+        }
+    }
+    out
+}

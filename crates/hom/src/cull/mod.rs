@@ -148,4 +148,11 @@ pub trait Culler: Send {
     fn set_occluder_lod(&mut self, _lod: Option<crate::lod::OccluderLod>) -> bool {
         false
     }
+
+    /// The occlusion buffer the last frame that culled by occlusion drew,
+    /// for debug views (`hom view`'s inset); its tests alone. `None` for
+    /// cullers without one (frustum, HV) and before the first such frame.
+    fn occlusion_buffer(&mut self) -> Option<&mut dyn crate::occlusion::OcclusionBuffer> {
+        None
+    }
 }

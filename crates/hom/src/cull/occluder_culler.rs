@@ -216,6 +216,12 @@ impl<B: CullerBuffer> Culler for OccluderCuller<B> {
         B::NAME
     }
 
+    fn occlusion_buffer(&mut self) -> Option<&mut dyn crate::occlusion::OcclusionBuffer> {
+        self.buffer
+            .as_mut()
+            .map(|b| b as &mut dyn crate::occlusion::OcclusionBuffer)
+    }
+
     fn config(&self) -> Vec<(&'static str, String)> {
         B::describe(&self.config.buffer)
             .into_iter()
