@@ -31,7 +31,7 @@ pub mod virtual_occluders;
 mod walk;
 pub use walk::summarize;
 
-pub use walk::{walk, WalkError, WalkOptions, WalkResult};
+pub use walk::{walk, walk_drawn, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult};
 
 use hom::scene::Scene;
 use hom_scene::{Animation, CameraPath, CameraPathError, LoadError};

@@ -32,8 +32,11 @@ pub struct Header {
     pub culler: String,
     /// Culler configuration.
     pub config: BTreeMap<String, String>,
-    /// Renderer threads.
+    /// Renderer threads (the software renderer's pool, where the cull runs too).
     pub render_threads: usize,
+    /// What drew the timed frames: `software` (hom's renderer) or, for
+    /// `--renderer wgpu`, `wgpu` with the adapter and how frames are timed.
+    pub renderer: String,
     /// Whether the oracle ran.
     pub oracle: bool,
 }
@@ -45,6 +48,7 @@ impl Header {
         path: &hom_scene::CameraPath,
         culler: &dyn hom::cull::Culler,
         render_threads: usize,
+        renderer: &str,
         frames: usize,
         oracle: bool,
     ) -> Header {
@@ -60,6 +64,7 @@ impl Header {
             culler: culler.name().to_string(),
             config: culler.config().into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
             render_threads,
+            renderer: renderer.to_string(),
             oracle,
         }
     }

@@ -28,6 +28,77 @@ pub enum WalkError {
     /// Level of detail refused the scene or its options.
     #[error("level of detail")]
     Lod(#[from] hom::lod::LodError),
+    /// The renderer that draws the timed frames failed.
+    #[error("frame {frame}: the {renderer} renderer failed")]
+    Draw {
+        /// Frame index.
+        frame: usize,
+        /// The renderer, as [`FrameDraw::describe`] names it.
+        renderer: String,
+        /// Cause.
+        source: DrawError,
+    },
+    /// Level of detail draws parts of meshes, which only hom's software renderer does.
+    #[error("level of detail draws with hom's software renderer only, not with {0}")]
+    LodNeedsSoftware(String),
+}
+
+/// Why a [`FrameDraw`] could not draw a frame.
+pub type DrawError = Box<dyn std::error::Error + Send + Sync>;
+
+/// A renderer other than hom's software renderer that draws a walk's timed
+/// frames (the culler's, the baseline's, the oracle's set), so that the
+/// speedups say what that renderer gains: `hom walk --renderer wgpu`
+/// (`hom_view::WgpuDraw`). The oracle's item buffer stays the software
+/// renderer's, and so does the thread pool the cull runs on.
+pub trait FrameDraw {
+    /// The renderer, its device and how it times a frame, for reports
+    /// ([`Header::renderer`]).
+    fn describe(&self) -> String;
+    /// Draws objects `ids` of `scene`, in that order, each with its current
+    /// transform, as `camera` sees them; the milliseconds the frame took,
+    /// as this renderer measures them.
+    fn draw(&mut self, scene: &Scene, ids: &[u32], camera: &Camera) -> Result<f64, DrawError>;
+}
+
+/// What draws a walk's timed frames: hom's software renderer into the
+/// walk's framebuffer, or a [`FrameDraw`].
+enum Drawer<'a> {
+    Software(&'a Renderer),
+    Other(&'a mut dyn FrameDraw),
+}
+
+impl Drawer<'_> {
+    /// Draws `ids` as `camera` sees them; its milliseconds.
+    fn draw(
+        &mut self,
+        scene: &Scene,
+        ids: &[u32],
+        camera: &Camera,
+        draw: &RenderOptions,
+        fb: &mut Framebuffer,
+        frame: usize,
+    ) -> Result<f64, WalkError> {
+        match self {
+            Drawer::Software(renderer) => {
+                let start = Instant::now();
+                renderer.render(scene, ids, camera, draw, fb);
+                Ok(ms_since(start))
+            }
+            Drawer::Other(d) => d.draw(scene, ids, camera).map_err(|source| WalkError::Draw {
+                frame,
+                renderer: d.describe(),
+                source,
+            }),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Drawer::Software(_) => "software".to_string(),
+            Drawer::Other(d) => d.describe(),
+        }
+    }
 }
 
 /// How to walk.
@@ -119,7 +190,7 @@ fn baseline_frame(
     scene: &Scene,
     camera: &Camera,
     draw: &RenderOptions,
-    renderer: &Renderer,
+    drawer: &mut Drawer,
     out: &mut CullOutput,
     fb: &mut Framebuffer,
     i: usize,
@@ -127,9 +198,8 @@ fn baseline_frame(
     baseline
         .cull(scene, &camera.to_view(), out)
         .map_err(|source| WalkError::Cull { frame: i, source })?;
-    let start = Instant::now();
-    renderer.render(scene, &out.visible, camera, draw, fb);
-    Ok(out.total_ms() + ms_since(start))
+    let render_ms = drawer.draw(scene, &out.visible, camera, draw, fb, i)?;
+    Ok(out.total_ms() + render_ms)
 }
 
 /// Walks `path` through `scene` with `culler`, rendering with `renderer`;
@@ -143,11 +213,41 @@ pub fn walk(
     culler: &mut dyn Culler,
     renderer: &Renderer,
     options: &WalkOptions,
+    on_frame: impl FnMut(&FrameRecord),
+) -> Result<WalkResult, WalkError> {
+    walk_drawn(scene, animation, path, culler, renderer, None, options, on_frame)
+}
+
+/// [`walk`], with the timed frames drawn by `frame_draw` where given
+/// (hom's software renderer still draws the oracle's item buffer, and the
+/// cull runs on its threads). Level of detail needs the software renderer.
+#[allow(clippy::too_many_arguments)]
+pub fn walk_drawn(
+    scene: &mut Scene,
+    animation: &Animation,
+    path: &CameraPath,
+    culler: &mut dyn Culler,
+    renderer: &Renderer,
+    frame_draw: Option<&mut dyn FrameDraw>,
+    options: &WalkOptions,
     mut on_frame: impl FnMut(&FrameRecord),
 ) -> Result<WalkResult, WalkError> {
     path.validate(scene.name())?;
+    let mut drawer = match frame_draw {
+        Some(d) if options.lod.is_some() => return Err(WalkError::LodNeedsSoftware(d.describe())),
+        Some(d) => Drawer::Other(d),
+        None => Drawer::Software(renderer),
+    };
     let frame_count = options.frame_count(path);
-    let header = Header::new(scene, path, culler, renderer.threads(), frame_count, options.oracle);
+    let header = Header::new(
+        scene,
+        path,
+        culler,
+        renderer.threads(),
+        &drawer.describe(),
+        frame_count,
+        options.oracle,
+    );
     // The frustum culler drawing whole meshes is its own baseline: time it
     // once (unless the walk checks the timing against itself).
     let own_baseline = culler.name() == "frustum" && options.lod.is_none() && !options.self_baseline;
@@ -171,7 +271,7 @@ pub fn walk(
     // came first: frustum against itself, 1.4 % of dynamic's speedup).
     if let (Some(b), true) = (baseline.as_mut(), frame_count > 0) {
         animation.apply(scene, 0.0);
-        baseline_frame(b, scene, &path.camera(0), &draw, renderer, &mut base_out, &mut fb, 0)?;
+        baseline_frame(b, scene, &path.camera(0), &draw, &mut drawer, &mut base_out, &mut fb, 0)?;
     }
     let mut frames = Vec::with_capacity(frame_count);
     for i in 0..frame_count {
@@ -216,7 +316,7 @@ pub fn walk(
                 .filter(|&(id, _)| in_frustum[id as usize])
                 .map(|(id, _)| id)
                 .collect();
-            renderer.render(scene, &in_view, &camera, &draw, &mut fb);
+            drawer.draw(scene, &in_view, &camera, &draw, &mut fb, i)?;
         }
         let order = timed_order(i, baseline.is_some(), oracle_visible.is_some());
         let (mut culled, mut baseline_frame_ms, mut oracle_set_render_ms, mut oracle_items) = (None, None, None, None);
@@ -243,11 +343,7 @@ pub fn walk(
                             )?;
                             (render_ms, Some(record))
                         }
-                        None => {
-                            let start = Instant::now();
-                            renderer.render(scene, &out.visible, &camera, &draw, &mut fb);
-                            (ms_since(start), None)
-                        }
+                        None => (drawer.draw(scene, &out.visible, &camera, &draw, &mut fb, i)?, None),
                     };
                     // The level-of-detail frame's owners, to compare with the full meshes' below.
                     let lod_items = (options.oracle && lod.is_some()).then(|| fb.items().to_vec());
@@ -264,7 +360,7 @@ pub fn walk(
                             scene,
                             &camera,
                             &draw,
-                            renderer,
+                            &mut drawer,
                             &mut base_out,
                             &mut fb,
                             i,
@@ -273,9 +369,7 @@ pub fn walk(
                 }
                 Timed::OracleSet => {
                     let visible = oracle_visible.as_deref().unwrap_or_default();
-                    let start = Instant::now();
-                    renderer.render(scene, visible, &camera, &draw, &mut fb);
-                    oracle_set_render_ms = Some(ms_since(start));
+                    oracle_set_render_ms = Some(drawer.draw(scene, visible, &camera, &draw, &mut fb, i)?);
                     // The oracle's visible objects drawn whole: the owners of
                     // the full-resolution image, for the level of detail.
                     oracle_items = lod.is_some().then(|| fb.items().to_vec());

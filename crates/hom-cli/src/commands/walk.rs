@@ -3,7 +3,7 @@
 
 use super::render::write_false_colour;
 use super::{busiest_frame, write_stage_chart};
-use crate::args::{HomArgs, WalkArgs};
+use crate::args::{HomArgs, RendererArg, WalkArgs};
 use crate::setup::{culler_settings, lod_for, make_culler_after_pvs, open, open_map_view, progress, Walkthrough};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
@@ -12,7 +12,7 @@ use hom_render::Renderer;
 use hom_scene::bsp::{BspMap, PortalPvs};
 use hom_walk::pvs::{self, PvsSummary};
 use hom_walk::report;
-use hom_walk::{pictures, WalkOptions, WalkResult};
+use hom_walk::{pictures, FrameDraw, WalkOptions, WalkResult};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::sync::Arc;
@@ -63,6 +63,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         bail!("--frames must be at least 1");
     }
     let renderer = Renderer::new(a.view.threads)?;
+    let mut frame_draw = wgpu_draw(a.renderer, &w.scene, a.lod.lod)?;
     let options = WalkOptions {
         frames: a.frames,
         oracle: a.oracle || a.pvs,
@@ -79,6 +80,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
         &a.view.culler,
         &a.view.hom,
         &renderer,
+        frame_draw.as_deref_mut().map(|d| d as &mut dyn FrameDraw),
         &options,
         file.as_mut().map(|f| f as &mut dyn Write),
         map.as_ref().map(|m| (m, portals.as_ref())),
@@ -132,6 +134,25 @@ pub fn run(a: WalkArgs) -> Result<()> {
     Ok(())
 }
 
+/// The renderer `--renderer` names for the timed frames: `None` for hom's own.
+fn wgpu_draw(renderer: RendererArg, scene: &hom::scene::Scene, lod: bool) -> Result<Option<Box<dyn FrameDraw>>> {
+    if renderer == RendererArg::Software {
+        return Ok(None);
+    }
+    if lod {
+        bail!("--lod draws parts of meshes, which only --renderer software does");
+    }
+    #[cfg(feature = "view")]
+    {
+        Ok(Some(Box::new(hom_view::WgpuDraw::new(scene)?)))
+    }
+    #[cfg(not(feature = "view"))]
+    {
+        let _ = scene;
+        bail!("--renderer wgpu needs hom's viewer, and this hom was built without it (hom-cli's `view` feature)")
+    }
+}
+
 fn create_report(path: &Path) -> Result<BufWriter<std::fs::File>> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -150,7 +171,7 @@ pub fn run_walk(
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
 ) -> Result<WalkResult> {
-    run_walk_pvs(w, culler_name, hom, renderer, options, report.take(), None, None).map(|(r, _)| r)
+    run_walk_pvs(w, culler_name, hom, renderer, None, options, report.take(), None, None).map(|(r, _)| r)
 }
 
 /// [`run_walk`], measuring each frame against `pvs` (a Quake 3 map whose scene is
@@ -164,6 +185,7 @@ fn run_walk_pvs(
     culler_name: &str,
     hom: &HomArgs,
     renderer: &Renderer,
+    frame_draw: Option<&mut dyn FrameDraw>,
     options: &WalkOptions,
     mut report: Option<&mut dyn Write>,
     pvs: Option<(&BspMap, Option<&PortalPvs>)>,
@@ -182,6 +204,9 @@ fn run_walk_pvs(
             path,
             culler.as_ref(),
             renderer.threads(),
+            &frame_draw
+                .as_deref()
+                .map_or_else(|| "software".to_string(), |d| d.describe()),
             options.frame_count(path),
             options.oracle,
         );
@@ -190,34 +215,43 @@ fn run_walk_pvs(
     let bar = progress(options.frame_count(path), culler_name);
     let mut io_error = None;
     let mut pvs_frames = Vec::new();
-    let result = hom_walk::walk(scene, animation, path, culler.as_mut(), renderer, options, |record| {
-        bar.inc(1);
-        // The map's scene is the walked one (Quake 3 maps are static).
-        let camera = path.camera(record.frame);
-        let frame = match (pvs, measure_baked) {
-            (Some((map, None)), _) => Some(pvs::pvs_for_record(map, &map.scene, &camera, record)),
-            (Some((map, Some(portals))), _) => {
-                let view = pvs::PortalPvsView { map, portals };
-                Some(pvs::pvs_for_record(&view, &map.scene, &camera, record))
-            }
-            (None, Some(baked)) => {
-                let start = start_scene.as_ref().expect("copied when measuring");
-                let view = pvs::BakedPvsView::new(baked, start, &camera.to_view());
-                Some(pvs::pvs_for_record(&view, start, &camera, record))
-            }
-            (None, None) => None,
-        };
-        if let Some(out) = report.as_deref_mut() {
-            let written = match &frame {
-                Some(f) => report::write_line(out, &pvs::FrameWithPvs { record, pvs: f }),
-                None => report::write_line(out, record),
+    let result = hom_walk::walk_drawn(
+        scene,
+        animation,
+        path,
+        culler.as_mut(),
+        renderer,
+        frame_draw,
+        options,
+        |record| {
+            bar.inc(1);
+            // The map's scene is the walked one (Quake 3 maps are static).
+            let camera = path.camera(record.frame);
+            let frame = match (pvs, measure_baked) {
+                (Some((map, None)), _) => Some(pvs::pvs_for_record(map, &map.scene, &camera, record)),
+                (Some((map, Some(portals))), _) => {
+                    let view = pvs::PortalPvsView { map, portals };
+                    Some(pvs::pvs_for_record(&view, &map.scene, &camera, record))
+                }
+                (None, Some(baked)) => {
+                    let start = start_scene.as_ref().expect("copied when measuring");
+                    let view = pvs::BakedPvsView::new(baked, start, &camera.to_view());
+                    Some(pvs::pvs_for_record(&view, start, &camera, record))
+                }
+                (None, None) => None,
             };
-            if let Err(e) = written {
-                io_error.get_or_insert(e);
+            if let Some(out) = report.as_deref_mut() {
+                let written = match &frame {
+                    Some(f) => report::write_line(out, &pvs::FrameWithPvs { record, pvs: f }),
+                    None => report::write_line(out, record),
+                };
+                if let Err(e) = written {
+                    io_error.get_or_insert(e);
+                }
             }
-        }
-        pvs_frames.extend(frame);
-    });
+            pvs_frames.extend(frame);
+        },
+    );
     bar.finish_and_clear();
     let result = result?;
     let pvs_summary = (pvs.is_some() || measure_baked.is_some()).then(|| pvs::summarize_pvs(&pvs_frames));
