@@ -27,6 +27,9 @@ pub enum Command {
     Demo(DemoArgs),
     /// Walk a camera path through a scene with a culler, optionally checking against the oracle.
     Walk(WalkArgs),
+    /// Fly through a scene in a window drawn by wgpu and watch what a culler hides
+    /// (keys in `hom view --help`); --headless draws the path's frames into PNGs.
+    View(ViewArgs),
     /// Render one frame of a scene's path to a PNG.
     Render(RenderArgs),
     /// Walk scenes with several cullers side by side (oracle on); print one table, write JSON and a stage chart.
@@ -491,9 +494,56 @@ pub struct WalkArgs {
     /// `pvs_` fields as with --pvs.
     #[arg(long)]
     pub pvs_file: Option<PathBuf>,
+    /// What draws the timed frames: `software` (hom's renderer) or `wgpu` (a vertex and
+    /// index buffer per scene, one draw per visible object, on the first Vulkan adapter:
+    /// a GPU, or Mesa's lavapipe), timed by GPU timestamps where the adapter has them,
+    /// else from submit to done. The oracle's item buffer stays the software renderer's.
+    #[arg(long, value_enum, default_value = "software")]
+    pub renderer: RendererArg,
     /// Level of detail.
     #[command(flatten)]
     pub lod: LodArgs,
+}
+
+/// `--renderer`: what draws a walk's timed frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RendererArg {
+    /// hom's multi-threaded software z-buffer renderer.
+    Software,
+    /// wgpu on the first Vulkan adapter.
+    Wgpu,
+}
+
+/// `hom view`: keys Space play/pause the path (paused: W A S D fly, Q down, E up, Shift
+/// faster, left mouse button held to look), 1-5 culler (none, frustum, hom, hzb, masked),
+/// V virtual/original occluders, F false colour, I the occlusion buffer's inset, T the
+/// line of figures, R record the camera's path (again: stop and write it), Escape close.
+#[derive(Args)]
+pub struct ViewArgs {
+    /// Scene, path, viewport (default 1280x720), culler.
+    #[command(flatten)]
+    pub view: View,
+    /// Draw the path's frames offscreen into PNGs (DIR/frame_00000.png, …): no window,
+    /// no display needed.
+    #[arg(long, requires = "out")]
+    pub headless: bool,
+    /// --headless: the folder the pictures go to.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// --headless: only the first N frames. In the window: play the path's first N
+    /// frames, then close.
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// In the window with --frames: write the last frame to this PNG.
+    #[arg(long, requires = "frames")]
+    pub screenshot: Option<PathBuf>,
+    /// Start with the false colour on: occluders blue, occlusion-culled objects red,
+    /// seen through what hides them.
+    #[arg(long)]
+    pub false_colour: bool,
+    /// Where key R writes the recorded camera path (a second recording: NAME-2.json, …).
+    #[arg(long, default_value = "hom-view-path.json")]
+    pub record: PathBuf,
 }
 
 /// Level of detail guided by visibility (Law & Tan 1999, section 6).

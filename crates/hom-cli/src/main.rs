@@ -37,6 +37,7 @@ fn main() {
     let result = match cli.command {
         Command::Demo(a) => commands::demo::run(a),
         Command::Walk(a) => commands::walk::run(a),
+        Command::View(a) => commands::view::run(a),
         Command::Render(a) => commands::render::run(a),
         Command::Bench(a) => commands::bench::run(a),
         Command::Scenes => commands::scene::list(),

@@ -7,6 +7,7 @@ pub mod occluders;
 pub mod pvs;
 pub mod render;
 pub mod scene;
+pub mod view;
 pub mod walk;
 
 use anyhow::Result;

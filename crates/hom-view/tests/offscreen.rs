@@ -1,0 +1,118 @@
+//! wgpu's frames against hom's software renderer: the item buffers agree
+//! (same objects visible, edge pixels aside), and a walk timed with wgpu
+//! keeps the software walk's visible sets.
+
+use hom_render::{Framebuffer, RenderOptions, Renderer, Shading, NO_OBJECT};
+use hom_view::{ViewError, WgpuDraw};
+use hom_walk::{FrameDraw, WalkOptions};
+
+/// A wgpu renderer for `scene`, or `None` (and why, on stderr) where this
+/// machine has no Vulkan adapter — unless `HOM_VIEW_REQUIRE_GPU` is set (CI
+/// sets it, after installing lavapipe), when that fails the test.
+fn wgpu_or_skip(scene: &hom::scene::Scene) -> Option<WgpuDraw> {
+    match WgpuDraw::new(scene) {
+        Ok(d) => Some(d),
+        Err(e @ ViewError::NoAdapter(_)) if std::env::var_os("HOM_VIEW_REQUIRE_GPU").is_none() => {
+            eprintln!("skipped: {e}");
+            None
+        }
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Pixel counts per object of an item buffer.
+fn counts(items: &[u32], objects: usize) -> Vec<u32> {
+    let mut c = vec![0; objects];
+    for &id in items.iter().filter(|&&id| id != NO_OBJECT) {
+        c[id as usize] += 1;
+    }
+    c
+}
+
+#[test]
+fn wgpu_item_buffer_equals_the_oracle_up_to_edge_pixels() {
+    for name in ["city", "office", "dynamic"] {
+        let (mut scene, path, animation) = hom_walk::open_scene(name).unwrap();
+        let path = path.with_viewport(320, 240);
+        let Some(mut draw) = wgpu_or_skip(&scene) else {
+            return;
+        };
+        let renderer = Renderer::new(2).unwrap();
+        let mut fb = Framebuffer::new(320, 240);
+        let options = RenderOptions {
+            shading: Shading::ItemOnly,
+            ..RenderOptions::default()
+        };
+        let n = path.frames.len();
+        for i in (0..n).step_by(n.div_ceil(5)) {
+            animation.apply(&mut scene, i as f32 / 30.0);
+            let camera = path.camera(i);
+            let ids: Vec<u32> = scene.live_objects().map(|(id, _)| id).collect();
+            renderer.render(&scene, &ids, &camera, &options, &mut fb);
+            let gpu = draw.items(&scene, &ids, &camera).unwrap();
+            assert_eq!(gpu.len(), fb.items().len());
+            let differ = gpu.iter().zip(fb.items()).filter(|(a, b)| a != b).count();
+            let share = differ as f64 / gpu.len() as f64;
+            assert!(
+                share < 0.002,
+                "{name} frame {i}: {differ} of {} pixels differ",
+                gpu.len()
+            );
+            // Every object with a few pixels in one image is in the other.
+            let (a, b) = (
+                counts(&gpu, scene.objects().len()),
+                counts(fb.items(), scene.objects().len()),
+            );
+            for (id, (&g, &s)) in a.iter().zip(&b).enumerate() {
+                assert!(
+                    !((g >= 4 && s == 0) || (s >= 4 && g == 0)),
+                    "{name} frame {i}: object {id} owns {g} pixels drawn by wgpu, {s} by the software renderer"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_walk_timed_by_wgpu_keeps_the_software_walks_frames() {
+    let (mut scene, path, animation) = hom_walk::open_scene("city").unwrap();
+    let path = path.with_viewport(256, 192);
+    let Some(mut draw) = wgpu_or_skip(&scene) else {
+        return;
+    };
+    assert!(draw.describe().starts_with("wgpu: "), "{}", draw.describe());
+    let renderer = Renderer::new(2).unwrap();
+    let options = WalkOptions {
+        frames: Some(12),
+        oracle: true,
+        ..WalkOptions::default()
+    };
+    let walk = |frame_draw: Option<&mut dyn FrameDraw>, scene: &mut hom::scene::Scene| {
+        let settings = hom_walk::cullers::CullerSettings::for_scene(scene);
+        let mut settings = settings;
+        settings.hom.cost_model = false;
+        let mut culler = hom_walk::cullers::make("masked", scene, &settings).unwrap();
+        hom_walk::walk_drawn(
+            scene,
+            &animation,
+            &path,
+            culler.as_mut(),
+            &renderer,
+            frame_draw,
+            &options,
+            |_| {},
+        )
+        .unwrap()
+    };
+    let software = walk(None, &mut scene);
+    let wgpu = walk(Some(&mut draw), &mut scene);
+    assert_eq!(software.header.renderer, "software");
+    assert!(wgpu.header.renderer.starts_with("wgpu: "));
+    for (s, w) in software.frames.iter().zip(&wgpu.frames) {
+        assert_eq!(s.visible, w.visible, "frame {}", s.frame);
+        let o = w.oracle.as_ref().unwrap();
+        assert!(o.false_culls.is_empty(), "frame {}: {:?}", w.frame, o.false_culls);
+        assert!(w.stages_ms["render"] > 0.0, "frame {}", w.frame);
+        assert!(w.baseline_frame_ms.is_some_and(|ms| ms > 0.0));
+    }
+}
