@@ -77,7 +77,7 @@ pub fn run(
         Offscreen::fit(&mut target, &gpu.device, camera.width, camera.height);
         let t = target.as_ref().expect("fitted");
         let status = status_line(scene.name(), culler_name, i, last_ms);
-        let figures = viewer.frame(&gpu, scene, &camera, culler, &t.colour_view, i, &status)?;
+        let figures = viewer.frame(&gpu, scene, &camera, culler, &t.colour_view, i, Some(&status))?;
         let rgba = read_texture(&gpu, &t.colour, t.width, t.height)?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let file = picture_path(&options.out, i);

@@ -215,7 +215,7 @@ impl WgpuDraw {
                 a: 0.0,
             };
             let mut pass = begin_pass(&mut encoder, &target.item_view, none, &target.depth_view, None);
-            self.scene.draw(&mut pass, Pass::Item, scene, ids);
+            self.scene.draw(&mut pass, Pass::Item, scene, ids, camera.eye);
         }
         self.gpu.queue.submit([encoder.finish()]);
         let bytes = read_texture(&self.gpu, &target.item, width, height)?;
@@ -254,7 +254,7 @@ impl WgpuDraw {
                 &target.depth_view,
                 timestamp_writes,
             );
-            self.scene.draw(&mut pass, Pass::Colour, scene, ids);
+            self.scene.draw(&mut pass, Pass::Colour, scene, ids, camera.eye);
         }
         if let Some(t) = &self.timer {
             encoder.resolve_query_set(&t.queries, 0..2, &t.resolve, 0);

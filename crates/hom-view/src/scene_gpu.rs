@@ -216,8 +216,32 @@ impl SceneGpu {
         }
     }
 
-    /// Draws objects `ids` (removed ones draw nothing) in that order.
-    pub(crate) fn draw(&self, pass: &mut wgpu::RenderPass<'_>, kind: Pass, scene: &Scene, ids: &[u32]) {
+    /// Draws objects `ids` (removed ones draw nothing): the item pass in
+    /// that order (on equal depth the first drawn keeps the pixel, as in the
+    /// oracle), the colour pass nearest box first from `eye`, as an engine
+    /// sorts its opaque draws (the depth test then spares the fragment
+    /// shading of what lies behind).
+    pub(crate) fn draw(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        kind: Pass,
+        scene: &Scene,
+        ids: &[u32],
+        eye: glam::Vec3,
+    ) {
+        let objects = scene.objects();
+        let sorted: Vec<u32>;
+        let ids = if kind == Pass::Colour {
+            let mut by_distance: Vec<(f32, u32)> = ids
+                .iter()
+                .filter_map(|&id| Some((objects.get(id as usize)?.aabb.distance_squared(eye), id)))
+                .collect();
+            by_distance.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            sorted = by_distance.into_iter().map(|(_, id)| id).collect();
+            &sorted
+        } else {
+            ids
+        };
         let pipeline = match kind {
             Pass::Colour => &self.colour,
             Pass::Ghost => &self.ghost,
@@ -227,7 +251,6 @@ impl SceneGpu {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertices.slice(..));
         pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
-        let objects = scene.objects();
         for &id in ids {
             let Some(o) = objects.get(id as usize).filter(|o| !o.is_removed()) else {
                 continue;

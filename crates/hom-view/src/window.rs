@@ -31,6 +31,10 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
+/// How often the line of figures is written again: often enough to follow,
+/// seldom enough to read.
+const FIGURES_EVERY: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// The cullers keys 1 to 5 choose, in that order.
 pub const KEY_CULLERS: [&str; 5] = ["none", "frustum", "hom", "hzb", "masked"];
 
@@ -111,6 +115,7 @@ pub fn run(
         dragging: false,
         cursor: None,
         last: None,
+        figures_at: None,
         recording: None,
         summary: WindowSummary::default(),
         error: None,
@@ -178,6 +183,8 @@ struct App {
     dragging: bool,
     cursor: Option<(f64, f64)>,
     last: Option<Instant>,
+    /// When the line of figures was last written.
+    figures_at: Option<Instant>,
     recording: Option<Vec<PathFrame>>,
     summary: WindowSummary,
     error: Option<ViewError>,
@@ -325,7 +332,12 @@ impl App {
         } else {
             self.frames_drawn
         };
-        let status = status_line(self.scene.name(), &name, frame, last_ms);
+        let last_frame = self.options.frames.is_some_and(|n| self.frames_drawn + 1 >= n);
+        let refresh = last_frame || self.figures_at.is_none_or(|t| now - t >= FIGURES_EVERY);
+        let status = refresh.then(|| status_line(self.scene.name(), &name, frame, last_ms));
+        if refresh {
+            self.figures_at = Some(now);
+        }
         let view = texture.texture.create_view(&Default::default());
         let viewer = self.viewer.as_mut().expect("started");
         viewer.frame(
@@ -335,7 +347,7 @@ impl App {
             self.culler.as_mut(),
             &view,
             self.frames_drawn,
-            &status,
+            status.as_deref(),
         )?;
         if let Some(frames) = &mut self.recording {
             frames.push(PathFrame {
@@ -344,7 +356,7 @@ impl App {
             });
         }
         self.frames_drawn += 1;
-        let done = self.options.frames.is_some_and(|n| self.frames_drawn >= n);
+        let done = last_frame;
         if done {
             if let Some(file) = self.options.screenshot.clone() {
                 screenshot(gpu, &texture.texture, config, &file)?;
@@ -414,17 +426,11 @@ impl App {
         if frames.is_empty() {
             return Ok(());
         }
-        let (width, height) = self
+        let size = self
             .config
             .as_ref()
             .map_or((self.path.width, self.path.height), |c| (c.width, c.height));
-        let recorded = CameraPath {
-            up: [0.0, 1.0, 0.0],
-            width,
-            height,
-            frames,
-            ..self.path.clone()
-        };
+        let recorded = recorded_path(&self.path, frames, size);
         let file = numbered(&self.options.record, self.summary.recorded.len());
         let json = serde_json::to_string_pretty(&recorded).map_err(|e| ViewError::Write {
             path: file.clone(),
@@ -441,6 +447,18 @@ impl App {
         );
         self.summary.recorded.push(file);
         Ok(())
+    }
+}
+
+/// The path of the recorded `frames`: the scene's path's lens, the
+/// window's viewport, +Y up (the free camera's).
+fn recorded_path(scene_path: &CameraPath, frames: Vec<PathFrame>, (width, height): (u32, u32)) -> CameraPath {
+    CameraPath {
+        up: [0.0, 1.0, 0.0],
+        width,
+        height,
+        frames,
+        ..scene_path.clone()
     }
 }
 
@@ -573,5 +591,55 @@ impl ApplicationHandler for App {
         if let Some(w) = &self.window {
             w.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_recorded_path_loads_as_a_camera_path_with_the_windows_viewport() {
+        let scene_path = CameraPath {
+            fov_y_deg: 75.0,
+            near: 0.5,
+            far: 900.0,
+            ..CameraPath::new(vec![PathFrame {
+                eye: [0.0, 1.0, 0.0],
+                target: [0.0, 1.0, 1.0],
+            }])
+        };
+        let frames: Vec<PathFrame> = (0..5)
+            .map(|i| PathFrame {
+                eye: [i as f32, 2.0, 0.0],
+                target: [i as f32, 2.0, 5.0],
+            })
+            .collect();
+        let recorded = recorded_path(&scene_path, frames.clone(), (640, 360));
+        let dir = std::env::temp_dir().join(format!("hom-view-record-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("path.json");
+        std::fs::write(&file, serde_json::to_string_pretty(&recorded).unwrap()).unwrap();
+        let loaded = CameraPath::load(&file).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert_eq!(loaded.frames, frames);
+        assert_eq!((loaded.width, loaded.height), (640, 360));
+        assert_eq!((loaded.fov_y_deg, loaded.near, loaded.far), (75.0, 0.5, 900.0));
+        assert_eq!(loaded.camera(4).eye, Vec3::new(4.0, 2.0, 0.0));
+    }
+
+    #[test]
+    fn later_recordings_are_numbered() {
+        let file = Path::new("out/walk.json");
+        assert_eq!(numbered(file, 0), PathBuf::from("out/walk.json"));
+        assert_eq!(numbered(file, 1), PathBuf::from("out/walk-2.json"));
+        assert_eq!(numbered(Path::new("walk"), 2), PathBuf::from("walk-3"));
+    }
+
+    #[test]
+    fn the_free_camera_starts_looking_where_the_path_looks() {
+        let camera = Camera::new(Vec3::ZERO, Vec3::new(1.0, 0.5, -2.0), Vec3::Y, 1.0, 0.1, 100.0, 64, 64);
+        let fly = Fly::from_camera(&camera);
+        assert!(fly.forward().distance(camera.forward()) < 1e-5);
     }
 }
