@@ -74,15 +74,15 @@ pub struct WindowSummary {
 }
 
 /// Opens the window on `scene` (moved by `animation`, its path `path`) with
-/// culler `culler` built from `settings`, and runs until it is closed (or
-/// has played `options.frames`). A machine with no display gets
-/// [`ViewError::NoDisplay`].
+/// `culler`, and runs until it is closed (or has played `options.frames`);
+/// keys 1–5 and V build other cullers for the scene from `settings`. A
+/// machine with no display gets [`ViewError::NoDisplay`].
 pub fn run(
     scene: Scene,
     animation: Animation,
     path: CameraPath,
+    culler: Box<dyn Culler>,
     settings: CullerSettings,
-    culler: &str,
     options: WindowOptions,
 ) -> Result<WindowSummary, ViewError> {
     path.validate(scene.name())?;
@@ -91,7 +91,6 @@ pub fn run(
     }
     let event_loop = EventLoop::new().map_err(|e| ViewError::NoDisplay(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let culler_box = make_culler(culler, &scene, &settings)?;
     let first = path.camera(0);
     let mut app = App {
         fly: Fly::from_camera(&first),
@@ -101,8 +100,8 @@ pub fn run(
         playing: options.frames.is_some(),
         path,
         settings,
-        culler_name: culler.to_string(),
-        culler: culler_box,
+        culler_name: culler.name().to_string(),
+        culler,
         options,
         window: None,
         gpu: None,

@@ -66,7 +66,6 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         );
         return Ok(());
     }
-    drop(culler);
     let options = window::WindowOptions {
         width: w.path.width,
         height: w.path.height,
@@ -76,7 +75,7 @@ pub fn run(mut a: ViewArgs) -> Result<()> {
         record: a.record.clone(),
         frame_rate,
     };
-    let summary = window::run(w.scene, w.animation, w.path, settings, &view.culler, options)
+    let summary = window::run(w.scene, w.animation, w.path, culler, settings, options)
         .with_context(|| format!("viewing {}", view.scene))?;
     let mut ms = summary.frame_ms.clone();
     ms.sort_by(f64::total_cmp);
