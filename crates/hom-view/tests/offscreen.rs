@@ -116,3 +116,75 @@ fn a_walk_timed_by_wgpu_keeps_the_software_walks_frames() {
         assert!(w.baseline_frame_ms.is_some_and(|ms| ms > 0.0));
     }
 }
+
+/// Whether `pixel` shows object `id` as the flat shading draws it (its
+/// colour times a light in [0.25, 1]), or the background where `id` is none.
+fn shows(pixel: [u8; 3], id: u32) -> bool {
+    if id == NO_OBJECT {
+        return pixel == hom_render::DEFAULT_BACKGROUND;
+    }
+    let base = hom_render::id_colour(id).map(f32::from);
+    let p = pixel.map(f32::from);
+    let k = (0..3).map(|c| p[c] * base[c]).sum::<f32>() / (0..3).map(|c| base[c] * base[c]).sum::<f32>();
+    (0.2..=1.05).contains(&k) && (0..3).all(|c| (p[c] - k * base[c]).abs() <= 6.0)
+}
+
+#[test]
+fn headless_pictures_show_the_oracles_objects_up_to_edge_pixels() {
+    let (mut scene, path, animation) = hom_walk::open_scene("office").unwrap();
+    let mut path = path.with_viewport(320, 240);
+    let n = path.frames.len();
+    path.frames = path.frames.iter().copied().step_by(n.div_ceil(4)).collect();
+    // Skip here where there is no adapter; `headless::run` would fail.
+    if wgpu_or_skip(&scene).is_none() {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("hom-view-headless-{}", std::process::id()));
+    let options = hom_view::headless::HeadlessOptions {
+        frames: None,
+        out: dir.clone(),
+        viewer: hom_view::ViewerOptions {
+            overlay: false,
+            inset: false,
+            figures: false,
+        },
+        frame_rate: 30.0,
+    };
+    let settings = hom_walk::cullers::CullerSettings::for_scene(&scene);
+    let mut culler = hom_walk::cullers::make("masked", &scene, &settings).unwrap();
+    let summary = hom_view::headless::run(
+        &mut scene,
+        &animation,
+        &path,
+        culler.as_mut(),
+        "masked",
+        &options,
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(summary.pictures.len(), path.frames.len());
+    let renderer = Renderer::new(2).unwrap();
+    let mut fb = Framebuffer::new(320, 240);
+    let item_only = RenderOptions {
+        shading: Shading::ItemOnly,
+        ..RenderOptions::default()
+    };
+    for (i, file) in summary.pictures.iter().enumerate() {
+        animation.apply(&mut scene, i as f32 / 30.0);
+        let ids: Vec<u32> = scene.live_objects().map(|(id, _)| id).collect();
+        renderer.render(&scene, &ids, &path.camera(i), &item_only, &mut fb);
+        let picture = image::open(file).unwrap().to_rgb8();
+        // The light differs (from a triangle's centroid on the CPU, from each
+        // pixel on the GPU), so the test is which object a pixel shows.
+        let wrong = picture
+            .pixels()
+            .zip(fb.items())
+            .filter(|(p, &id)| !shows(p.0, id))
+            .count();
+        assert!(
+            wrong * 200 < fb.items().len(),
+            "frame {i}: {wrong} pixels show another object"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
