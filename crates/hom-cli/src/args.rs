@@ -645,6 +645,9 @@ pub struct BenchArgs {
     /// `walk` (scenes × cullers) or `raster` (the rasterizer on the MOC inputs in --data).
     #[arg(value_enum, default_value = "walk")]
     pub kind: BenchKind,
+    /// walk: what draws the timed frames (as `hom walk --renderer`): `software` or `wgpu`.
+    #[arg(long, value_enum, default_value = "software")]
+    pub renderer: RendererArg,
     /// raster: the folder with the .mocscene/.mocrec/.res inputs.
     #[arg(long, default_value = "../shared/bench-data/moc")]
     pub data: PathBuf,

@@ -1,7 +1,7 @@
 //! What every command sets up: the scene and its camera path with the
 //! viewport overridden, the culler, and the progress bar.
 
-use crate::args::{HomArgs, View};
+use crate::args::{HomArgs, RendererArg, View};
 use anyhow::{bail, Context, Result};
 use hom::cull::{Coherence, Culler};
 use hom::experimental::HvPriming;
@@ -10,6 +10,7 @@ use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};
 use hom_walk::cullers::{self, CullerSettings};
+use hom_walk::{DrawError, FrameDraw};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// A scene, the camera path through it and how its objects move.
@@ -231,3 +232,20 @@ pub fn lod_for(args: &crate::args::LodArgs, scene: &Scene) -> Result<Option<hom_
         occluders: args.lod_occluders == OnOff::On,
     }))
 }
+
+/// What makes `--renderer`'s renderer of a scene's timed frames: `None` for
+/// hom's software renderer.
+pub fn frame_draw_maker(renderer: RendererArg) -> Result<Option<MakeFrameDraw>> {
+    match renderer {
+        RendererArg::Software => Ok(None),
+        #[cfg(feature = "view")]
+        RendererArg::Wgpu => Ok(Some(|scene| Ok(Box::new(hom_view::WgpuDraw::new(scene)?)))),
+        #[cfg(not(feature = "view"))]
+        RendererArg::Wgpu => {
+            bail!("--renderer wgpu needs hom's viewer, and this hom was built without it (hom-cli's `view` feature)")
+        }
+    }
+}
+
+/// A maker of a scene's [`FrameDraw`].
+pub type MakeFrameDraw = fn(&Scene) -> Result<Box<dyn FrameDraw>, DrawError>;

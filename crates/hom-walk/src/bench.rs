@@ -8,10 +8,11 @@
 
 use crate::pictures::StageBar;
 use crate::report::{fmt_opt, mean, median, Summary};
-use crate::{cullers, WalkError, WalkOptions, WalkResult};
+use crate::{cullers, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult};
 use hom::cull::{Coherence, CullStats, DepthCheck, Hierarchy, PSkip, PropagationStats};
 use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
+use hom::scene::Scene;
 use hom_render::{RenderError, Renderer};
 use hom_scene::{CameraPathError, LoadError};
 use serde::Serialize;
@@ -217,6 +218,14 @@ pub enum BenchError {
     /// The renderer could not be made.
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The renderer that draws the timed frames could not be made for a scene.
+    #[error("scene {scene}: no renderer for its frames")]
+    FrameDraw {
+        /// Scene name.
+        scene: String,
+        /// Cause.
+        source: DrawError,
+    },
     /// A walk stopped.
     #[error("scene {scene}, culler {culler}")]
     Walk {
@@ -336,6 +345,8 @@ pub struct BenchReport {
     pub options: BenchOptions,
     /// Renderer threads actually used.
     pub render_threads: usize,
+    /// What drew the timed frames ([`crate::report::Header::renderer`]).
+    pub renderer: String,
     /// The scenes, in the order given.
     pub scenes: Vec<BenchScene>,
     /// Per scene, one row per culler in the order given, then [`ORACLE_ROW`].
@@ -349,6 +360,21 @@ pub fn run_bench(
     scenes: &[&str],
     culler_names: &[&str],
     options: &BenchOptions,
+    progress: impl FnMut(&str),
+) -> Result<BenchReport, BenchError> {
+    run_bench_drawn(scenes, culler_names, options, None, progress)
+}
+
+/// Makes the renderer of a scene's timed frames ([`FrameDraw`]).
+pub type MakeFrameDraw<'a> = &'a dyn Fn(&Scene) -> Result<Box<dyn FrameDraw>, DrawError>;
+
+/// [`run_bench`], each scene's timed frames drawn by the renderer
+/// `frame_draw` makes for it where given (`hom bench --renderer wgpu`).
+pub fn run_bench_drawn(
+    scenes: &[&str],
+    culler_names: &[&str],
+    options: &BenchOptions,
+    frame_draw: Option<MakeFrameDraw>,
     mut progress: impl FnMut(&str),
 ) -> Result<BenchReport, BenchError> {
     if scenes.is_empty() {
@@ -383,6 +409,7 @@ pub fn run_bench(
     let mut report = BenchReport {
         options: options.clone(),
         render_threads: renderer.threads(),
+        renderer: "software".to_string(),
         scenes: Vec::new(),
         rows: Vec::new(),
     };
@@ -422,6 +449,16 @@ pub fn run_bench(
             source,
         })?;
         let frame_count = walk_options.frame_count(&path);
+        let mut drawer = frame_draw
+            .map(|make| make(&scene))
+            .transpose()
+            .map_err(|source| BenchError::FrameDraw {
+                scene: scene.name().to_string(),
+                source,
+            })?;
+        if let Some(d) = &drawer {
+            report.renderer = d.describe();
+        }
         // One run per culler, and per hierarchy and coherence mode for the cullers that take them.
         let runs: Vec<(&str, Mode)> = culler_names
             .iter()
@@ -488,12 +525,13 @@ pub fn run_bench(
             }
             settings.hv.priming = options.hv_priming.then_some(HvPriming);
             let mut culler = cullers::make(name, &scene, &settings).map_err(|_| unknown(name))?;
-            let result = crate::walk(
+            let result = crate::walk_drawn(
                 &mut scene,
                 &animation,
                 &path,
                 culler.as_mut(),
                 &renderer,
+                drawer.as_deref_mut().map(|d| d as &mut dyn FrameDraw),
                 &walk_options,
                 |_| {},
             )
@@ -734,6 +772,9 @@ impl BenchReport {
             .unwrap_or(0)
             .max(6);
         let mut s = String::new();
+        if self.renderer != "software" {
+            let _ = writeln!(s, "frames drawn by {}", self.renderer);
+        }
         for sc in &self.scenes {
             let _ = writeln!(
                 s,

@@ -39,7 +39,9 @@ pub fn run(a: BenchArgs) -> Result<()> {
         budget: a.budget,
         clusters: a.clusters.switch == OnOff::On,
     };
-    let report = hom_walk::bench::run_bench(&scene_refs, &culler_refs, &options, progress)?;
+    let make = crate::setup::frame_draw_maker(a.renderer)?;
+    let make = make.as_ref().map(|m| m as &dyn Fn(&hom::scene::Scene) -> _);
+    let report = hom_walk::bench::run_bench_drawn(&scene_refs, &culler_refs, &options, make, progress)?;
     print!("{}", report.table());
     let json_path = a.json_path();
     create_parent(&json_path)?;

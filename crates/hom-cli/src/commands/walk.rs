@@ -4,7 +4,9 @@
 use super::render::write_false_colour;
 use super::{busiest_frame, write_stage_chart};
 use crate::args::{HomArgs, RendererArg, WalkArgs};
-use crate::setup::{culler_settings, lod_for, make_culler_after_pvs, open, open_map_view, progress, Walkthrough};
+use crate::setup::{
+    culler_settings, frame_draw_maker, lod_for, make_culler_after_pvs, open, open_map_view, progress, Walkthrough,
+};
 use crate::table::print_table;
 use anyhow::{bail, Context, Result};
 use hom::pvs::Pvs;
@@ -63,7 +65,13 @@ pub fn run(a: WalkArgs) -> Result<()> {
         bail!("--frames must be at least 1");
     }
     let renderer = Renderer::new(a.view.threads)?;
-    let mut frame_draw = wgpu_draw(a.renderer, &w.scene, a.lod.lod)?;
+    if a.renderer != RendererArg::Software && a.lod.lod {
+        bail!("--lod draws parts of meshes, which only --renderer software does");
+    }
+    let mut frame_draw = frame_draw_maker(a.renderer)?
+        .map(|make| make(&w.scene))
+        .transpose()
+        .map_err(|e| anyhow::anyhow!(e))?;
     let options = WalkOptions {
         frames: a.frames,
         oracle: a.oracle || a.pvs,
@@ -132,25 +140,6 @@ pub fn run(a: WalkArgs) -> Result<()> {
         eprintln!("pictures: {}", dir.display());
     }
     Ok(())
-}
-
-/// The renderer `--renderer` names for the timed frames: `None` for hom's own.
-fn wgpu_draw(renderer: RendererArg, scene: &hom::scene::Scene, lod: bool) -> Result<Option<Box<dyn FrameDraw>>> {
-    if renderer == RendererArg::Software {
-        return Ok(None);
-    }
-    if lod {
-        bail!("--lod draws parts of meshes, which only --renderer software does");
-    }
-    #[cfg(feature = "view")]
-    {
-        Ok(Some(Box::new(hom_view::WgpuDraw::new(scene)?)))
-    }
-    #[cfg(not(feature = "view"))]
-    {
-        let _ = scene;
-        bail!("--renderer wgpu needs hom's viewer, and this hom was built without it (hom-cli's `view` feature)")
-    }
 }
 
 fn create_report(path: &Path) -> Result<BufWriter<std::fs::File>> {
