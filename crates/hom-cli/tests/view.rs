@@ -170,7 +170,15 @@ fn a_bench_drawn_by_wgpu_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");
     let o = hom()
-        .args(["bench", "--scenes", "spheres", "--cullers", "frustum,masked", "--frames", "3"])
+        .args([
+            "bench",
+            "--scenes",
+            "spheres",
+            "--cullers",
+            "frustum,masked",
+            "--frames",
+            "3",
+        ])
         .args(["--width", "128", "--height", "96", "--renderer", "wgpu", "--json"])
         .arg(&json)
         .env("XDG_RUNTIME_DIR", runtime_dir(dir.path()))
@@ -179,5 +187,9 @@ fn a_bench_drawn_by_wgpu_says_so() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("frames drawn by wgpu: "));
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert!(report["renderer"].as_str().unwrap().starts_with("wgpu: "), "{}", report["renderer"]);
+    assert!(
+        report["renderer"].as_str().unwrap().starts_with("wgpu: "),
+        "{}",
+        report["renderer"]
+    );
 }

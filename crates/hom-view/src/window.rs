@@ -3,7 +3,7 @@
 //!
 //! Keys: Space plays or pauses the scene's path (paused, the camera flies:
 //! W A S D, Q down, E up, Shift faster, the left mouse button held to
-//! look); 1–5 choose the culler (none, frustum, hom, hzb, masked); V swaps
+//! look; flying or looking while it plays pauses it where it is); 1–5 choose the culler (none, frustum, hom, hzb, masked); V swaps
 //! the occluders' meshes (virtual stand-ins or the originals); F the false
 //! colour; I the occlusion buffer's inset; T the line of figures; R starts
 //! and stops recording the camera's path to a JSON file that `hom walk
@@ -380,11 +380,13 @@ impl App {
                 self.stop_recording()?;
                 event_loop.exit();
             }
-            KeyCode::Space => {
-                if self.playing {
-                    self.fly = Fly::from_camera(&self.path.camera(self.path_frame));
-                }
-                self.playing = !self.playing;
+            KeyCode::Space if self.playing => self.take_over(),
+            KeyCode::Space => self.playing = true,
+            // Flying while the path plays takes the camera where it is.
+            KeyCode::KeyW | KeyCode::KeyA | KeyCode::KeyS | KeyCode::KeyD | KeyCode::KeyQ | KeyCode::KeyE
+                if self.playing =>
+            {
+                self.take_over()
             }
             KeyCode::KeyF => viewer.into_iter().for_each(|o| o.overlay = !o.overlay),
             KeyCode::KeyI => viewer.into_iter().for_each(|o| o.inset = !o.inset),
@@ -415,6 +417,12 @@ impl App {
             _ => {}
         }
         Ok(())
+    }
+
+    /// Pauses the path and hands its camera to the free one.
+    fn take_over(&mut self) {
+        self.fly = Fly::from_camera(&self.path.camera(self.path_frame));
+        self.playing = false;
     }
 
     /// Writes the path recorded so far, if recording.
@@ -568,6 +576,9 @@ impl ApplicationHandler for App {
                 ..
             } => {
                 self.dragging = state == ElementState::Pressed;
+                if self.dragging && self.playing {
+                    self.take_over();
+                }
                 Ok(())
             }
             WindowEvent::CursorMoved { position, .. } => {
