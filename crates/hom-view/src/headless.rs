@@ -2,8 +2,8 @@
 //! offscreen into PNG files (no window, no display needed).
 
 use crate::gpu::Gpu;
-use crate::offscreen::{read_texture, Offscreen, COLOUR_FORMAT};
-use crate::viewer::{FrameFigures, Viewer, ViewerOptions};
+use crate::offscreen::{read_texture, texture, COLOUR_FORMAT, READ_BACK};
+use crate::viewer::{status_line, FrameFigures, Viewer, ViewerOptions};
 use crate::ViewError;
 use hom::cull::Culler;
 use hom::scene::Scene;
@@ -61,7 +61,8 @@ pub fn run(
     })?;
     let gpu = Gpu::headless()?;
     let mut viewer = Viewer::new(&gpu, scene, COLOUR_FORMAT, options.viewer)?;
-    let mut target = None;
+    // The frame's colour target, made again where the viewport changes.
+    let mut target: Option<((u32, u32), wgpu::Texture)> = None;
     let count = options.frames.unwrap_or(usize::MAX).min(path.frames.len());
     let mut summary = HeadlessSummary {
         device: gpu.describe(),
@@ -74,15 +75,22 @@ pub fn run(
         animation.apply(scene, i as f32 / options.frame_rate);
         let camera = path.camera(i);
         let start = Instant::now();
-        Offscreen::fit(&mut target, &gpu.device, camera.width, camera.height);
-        let t = target.as_ref().expect("fitted");
+        let size = (camera.width, camera.height);
+        if target.as_ref().is_none_or(|(s, _)| *s != size) {
+            target = Some((
+                size,
+                texture(&gpu.device, "hom-view frame", size, COLOUR_FORMAT, READ_BACK),
+            ));
+        }
+        let colour = &target.as_ref().expect("made").1;
+        let view = colour.create_view(&Default::default());
         let status = status_line(scene.name(), culler_name, i, last_ms);
-        let figures = viewer.frame(&gpu, scene, &camera, culler, &t.colour_view, i, Some(&status))?;
-        let rgba = read_texture(&gpu, &t.colour, t.width, t.height)?;
+        let figures = viewer.frame(&gpu, scene, &camera, culler, &view, i, Some(&status))?;
+        let rgba = read_texture(&gpu, colour, size.0, size.1)?;
         let ms = start.elapsed().as_secs_f64() * 1e3;
         let file = picture_path(&options.out, i);
         let pixels: Vec<[u8; 4]> = rgba.chunks_exact(4).map(|p| [p[0], p[1], p[2], 255]).collect();
-        hom_render::write_png(&file, t.width, t.height, &pixels).map_err(|e| ViewError::Write {
+        hom_render::write_png(&file, size.0, size.1, &pixels).map_err(|e| ViewError::Write {
             path: file.clone(),
             source: e.into(),
         })?;
@@ -93,16 +101,4 @@ pub fn run(
         on_frame(i);
     }
     Ok(summary)
-}
-
-/// The start of the line of figures: scene, culler, frame, and the last
-/// frame's time where known.
-pub(crate) fn status_line(scene: &str, culler: &str, frame: usize, last_frame_ms: Option<f64>) -> String {
-    match last_frame_ms {
-        Some(ms) => format!(
-            "{scene} | {culler} | frame {frame} | {ms:.1} ms ({:.0} fps)",
-            1e3 / ms.max(1e-3)
-        ),
-        None => format!("{scene} | {culler} | frame {frame}"),
-    }
 }

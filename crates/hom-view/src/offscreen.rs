@@ -2,7 +2,7 @@
 //! buffer), and [`WgpuDraw`], the renderer `hom walk --renderer wgpu` times.
 
 use crate::gpu::Gpu;
-use crate::scene_gpu::{depth_target, Pass, SceneGpu, ITEM_FORMAT};
+use crate::scene_gpu::{Pass, SceneGpu, DEPTH_FORMAT, ITEM_FORMAT};
 use crate::ViewError;
 use hom::geom::Camera;
 use hom::scene::Scene;
@@ -13,50 +13,71 @@ use std::time::Instant;
 /// as hom's software renderer writes them (no sRGB encoding).
 pub(crate) const COLOUR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
-/// A colour, an item and a depth target of one size.
-pub(crate) struct Offscreen {
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) colour: wgpu::Texture,
-    pub(crate) colour_view: wgpu::TextureView,
+/// Usage of a target drawn into and read back.
+pub(crate) const READ_BACK: wgpu::TextureUsages =
+    wgpu::TextureUsages::RENDER_ATTACHMENT.union(wgpu::TextureUsages::COPY_SRC);
+
+/// [`WgpuDraw`]'s colour, item and depth targets, of one size.
+struct Offscreen {
+    size: (u32, u32),
+    colour_view: wgpu::TextureView,
     item: wgpu::Texture,
     item_view: wgpu::TextureView,
-    pub(crate) depth_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
 }
 
 impl Offscreen {
-    pub(crate) fn new(device: &wgpu::Device, width: u32, height: u32) -> Offscreen {
-        let texture = |label, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: extent(width, height),
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            })
-        };
-        let colour = texture("hom-view colour", COLOUR_FORMAT);
-        let item = texture("hom-view items", ITEM_FORMAT);
+    fn new(device: &wgpu::Device, size: (u32, u32)) -> Offscreen {
+        let colour = texture(device, "hom-view colour", size, COLOUR_FORMAT, READ_BACK);
+        let item = texture(device, "hom-view items", size, ITEM_FORMAT, READ_BACK);
         Offscreen {
-            width,
-            height,
+            size,
             colour_view: colour.create_view(&Default::default()),
             item_view: item.create_view(&Default::default()),
-            colour,
             item,
-            depth_view: depth_target(device, width, height),
+            depth_view: depth_target(device, size),
         }
     }
 
-    /// This target, made again where `camera`'s viewport differs.
-    pub(crate) fn fit(slot: &mut Option<Offscreen>, device: &wgpu::Device, width: u32, height: u32) {
-        if slot.as_ref().is_none_or(|t| (t.width, t.height) != (width, height)) {
-            *slot = Some(Offscreen::new(device, width, height));
+    /// The target in `slot`, made again where its size is not `size`.
+    fn fit<'s>(slot: &'s mut Option<Offscreen>, device: &wgpu::Device, size: (u32, u32)) -> &'s Offscreen {
+        if slot.as_ref().is_none_or(|t| t.size != size) {
+            *slot = Some(Offscreen::new(device, size));
         }
+        slot.as_ref().expect("made")
     }
+}
+
+/// A two-dimensional texture of `size`, one mip level, one sample.
+pub(crate) fn texture(
+    device: &wgpu::Device,
+    label: &str,
+    (width, height): (u32, u32),
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: extent(width, height),
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
+/// A depth target of `size`.
+pub(crate) fn depth_target(device: &wgpu::Device, size: (u32, u32)) -> wgpu::TextureView {
+    texture(
+        device,
+        "hom-view depth",
+        size,
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
+    .create_view(&Default::default())
 }
 
 pub(crate) fn extent(width: u32, height: u32) -> wgpu::Extent3d {
@@ -192,18 +213,12 @@ impl WgpuDraw {
         })
     }
 
-    /// The device.
-    pub fn gpu(&self) -> &Gpu {
-        &self.gpu
-    }
-
     /// Draws `ids` as `camera` sees them and returns the item buffer: the
     /// id of the object owning each pixel ([`hom_render::NO_OBJECT`] where
     /// none), row-major, row 0 at the top — hom's oracle, drawn by wgpu.
     pub fn items(&mut self, scene: &Scene, ids: &[u32], camera: &Camera) -> Result<Vec<u32>, ViewError> {
         let (width, height) = (camera.width, camera.height);
-        Offscreen::fit(&mut self.target, &self.gpu.device, width, height);
-        let target = self.target.as_ref().expect("fitted");
+        let target = Offscreen::fit(&mut self.target, &self.gpu.device, (width, height));
         self.scene
             .prepare(&self.gpu.device, &self.gpu.queue, scene, camera, None);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
@@ -225,19 +240,10 @@ impl WgpuDraw {
             .collect())
     }
 
-    /// Draws `ids` as `camera` sees them, flat shaded, and returns the
-    /// colour image (RGBA, row 0 at the top).
-    pub fn colour(&mut self, scene: &Scene, ids: &[u32], camera: &Camera) -> Result<Vec<u8>, ViewError> {
-        self.draw_timed(scene, ids, camera)?;
-        let target = self.target.as_ref().expect("drawn");
-        read_texture(&self.gpu, &target.colour, target.width, target.height)
-    }
-
     /// One timed frame: its milliseconds.
     fn draw_timed(&mut self, scene: &Scene, ids: &[u32], camera: &Camera) -> Result<f64, ViewError> {
         let start = Instant::now();
-        Offscreen::fit(&mut self.target, &self.gpu.device, camera.width, camera.height);
-        let target = self.target.as_ref().expect("fitted");
+        let target = Offscreen::fit(&mut self.target, &self.gpu.device, (camera.width, camera.height));
         self.scene
             .prepare(&self.gpu.device, &self.gpu.queue, scene, camera, None);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());

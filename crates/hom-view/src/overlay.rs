@@ -155,16 +155,13 @@ impl Overlay {
     }
 
     fn picture(&self, device: &wgpu::Device, corner: Corner, width: u32, height: u32) -> Picture {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("hom-view overlay picture"),
-            size: crate::offscreen::extent(width, height),
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
+        let texture = crate::offscreen::texture(
+            device,
+            "hom-view overlay picture",
+            (width, height),
+            wgpu::TextureFormat::Rgba8Unorm,
+            wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        );
         let rect = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("hom-view overlay rectangle"),
             size: 16,

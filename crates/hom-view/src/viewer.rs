@@ -3,9 +3,9 @@
 //! occlusion buffer's inset and the line of figures.
 
 use crate::gpu::Gpu;
-use crate::offscreen::{background, begin_pass};
+use crate::offscreen::{background, begin_pass, depth_target};
 use crate::overlay::{coverage_picture, text_picture, Corner, Overlay};
-use crate::scene_gpu::{depth_target, Pass, SceneGpu};
+use crate::scene_gpu::{Pass, SceneGpu};
 use crate::ViewError;
 use hom::cull::{CullOutput, Culler};
 use hom::geom::Camera;
@@ -100,11 +100,6 @@ impl Viewer {
         })
     }
 
-    /// The last frame's cull.
-    pub fn last_cull(&self) -> &CullOutput {
-        &self.out
-    }
-
     /// Frame `index`: culls `scene` from `camera` with `culler`, then draws
     /// the frame on `target` (`camera`'s viewport), with `status` (the
     /// scene, culler, frame time) leading the line of figures; with `None`
@@ -145,7 +140,7 @@ impl Viewer {
 
         let size = (camera.width, camera.height);
         if self.depth.as_ref().is_none_or(|(s, _)| *s != size) {
-            self.depth = Some((size, depth_target(&gpu.device, size.0, size.1)));
+            self.depth = Some((size, depth_target(&gpu.device, size)));
         }
         let overlay = self.options.overlay.then_some(self.out.occluders.as_slice());
         self.scene.prepare(&gpu.device, &gpu.queue, scene, camera, overlay);
@@ -218,5 +213,17 @@ fn count(n: u64) -> String {
         0..1_000 => n.to_string(),
         1_000..1_000_000 => format!("{:.1}k", n as f64 / 1e3),
         _ => format!("{:.2}M", n as f64 / 1e6),
+    }
+}
+
+/// The start of the line of figures: scene, culler, frame, and the last
+/// frame's time where known.
+pub(crate) fn status_line(scene: &str, culler: &str, frame: usize, last_frame_ms: Option<f64>) -> String {
+    match last_frame_ms {
+        Some(ms) => format!(
+            "{scene} | {culler} | frame {frame} | {ms:.1} ms ({:.0} fps)",
+            1e3 / ms.max(1e-3)
+        ),
+        None => format!("{scene} | {culler} | frame {frame}"),
     }
 }

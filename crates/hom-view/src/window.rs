@@ -10,9 +10,8 @@
 //! --camera-path` and `hom bench --camera-path` read; Escape closes.
 
 use crate::gpu::Gpu;
-use crate::headless::status_line;
 use crate::offscreen::read_texture;
-use crate::viewer::{Viewer, ViewerOptions};
+use crate::viewer::{status_line, Viewer, ViewerOptions};
 use crate::ViewError;
 use glam::Vec3;
 use hom::cull::Culler;
@@ -355,8 +354,7 @@ impl App {
             });
         }
         self.frames_drawn += 1;
-        let done = last_frame;
-        if done {
+        if last_frame {
             if let Some(file) = self.options.screenshot.clone() {
                 screenshot(gpu, &texture.texture, config, &file)?;
                 self.summary.screenshot = Some(file);
@@ -366,7 +364,7 @@ impl App {
         if self.playing {
             self.path_frame = (self.path_frame + 1) % self.path.frames.len();
         }
-        if done {
+        if last_frame {
             self.stop_recording()?;
             event_loop.exit();
         }
