@@ -9,7 +9,9 @@ use hom::occlusion::Opacity;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
 use hom_scene::{Animation, CameraPath};
+use hom_walk::bench::MakeFrameDraw;
 use hom_walk::cullers::{self, CullerSettings};
+#[cfg(feature = "view")]
 use hom_walk::{DrawError, FrameDraw};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -235,11 +237,11 @@ pub fn lod_for(args: &crate::args::LodArgs, scene: &Scene) -> Result<Option<hom_
 
 /// What makes `--renderer`'s renderer of a scene's timed frames: `None` for
 /// hom's software renderer.
-pub fn frame_draw_maker(renderer: RendererArg) -> Result<Option<MakeFrameDraw>> {
+pub fn frame_draw_maker(renderer: RendererArg) -> Result<Option<MakeFrameDraw<'static>>> {
     match renderer {
         RendererArg::Software => Ok(None),
         #[cfg(feature = "view")]
-        RendererArg::Wgpu => Ok(Some(|scene| Ok(Box::new(hom_view::WgpuDraw::new(scene)?)))),
+        RendererArg::Wgpu => Ok(Some(&wgpu_draw)),
         #[cfg(not(feature = "view"))]
         RendererArg::Wgpu => {
             bail!("--renderer wgpu needs hom's viewer, and this hom was built without it (hom-cli's `view` feature)")
@@ -247,5 +249,8 @@ pub fn frame_draw_maker(renderer: RendererArg) -> Result<Option<MakeFrameDraw>> 
     }
 }
 
-/// A maker of a scene's [`FrameDraw`].
-pub type MakeFrameDraw = fn(&Scene) -> Result<Box<dyn FrameDraw>, DrawError>;
+/// `--renderer wgpu`'s renderer for `scene`.
+#[cfg(feature = "view")]
+fn wgpu_draw(scene: &Scene) -> Result<Box<dyn FrameDraw>, DrawError> {
+    Ok(Box::new(hom_view::WgpuDraw::new(scene)?))
+}

@@ -17,26 +17,27 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// Whether the graphics these tests need are here; `false` skips (and says why).
-fn graphics(what: &str) -> bool {
+/// A folder for a test that draws, with Mesa's runtime folder in it, where
+/// the graphics it needs are here; `None` skips (and says why).
+fn graphics(what: &str) -> Option<tempfile::TempDir> {
     let xvfb = Command::new("xvfb-run").arg("--help").output().is_ok();
     let vulkan = Path::new("/usr/share/vulkan/icd.d").is_dir();
     if xvfb && vulkan {
-        return true;
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir_all(dir.path().join("xdg")).unwrap();
+        return Some(dir);
     }
     assert!(
         std::env::var_os("HOM_VIEW_REQUIRE_GPU").is_none(),
         "{what}: Xvfb or a Vulkan driver is missing (run scripts/install-graphics.sh)"
     );
     eprintln!("skipped {what}: Xvfb or a Vulkan driver is missing (scripts/install-graphics.sh installs them)");
-    false
+    None
 }
 
-/// Mesa's window-system code wants a runtime folder.
-fn runtime_dir(dir: &Path) -> std::path::PathBuf {
-    let d = dir.join("xdg");
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// Runs `command` with `dir`'s runtime folder (Mesa's window-system code wants one).
+fn run_drawing(dir: &tempfile::TempDir, command: &mut Command) -> Output {
+    command.env("XDG_RUNTIME_DIR", dir.path().join("xdg")).output().unwrap()
 }
 
 #[test]
@@ -55,22 +56,21 @@ fn with_no_display_the_window_says_so_and_exits_2() {
 
 #[test]
 fn the_window_plays_a_path_under_xvfb_and_writes_a_screenshot() {
-    if !graphics("the window test") {
+    let Some(dir) = graphics("the window test") else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
+    };
     let shot = dir.path().join("office.png");
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 800x600x24"])
-        .arg(env!("CARGO_BIN_EXE_hom"))
-        .args([
-            "view", "--scene", "office", "--width", "320", "--height", "240", "--frames", "8",
-        ])
-        .arg("--screenshot")
-        .arg(&shot)
-        .env("XDG_RUNTIME_DIR", runtime_dir(dir.path()))
-        .output()
-        .unwrap();
+    let o = run_drawing(
+        &dir,
+        Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 800x600x24"])
+            .arg(env!("CARGO_BIN_EXE_hom"))
+            .args([
+                "view", "--scene", "office", "--width", "320", "--height", "240", "--frames", "8",
+            ])
+            .arg("--screenshot")
+            .arg(&shot),
+    );
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("frames per second"), "{err}");
@@ -83,29 +83,28 @@ fn the_window_plays_a_path_under_xvfb_and_writes_a_screenshot() {
 
 #[test]
 fn headless_frames_land_as_pngs() {
-    if !graphics("the headless test") {
+    let Some(dir) = graphics("the headless test") else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
+    };
     let out = dir.path().join("frames");
-    let o = hom()
-        .args([
-            "view",
-            "--headless",
-            "--scene",
-            "city",
-            "--width",
-            "256",
-            "--height",
-            "160",
-            "--frames",
-            "3",
-        ])
-        .args(["--false-colour", "--out"])
-        .arg(&out)
-        .env("XDG_RUNTIME_DIR", runtime_dir(dir.path()))
-        .output()
-        .unwrap();
+    let o = run_drawing(
+        &dir,
+        hom()
+            .args([
+                "view",
+                "--headless",
+                "--scene",
+                "city",
+                "--width",
+                "256",
+                "--height",
+                "160",
+                "--frames",
+                "3",
+            ])
+            .args(["--false-colour", "--out"])
+            .arg(&out),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     for i in 0..3 {
         let image = image::open(out.join(format!("frame_{i:05}.png"))).unwrap().to_rgba8();
@@ -126,20 +125,19 @@ fn headless_needs_a_folder() {
 
 #[test]
 fn a_walk_drawn_by_wgpu_reports_its_renderer() {
-    if !graphics("the wgpu walk test") {
+    let Some(dir) = graphics("the wgpu walk test") else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
+    };
     let report = dir.path().join("walk.jsonl");
-    let o = hom()
-        .args([
-            "walk", "--scene", "spheres", "--frames", "4", "--width", "160", "--height", "120",
-        ])
-        .args(["--renderer", "wgpu", "--oracle", "--report"])
-        .arg(&report)
-        .env("XDG_RUNTIME_DIR", runtime_dir(dir.path()))
-        .output()
-        .unwrap();
+    let o = run_drawing(
+        &dir,
+        hom()
+            .args([
+                "walk", "--scene", "spheres", "--frames", "4", "--width", "160", "--height", "120",
+            ])
+            .args(["--renderer", "wgpu", "--oracle", "--report"])
+            .arg(&report),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&report).unwrap();
     let header: serde_json::Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
@@ -164,26 +162,25 @@ fn a_walk_drawn_by_wgpu_reports_its_renderer() {
 
 #[test]
 fn a_bench_drawn_by_wgpu_says_so() {
-    if !graphics("the wgpu bench test") {
+    let Some(dir) = graphics("the wgpu bench test") else {
         return;
-    }
-    let dir = tempfile::tempdir().unwrap();
+    };
     let json = dir.path().join("bench.json");
-    let o = hom()
-        .args([
-            "bench",
-            "--scenes",
-            "spheres",
-            "--cullers",
-            "frustum,masked",
-            "--frames",
-            "3",
-        ])
-        .args(["--width", "128", "--height", "96", "--renderer", "wgpu", "--json"])
-        .arg(&json)
-        .env("XDG_RUNTIME_DIR", runtime_dir(dir.path()))
-        .output()
-        .unwrap();
+    let o = run_drawing(
+        &dir,
+        hom()
+            .args([
+                "bench",
+                "--scenes",
+                "spheres",
+                "--cullers",
+                "frustum,masked",
+                "--frames",
+                "3",
+            ])
+            .args(["--width", "128", "--height", "96", "--renderer", "wgpu", "--json"])
+            .arg(&json),
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("frames drawn by wgpu: "));
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();

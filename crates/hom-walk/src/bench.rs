@@ -8,7 +8,7 @@
 
 use crate::pictures::StageBar;
 use crate::report::{fmt_opt, mean, median, Summary};
-use crate::{cullers, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult};
+use crate::{cullers, renderer_name, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult, SOFTWARE_RENDERER};
 use hom::cull::{Coherence, CullStats, DepthCheck, Hierarchy, PSkip, PropagationStats};
 use hom::experimental::{HvPriming, KdTree};
 use hom::occluders::OccluderMeshes;
@@ -409,7 +409,7 @@ pub fn run_bench_drawn(
     let mut report = BenchReport {
         options: options.clone(),
         render_threads: renderer.threads(),
-        renderer: "software".to_string(),
+        renderer: renderer_name(None),
         scenes: Vec::new(),
         rows: Vec::new(),
     };
@@ -456,9 +456,7 @@ pub fn run_bench_drawn(
                 scene: scene.name().to_string(),
                 source,
             })?;
-        if let Some(d) = &drawer {
-            report.renderer = d.describe();
-        }
+        report.renderer = renderer_name(drawer.as_deref());
         // One run per culler, and per hierarchy and coherence mode for the cullers that take them.
         let runs: Vec<(&str, Mode)> = culler_names
             .iter()
@@ -772,7 +770,7 @@ impl BenchReport {
             .unwrap_or(0)
             .max(6);
         let mut s = String::new();
-        if self.renderer != "software" {
+        if self.renderer != SOFTWARE_RENDERER {
             let _ = writeln!(s, "frames drawn by {}", self.renderer);
         }
         for sc in &self.scenes {

@@ -31,7 +31,9 @@ pub mod virtual_occluders;
 mod walk;
 pub use walk::summarize;
 
-pub use walk::{walk, walk_drawn, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult};
+pub use walk::{
+    renderer_name, walk, walk_drawn, DrawError, FrameDraw, WalkError, WalkOptions, WalkResult, SOFTWARE_RENDERER,
+};
 
 use hom::scene::Scene;
 use hom_scene::{Animation, CameraPath, CameraPathError, LoadError};

@@ -94,11 +94,20 @@ impl Drawer<'_> {
     }
 
     fn describe(&self) -> String {
-        match self {
-            Drawer::Software(_) => "software".to_string(),
-            Drawer::Other(d) => d.describe(),
-        }
+        renderer_name(match self {
+            Drawer::Software(_) => None,
+            Drawer::Other(d) => Some(&**d),
+        })
     }
+}
+
+/// What [`Header::renderer`] says of hom's software renderer.
+pub const SOFTWARE_RENDERER: &str = "software";
+
+/// What [`Header::renderer`] says drew a walk's frames: the `frame_draw`
+/// given to [`walk_drawn`], or hom's software renderer.
+pub fn renderer_name(frame_draw: Option<&dyn FrameDraw>) -> String {
+    frame_draw.map_or_else(|| SOFTWARE_RENDERER.to_string(), |d| d.describe())
 }
 
 /// How to walk.

@@ -40,7 +40,6 @@ pub fn run(a: BenchArgs) -> Result<()> {
         clusters: a.clusters.switch == OnOff::On,
     };
     let make = crate::setup::frame_draw_maker(a.renderer)?;
-    let make = make.as_ref().map(|m| m as &dyn Fn(&hom::scene::Scene) -> _);
     let report = hom_walk::bench::run_bench_drawn(&scene_refs, &culler_refs, &options, make, progress)?;
     print!("{}", report.table());
     let json_path = a.json_path();

@@ -193,9 +193,7 @@ fn run_walk_pvs(
             path,
             culler.as_ref(),
             renderer.threads(),
-            &frame_draw
-                .as_deref()
-                .map_or_else(|| "software".to_string(), |d| d.describe()),
+            &hom_walk::renderer_name(frame_draw.as_deref()),
             options.frame_count(path),
             options.oracle,
         );
