@@ -347,6 +347,11 @@ impl Group<'_> {
                 let corner = y_tile0 + sy as u32 * SUB_H + cy * (SUB_H - 1);
                 t.dzdy * (corner.clamp(ra, rb) - y0) as f32
             });
+            // Per subtile lane, the row's terms, and its far column from a
+            // tile's first, clamped to the covered columns (offsets from the box's).
+            let z_row: [f32; SUBTILES] = std::array::from_fn(|s| t.zref + fy[s / 4] + box_slack);
+            let corner: [i32; SUBTILES] = std::array::from_fn(|s| ((s % 4) as u32 * SUB_W + cx * (SUB_W - 1)) as i32);
+            let (first, last) = (spans.any.0, spans.any.1 - 1);
             for tx in lo / MASK_TILE_W..=(hi - 1) / MASK_TILE_W {
                 let x_tile0 = tx * MASK_TILE_W;
                 let k_tile = row + tx as usize;
@@ -357,12 +362,16 @@ impl Group<'_> {
                     stats.tiles_rejected += 1;
                     continue;
                 }
-                let fx: [f32; 4] = std::array::from_fn(|sx| {
-                    let corner = x_tile0 + sx as u32 * SUB_W + cx * (SUB_W - 1);
-                    t.dzdx * (corner.clamp(lo, hi - 1) - x0) as f32
+                let xt = x_tile0 as i32 - x0 as i32;
+                let zt: [f32; SUBTILES] = std::array::from_fn(|s| {
+                    let z = z_row[s] + t.dzdx * (xt + corner[s]).clamp(first, last) as f32;
+                    // `z.max(0.0)` in the form vector max instructions take.
+                    if z > 0.0 {
+                        z
+                    } else {
+                        0.0
+                    }
                 });
-                let zt: [f32; SUBTILES] =
-                    std::array::from_fn(|s| (t.zref + fx[s % 4] + fy[s / 4] + box_slack).max(0.0));
                 let tile = &mut self.tiles[k_tile];
                 if !k.nearer(tile, &zt) {
                     stats.tiles_rejected += 1;
