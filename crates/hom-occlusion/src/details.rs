@@ -15,6 +15,7 @@ pub use crate::occlusion_map::{
     OverlapStats, Pyramid, SingleZPlane, Thresholds,
 };
 pub use crate::raster::setup;
+pub use crate::raster::setup_triangles;
 pub use crate::sample_depth::{SampleDepthStats, SampleDepths};
 pub use crate::weld::{number_welded, weld};
 

@@ -174,12 +174,18 @@ pub(crate) fn draw_group<K: RowKernel>(k: K, chunks: &[SetUp], parts: GroupParts
         outside,
         far,
     };
+    // The triangles in the group's rows found first, in a tight loop over
+    // their rows alone: with a few groups per thread most triangles lie in
+    // another group, and the drawing loop is costly to enter.
+    let mut mine = Vec::new();
     for c in chunks {
-        for (t, &(ya, yb)) in c.tris.iter().zip(&c.rows) {
-            if u32::from(yb) <= gy0 || u32::from(ya) >= gy1 {
-                continue;
-            }
-            group.draw(k, t, (gy0, gy1), &mut stats);
+        mine.clear();
+        mine.extend((0..c.rows.len() as u32).filter(|&i| {
+            let (ya, yb) = c.rows[i as usize];
+            u32::from(yb) > gy0 && u32::from(ya) < gy1
+        }));
+        for &i in &mine {
+            group.draw(k, &c.tris[i as usize], (gy0, gy1), &mut stats);
         }
     }
     stats

@@ -58,3 +58,4 @@ pub(crate) fn sort_costliest_first<T>(bands: &mut [(usize, T)], cost: impl Fn(us
 }
 
 pub use simd::{RasterBackend, BACKEND_ENV, FORCE_SCALAR_ENV};
+pub use simd_setup::setup_triangles;

@@ -15,9 +15,7 @@
 //!
 //! Like [`super::simd`], a place for `unsafe` and `std::arch`.
 
-#[cfg(doc)]
-use super::setup::{setup_triangle_with, Vertex};
-use super::setup::{SetupRule, Tri, Viewport};
+use super::setup::{setup_triangle_with, SetupRule, Tri, Vertex, Viewport};
 use super::simd::RasterBackend;
 use glam::Vec4;
 
@@ -46,6 +44,40 @@ pub(crate) fn setup_clip4(
         }
         _ => false,
     }
+}
+
+/// The triangles `indices` of the clip-space `vertices` (hom's convention)
+/// set up by the exact rule, none culled, with `item`: onto `out` what
+/// [`setup_triangle`](super::setup::setup_triangle) pushes for each in turn,
+/// four at a time by `backend`'s kernel where it has one and none of the
+/// four needs clipping. For a few small meshes a frame (the per-sample depth
+/// check's objects), where the queue's chunks and batches cost more than
+/// they save.
+///
+/// # Panics
+/// If an index is out of `vertices`.
+pub fn setup_triangles(
+    backend: RasterBackend,
+    vertices: &[Vec4],
+    indices: &[[u32; 3]],
+    vp: &Viewport,
+    item: u32,
+    out: &mut Vec<Tri>,
+) {
+    let rule = SetupRule::default();
+    let corners_of = |t: &[u32; 3]| t.map(|i| vertices[i as usize]);
+    let one = |c: [Vec4; 3], out: &mut Vec<Tri>| {
+        let [p, q, r] = c.map(|v| Vertex::new(v, vp));
+        setup_triangle_with([&p, &q, &r], vp, rule, item, [0; 4], out);
+    };
+    let mut fours = indices.chunks_exact(SETUP_LANES);
+    for four in &mut fours {
+        let corners: [[Vec4; 3]; SETUP_LANES] = std::array::from_fn(|l| corners_of(&four[l]));
+        if !setup_clip4(backend, &corners, vp, rule, [item; SETUP_LANES], out) {
+            corners.into_iter().for_each(|c| one(c, out));
+        }
+    }
+    fours.remainder().iter().for_each(|t| one(corners_of(t), out));
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -427,6 +459,43 @@ mod tests {
             let want = setup(&mut q, RasterBackend::Scalar);
             for backend in RasterBackend::supported() {
                 prop_assert_eq!(&setup(&mut q, backend), &want, "{:?}", backend);
+            }
+        }
+    }
+
+    proptest! {
+        /// A mesh's indexed triangles, some through the near plane or off
+        /// screen, some with unusable corners: `setup_triangles` pushes with
+        /// every backend what `setup_triangle` pushes for each in turn.
+        #[test]
+        fn setup_triangles_is_setup_triangle_in_turn(seed in any::<u64>(), n in 1usize..40, w in 1u32..400, h in 1u32..300) {
+            let mut rng = Rng::new(seed);
+            let v: Vec<Vec4> = (0..n + 2)
+                .map(|_| {
+                    let wv = rng.range(0.5, 8.0);
+                    let z = if rng.below(10) == 0 { -0.2 } else { rng.range(0.0, 1.2) };
+                    let mut c = Vec4::new(rng.range(-1.3, 1.3) * wv, rng.range(-1.3, 1.3) * wv, z * wv, wv);
+                    if rng.below(40) == 0 {
+                        c.w = [f32::NAN, 0.0, -1.0][rng.below(3) as usize];
+                    }
+                    c
+                })
+                .collect();
+            let idx: Vec<[u32; 3]> = (0..n)
+                .map(|_| std::array::from_fn(|_| rng.below(v.len() as u64) as u32))
+                .collect();
+            let vp = Viewport::new(w, h);
+            let mut want = Vec::new();
+            for t in &idx {
+                let [p, q, r] = t.map(|i| Vertex::new(v[i as usize], &vp));
+                setup_triangle_with([&p, &q, &r], &vp, SetupRule::default(), 7, [0; 4], &mut want);
+            }
+            let want: Vec<String> = want.iter().map(|t| format!("{t:?}")).collect();
+            for backend in RasterBackend::supported() {
+                let mut got = Vec::new();
+                setup_triangles(backend, &v, &idx, &vp, 7, &mut got);
+                let got: Vec<String> = got.iter().map(|t| format!("{t:?}")).collect();
+                prop_assert_eq!(&got, &want, "{:?}", backend);
             }
         }
     }

@@ -31,10 +31,12 @@
 use super::coherence::{TemporalState, Vis};
 use super::DepthCheckStats;
 use crate::geom::{object_to_clip, project_points, Footprint, ScreenRect};
-use crate::occlusion::details::setup::{setup_triangle, Tri, Vertex, Viewport};
+use crate::occlusion::details::setup::{Tri, Viewport};
+use crate::occlusion::details::setup_triangles;
 use crate::occlusion::details::SampleDepths;
+use crate::occlusion::RasterBackend;
 use crate::scene::Scene;
-use glam::Mat4;
+use glam::{Mat4, Vec4};
 
 /// Objects with more triangles than this are not checked: setting them up
 /// costs more than the check saves. The clusters real levels are cut into
@@ -96,7 +98,8 @@ pub(crate) struct DepthChecker {
     /// Whether buffers without per-sample depth draw it for the check ([`DepthCheck::On`]).
     draw: bool,
     depths: SampleDepths,
-    vertices: Vec<Vertex>,
+    /// The checked object's vertices in clip space.
+    vertices: Vec<Vec4>,
     tris: Vec<Tri>,
     hidden: Vec<u32>,
 }
@@ -152,13 +155,11 @@ impl DepthChecker {
             self.vertices.extend(
                 mesh.positions()
                     .iter()
-                    .map(|&p| Vertex::new(object_to_clip(&world_to_clip, &o.transform, p), &viewport)),
+                    .map(|&p| object_to_clip(&world_to_clip, &o.transform, p)),
             );
             self.tris.clear();
-            for t in mesh.triangles() {
-                let v = t.map(|i| &self.vertices[i as usize]);
-                setup_triangle(v, &viewport, id, [0; 4], &mut self.tris);
-            }
+            let backend = RasterBackend::active();
+            setup_triangles(backend, &self.vertices, mesh.triangles(), &viewport, id, &mut self.tris);
             // A box across the near plane has no rectangle: its triangles' bounds stand in.
             if straddles && !self.tris.is_empty() && !buffer.rect_is_covered(&bounds(&self.tris)) {
                 continue;
