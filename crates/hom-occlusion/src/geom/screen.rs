@@ -7,7 +7,7 @@
 //! value the renderer's z-buffer compares, so a depth test against it decides
 //! what the renderer would decide.
 
-use glam::{Mat4, Vec3, Vec4, Vec4Swizzles};
+use glam::{Mat4, Vec3, Vec4};
 
 /// Pixels of slack added on every side of a projected rectangle, so float
 /// rounding in the renderer can never put a covered sample outside it.
@@ -128,39 +128,60 @@ pub fn project_box_clipped(corners: &[Vec3; 8], view_proj: &Mat4, width: u32, he
 
 /// The conservative pixel rectangle and view-depth range of clip-space points
 /// that are all in front of the near plane; `None` if a coordinate is not finite.
+///
+/// The extremes are taken in NDC, four lanes at a time, and mapped to pixels
+/// once: the maps to pixels only scale and shift (each rounding monotone), so
+/// the extremes of the mapped points are the mapped extremes, bit for bit
+/// what mapping every point first gives (the test twin
+/// `rect_point_by_point`). Every traversal box test and every depth-checked object projects
+/// one (on an Extreme Tux Racer course, 3,000 a frame: 22 % of the cull
+/// point by point).
 fn rect_of_clip_points(points: impl Iterator<Item = Vec4>, width: u32, height: u32) -> Option<ScreenRect> {
     let (w, h) = (width as f32, height as f32);
-    let (mut sx0, mut sy0, mut sx1, mut sy1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
-    let (mut z0, mut z1) = (f32::MAX, f32::MIN);
+    let (mut lo, mut hi) = (Vec4::splat(f32::MAX), Vec4::splat(f32::MIN));
+    let mut finite = true;
     for c in points {
         if c.w.is_nan() || c.w <= 0.0 {
             return None;
         }
-        let inv = 1.0 / c.w;
-        let ndc = c.xyz() * inv;
-        let sx = (ndc.x * 0.5 + 0.5) * w;
-        let sy = (0.5 - ndc.y * 0.5) * h;
-        sx0 = sx0.min(sx);
-        sx1 = sx1.max(sx);
-        sy0 = sy0.min(sy);
-        sy1 = sy1.max(sy);
-        z0 = z0.min(ndc.z);
-        z1 = z1.max(ndc.z);
+        let ndc = c * (1.0 / c.w);
+        finite &= ndc.is_finite();
+        lo = lo.min(ndc);
+        hi = hi.max(ndc);
     }
-    if !(sx0.is_finite() && sx1.is_finite() && sy0.is_finite() && sy1.is_finite() && z0.is_finite() && z1.is_finite()) {
+    if !(finite && lo.is_finite() && hi.is_finite()) {
         return None;
     }
+    let (sx0, sx1) = ((lo.x * 0.5 + 0.5) * w, (hi.x * 0.5 + 0.5) * w);
+    // y grows downwards: the top of the rectangle is the greatest NDC y.
+    let (sy0, sy1) = ((0.5 - hi.y * 0.5) * h, (0.5 - lo.y * 0.5) * h);
     // Pixel x has its centre in [sx0, sx1] iff ceil(sx0 - 0.5) <= x <= floor(sx1 - 0.5).
-    let first = |s: f32, limit: f32| (s - 0.5 - RECT_SLACK_PX).ceil().clamp(0.0, limit) as u32;
-    let end = |s: f32, limit: f32| ((s - 0.5 + RECT_SLACK_PX).floor() + 1.0).clamp(0.0, limit) as u32;
+    let first = |s: f32, limit: f32| ceil_within(s - 0.5 - RECT_SLACK_PX, limit) as u32;
+    let end = |s: f32, limit: f32| (floor_within(s - 0.5 + RECT_SLACK_PX, limit) + 1).clamp(0, limit as i32) as u32;
     Some(ScreenRect {
         x0: first(sx0, w),
         y0: first(sy0, h),
         x1: end(sx1, w),
         y1: end(sy1, h),
-        z_near: z0,
-        z_far: z1,
+        z_near: lo.z,
+        z_far: hi.z,
     })
+}
+
+/// `v.ceil().clamp(0.0, limit)` for finite `v` and a `limit` below 2^24,
+/// without the library call `ceil` is on a CPU without SSE4.1.
+fn ceil_within(v: f32, limit: f32) -> i32 {
+    let v = v.clamp(-1.0, limit + 1.0);
+    let t = v as i32; // towards zero: exact in this range
+    (t + i32::from((t as f32) < v)).clamp(0, limit as i32)
+}
+
+/// `v.floor()` for finite `v`, clamped into `-1..=limit` (a `limit` below
+/// 2^24), without the library call.
+fn floor_within(v: f32, limit: f32) -> i32 {
+    let v = v.clamp(-1.0, limit + 1.0);
+    let t = v as i32;
+    (t - i32::from((t as f32) > v)).clamp(-1, limit as i32)
 }
 
 #[cfg(test)]
@@ -266,5 +287,69 @@ mod tests {
         }
         let behind = Aabb::new(Vec3::new(-1.0, -1.0, 6.0), Vec3::new(1.0, 1.0, 7.0));
         assert!(project_box_clipped(&behind.corners(), &vp, 100, 50).is_none());
+    }
+
+    /// The rectangle as it was first written, point by point: each point
+    /// mapped to pixels, then the extremes, rounded by the library (and a
+    /// non-finite point refused, where that version skipped a `NaN`).
+    fn rect_point_by_point(points: &[Vec4], width: u32, height: u32) -> Option<ScreenRect> {
+        let (w, h) = (width as f32, height as f32);
+        let (mut sx0, mut sy0, mut sx1, mut sy1) = (f32::MAX, f32::MAX, f32::MIN, f32::MIN);
+        let (mut z0, mut z1) = (f32::MAX, f32::MIN);
+        for c in points {
+            if c.w.is_nan() || c.w <= 0.0 || !c.is_finite() {
+                return None;
+            }
+            let inv = 1.0 / c.w;
+            let ndc = glam::Vec4Swizzles::xyz(*c) * inv;
+            let sx = (ndc.x * 0.5 + 0.5) * w;
+            let sy = (0.5 - ndc.y * 0.5) * h;
+            (sx0, sx1, sy0, sy1) = (sx0.min(sx), sx1.max(sx), sy0.min(sy), sy1.max(sy));
+            (z0, z1) = (z0.min(ndc.z), z1.max(ndc.z));
+        }
+        if ![sx0, sx1, sy0, sy1, z0, z1].iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let first = |s: f32, limit: f32| (s - 0.5 - RECT_SLACK_PX).ceil().clamp(0.0, limit) as u32;
+        let end = |s: f32, limit: f32| ((s - 0.5 + RECT_SLACK_PX).floor() + 1.0).clamp(0.0, limit) as u32;
+        Some(ScreenRect {
+            x0: first(sx0, w),
+            y0: first(sy0, h),
+            x1: end(sx1, w),
+            y1: end(sy1, h),
+            z_near: z0,
+            z_far: z1,
+        })
+    }
+
+    proptest::proptest! {
+        /// The rectangle from the extremes in NDC is the point-by-point one,
+        /// bit for bit: points on and off screen, near and far, some with
+        /// tiny or non-positive `w`, some on pixel centres and edges.
+        #[test]
+        fn the_rect_is_the_point_by_point_rect(seed in proptest::prelude::any::<u64>(), n in 1usize..12, width in 1u32..3000, height in 1u32..3000) {
+            let mut rng = hom_testkit::Rng::new(seed);
+            let points: Vec<Vec4> = (0..n)
+                .map(|_| {
+                    let w = match rng.below(12) {
+                        0 => 1.0e-30,
+                        1 => -1.0,
+                        2 => 0.0,
+                        _ => rng.range(0.01, 50.0),
+                    };
+                    let at = |rng: &mut hom_testkit::Rng, side: u32| match rng.below(4) {
+                        // A pixel centre or edge, in NDC.
+                        0 => (rng.below(u64::from(side)) as f32 + [0.0, 0.5][rng.below(2) as usize]) / side as f32 * 2.0 - 1.0,
+                        _ => rng.range(-3.0, 3.0),
+                    };
+                    let (x, y) = (at(&mut rng, width), at(&mut rng, height));
+                    Vec4::new(x * w, y * w, rng.range(0.0, 1.0) * w, w)
+                })
+                .collect();
+            proptest::prop_assert_eq!(
+                rect_of_clip_points(points.iter().copied(), width, height),
+                rect_point_by_point(&points, width, height)
+            );
+        }
     }
 }
