@@ -3,10 +3,10 @@
 //! setup ([`super::setup`]: clip, snap, edge functions) of everything queued
 //! runs at once, in parallel, in submission order.
 
-use super::setup::{setup_triangle_with, FaceCull, SetupRule, Tri, Vertex, Viewport};
+use super::setup::{FaceCull, SetupRule, Tri, Viewport};
 use super::silhouette::{silhouette, Scratch};
 use super::simd::RasterBackend;
-use super::simd_setup::{setup_clip4, SETUP_LANES};
+use super::simd_setup::{set_up_four, set_up_one, SETUP_LANES};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -311,21 +311,14 @@ impl TriangleQueue {
             };
             // Four of one batch at once; where one of them is clipped,
             // all four by the scalar setup (not tried again from the next).
-            let group = i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end;
-            let n = if group { SETUP_LANES } else { 1 };
-            if group {
-                let corners: [[Vec4; 3]; SETUP_LANES] =
-                    std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
-                if setup_clip4(backend, &corners, vp, rule, [b as u32; SETUP_LANES], out) {
-                    i += n;
-                    continue;
-                }
+            if i + SETUP_LANES <= chunk.len() && first + i + SETUP_LANES <= batch_end {
+                let corners = std::array::from_fn(|l| chunk[i + l].map(|v| verts[v as usize]));
+                set_up_four(backend, &corners, vp, rule, [b as u32; SETUP_LANES], out);
+                i += SETUP_LANES;
+            } else {
+                set_up_one(chunk[i].map(|v| verts[v as usize]), vp, rule, b as u32, out);
+                i += 1;
             }
-            for t in &chunk[i..i + n] {
-                let [p, q, r] = t.map(|v| Vertex::new(verts[v as usize], vp));
-                setup_triangle_with([&p, &q, &r], vp, rule, b as u32, [0; 4], out);
-            }
-            i += n;
         }
         set_up_fans(backend, &mut fans, vp, fan_rule, out);
     }
@@ -342,13 +335,11 @@ fn set_up_fans(
 ) {
     for group in fans.chunks(SETUP_LANES) {
         if let [a, b, c, d] = group {
-            if setup_clip4(backend, &[a.0, b.0, c.0, d.0], vp, rule, [a.1, b.1, c.1, d.1], out) {
-                continue;
+            set_up_four(backend, &[a.0, b.0, c.0, d.0], vp, rule, [a.1, b.1, c.1, d.1], out);
+        } else {
+            for &(t, item) in group {
+                set_up_one(t, vp, rule, item, out);
             }
-        }
-        for (t, item) in group {
-            let [p, q, r] = t.map(|v| Vertex::new(v, vp));
-            setup_triangle_with([&p, &q, &r], vp, rule, *item, [0; 4], out);
         }
     }
     fans.clear();

@@ -28,7 +28,7 @@ pub(crate) const SETUP_LANES: usize = 4;
 /// colour — when none of them needs clipping (some may be ones it drops
 /// whole: unusable, or outside one plane) and `backend` and the CPU have
 /// AVX2. Returns false, having pushed nothing, otherwise.
-pub(crate) fn setup_clip4(
+fn setup_clip4(
     backend: RasterBackend,
     corners: &[[Vec4; 3]; SETUP_LANES],
     vp: &Viewport,
@@ -66,18 +66,40 @@ pub fn setup_triangles(
 ) {
     let rule = SetupRule::default();
     let corners_of = |t: &[u32; 3]| t.map(|i| vertices[i as usize]);
-    let one = |c: [Vec4; 3], out: &mut Vec<Tri>| {
-        let [p, q, r] = c.map(|v| Vertex::new(v, vp));
-        setup_triangle_with([&p, &q, &r], vp, rule, item, [0; 4], out);
-    };
     let mut fours = indices.chunks_exact(SETUP_LANES);
     for four in &mut fours {
-        let corners: [[Vec4; 3]; SETUP_LANES] = std::array::from_fn(|l| corners_of(&four[l]));
-        if !setup_clip4(backend, &corners, vp, rule, [item; SETUP_LANES], out) {
-            corners.into_iter().for_each(|c| one(c, out));
+        let corners = std::array::from_fn(|l| corners_of(&four[l]));
+        set_up_four(backend, &corners, vp, rule, [item; SETUP_LANES], out);
+    }
+    for t in fours.remainder() {
+        set_up_one(corners_of(t), vp, rule, item, out);
+    }
+}
+
+/// Four triangles given by their clip-space corners onto `out`, with
+/// `items[i]` and no colour, as [`setup_triangle_with`] sets each up in
+/// turn: by `backend`'s kernel where it has one and none of the four needs
+/// clipping, else one by one ([`set_up_one`]).
+pub(crate) fn set_up_four(
+    backend: RasterBackend,
+    corners: &[[Vec4; 3]; SETUP_LANES],
+    vp: &Viewport,
+    rule: SetupRule,
+    items: [u32; SETUP_LANES],
+    out: &mut Vec<Tri>,
+) {
+    if !setup_clip4(backend, corners, vp, rule, items, out) {
+        for (&c, item) in corners.iter().zip(items) {
+            set_up_one(c, vp, rule, item, out);
         }
     }
-    fours.remainder().iter().for_each(|t| one(corners_of(t), out));
+}
+
+/// One triangle given by its clip-space corners onto `out`, with `item` and
+/// no colour, by the scalar setup ([`Vertex::new`], [`setup_triangle_with`]).
+pub(crate) fn set_up_one(corners: [Vec4; 3], vp: &Viewport, rule: SetupRule, item: u32, out: &mut Vec<Tri>) {
+    let [p, q, r] = corners.map(|v| Vertex::new(v, vp));
+    setup_triangle_with([&p, &q, &r], vp, rule, item, [0; 4], out);
 }
 
 #[cfg(target_arch = "x86_64")]
