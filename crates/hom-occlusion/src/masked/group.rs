@@ -299,9 +299,8 @@ struct Group<'a> {
     /// Per block of [`BLOCK_TILES`] tiles of a tile row, the farthest of
     /// their `far`: a triangle behind every block of its box is skipped
     /// whole, before any tile row is looked at. Made again once per tile row
-    /// where a triangle lowered a tile that held its block's farthest (once
-    /// per such tile cost 9 % of the group loop's instructions on oa_dm5's
-    /// walk).
+    /// where a triangle told some tile something (once per tile that fell
+    /// cost 9 % of the group loop's instructions on oa_dm5's walk).
     block_far: Vec<f32>,
 }
 
