@@ -157,7 +157,7 @@ fn rect_of_clip_points(points: impl Iterator<Item = Vec4>, width: u32, height: u
     let (sy0, sy1) = ((0.5 - hi.y * 0.5) * h, (0.5 - lo.y * 0.5) * h);
     // Pixel x has its centre in [sx0, sx1] iff ceil(sx0 - 0.5) <= x <= floor(sx1 - 0.5).
     let first = |s: f32, limit: f32| ceil_within(s - 0.5 - RECT_SLACK_PX, limit) as u32;
-    let end = |s: f32, limit: f32| (floor_within(s - 0.5 + RECT_SLACK_PX, limit) + 1).clamp(0, limit as i32) as u32;
+    let end = |s: f32, limit: f32| end_within(s - 0.5 + RECT_SLACK_PX, limit) as u32;
     Some(ScreenRect {
         x0: first(sx0, w),
         y0: first(sy0, h),
@@ -176,12 +176,12 @@ fn ceil_within(v: f32, limit: f32) -> i32 {
     (t + i32::from((t as f32) < v)).clamp(0, limit as i32)
 }
 
-/// `v.floor()` for finite `v`, clamped into `-1..=limit` (a `limit` below
-/// 2^24), without the library call.
-fn floor_within(v: f32, limit: f32) -> i32 {
+/// `(v.floor() + 1.0).clamp(0.0, limit)` for finite `v` and a `limit` below
+/// 2^24, without the library call `floor` is on a CPU without SSE4.1.
+fn end_within(v: f32, limit: f32) -> i32 {
     let v = v.clamp(-1.0, limit + 1.0);
-    let t = v as i32;
-    (t - i32::from((t as f32) > v)).clamp(-1, limit as i32)
+    let t = v as i32; // towards zero: exact in this range
+    (t - i32::from((t as f32) > v) + 1).clamp(0, limit as i32)
 }
 
 #[cfg(test)]
