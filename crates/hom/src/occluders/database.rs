@@ -6,6 +6,7 @@
 //! 5.5): their boxes move, so only pose-independent criteria (size, cost,
 //! shape) apply to them, never redundancy.
 
+use super::ground::Ground;
 use super::virtual_occluder::{NoVirtual, VirtualConfig, VirtualOccluder};
 use crate::geom::Aabb;
 use crate::occlusion::details::{faces_turned_away, height_field};
@@ -135,6 +136,8 @@ pub struct OccluderDb {
     /// Per mesh id: whether it is closed or an open height field, and which
     /// way it is turned, checked for the meshes of kept occluders.
     shells: Vec<Shell>,
+    /// The ground the height-field occluders make, when they make one.
+    ground: Option<Ground>,
 }
 
 /// What a mesh is as a surface ([`ClosedMesh::of`]), once checked.
@@ -167,20 +170,26 @@ fn mesh_area(mesh: &Mesh) -> f32 {
 
 /// Per mesh id, whether some object `verdicts` keeps as an occluder has it.
 fn meshes_of_kept(scene: &Scene, verdicts: &[Verdict]) -> Vec<bool> {
-    let mut kept = vec![false; scene.meshes().len()];
-    for (o, v) in scene.objects().iter().zip(verdicts) {
-        kept[o.mesh as usize] |= *v == Verdict::Kept;
-    }
-    kept
+    meshes_of(scene, verdicts, |v| v == Verdict::Kept)
 }
 
-/// `shells` (by mesh id) with every mesh of a kept occluder checked, in parallel.
+/// Per mesh id, whether some object whose verdict `wanted` accepts has it.
+fn meshes_of(scene: &Scene, verdicts: &[Verdict], wanted: impl Fn(Verdict) -> bool) -> Vec<bool> {
+    let mut has = vec![false; scene.meshes().len()];
+    for (o, v) in scene.objects().iter().zip(verdicts) {
+        has[o.mesh as usize] |= wanted(*v);
+    }
+    has
+}
+
+/// `shells` (by mesh id) with every mesh of a kept occluder checked, in
+/// parallel, and every mesh that may be a piece of the ground (`find_ground`).
 fn check_shells(scene: &Scene, verdicts: &[Verdict], mut shells: Vec<Shell>) -> Vec<Shell> {
     shells.resize(scene.meshes().len(), Shell::Unchecked);
     shells
         .par_iter_mut()
         .zip(scene.meshes())
-        .zip(meshes_of_kept(scene, verdicts))
+        .zip(meshes_of(scene, verdicts, ground_candidate))
         .filter(|((shell, _), wanted)| *wanted && **shell == Shell::Unchecked)
         .for_each(|((shell, mesh), _)| {
             let (p, t) = (mesh.positions(), mesh.triangles());
@@ -214,6 +223,7 @@ impl OccluderDb {
             + crate::vec_bytes(&self.verdicts)
             + crate::vec_bytes(&self.bakes)
             + crate::vec_bytes(&self.shells)
+            + self.ground.as_ref().map_or(0, Ground::heap_bytes)
             + baked
     }
 
@@ -290,6 +300,7 @@ impl OccluderDb {
         }
         // Shells first: only a closed occluder's box makes another redundant.
         let shells = check_shells(scene, &verdicts, shells);
+        let ground = find_ground(scene, &mut verdicts, &shells);
         mark_redundant(scene, config.redundancy_margin, &shells, &mut verdicts);
         let occluders = verdicts
             .iter()
@@ -301,12 +312,15 @@ impl OccluderDb {
                     Some(Ok(v)) => Some(Arc::clone(v)),
                     _ => None,
                 };
+                // A ground piece's walls: two triangles each, half of them facing the eye.
+                let walls = ground.as_ref().map_or(0, |g| g.wall_count(id as u32));
                 Occluder {
                     object: id as u32,
                     stand_in: None,
                     triangles: virtual_occluder
                         .as_ref()
-                        .map_or(o.triangles, |v| v.mesh().triangle_count() as u32),
+                        .map_or(o.triangles, |v| v.mesh().triangle_count() as u32)
+                        + walls,
                     virtual_occluder,
                 }
             })
@@ -317,6 +331,7 @@ impl OccluderDb {
             config: config.clone(),
             bakes,
             shells,
+            ground,
         }
     }
 
@@ -369,6 +384,42 @@ impl OccluderDb {
         }
     }
 
+    /// The ground the kept height-field occluders make, when they make one
+    /// (`occluders/ground.rs`).
+    pub(crate) fn ground(&self) -> Option<&Ground> {
+        self.ground.as_ref()
+    }
+
+    /// The walls the cullers draw under `object` in a view from `eye`
+    /// through `world_to_clip` (hom's clip convention), by the inner rule
+    /// ([`crate::occlusion::OcclusionBuffer::render_stand_in_triangles`]):
+    /// world positions and triangles. Empty unless `object` is a piece of
+    /// the ground the scene's height-field occluders make and the eye is
+    /// above it, clear of it by more than the near plane's reach
+    /// (`occluders/ground.rs` says why that is safe).
+    pub fn ground_walls(
+        &self,
+        object: u32,
+        eye: &crate::geom::Eye,
+        world_to_clip: &Mat4,
+    ) -> (Vec<glam::Vec3>, Vec<[u32; 3]>) {
+        let (mut positions, mut triangles) = (Vec::new(), Vec::new());
+        if let Some((ground, e)) = self
+            .ground
+            .as_ref()
+            .and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)))
+        {
+            ground.walls_facing(object, e, &mut positions, &mut triangles);
+        }
+        (positions, triangles)
+    }
+
+    /// How many objects make the scene's ground (0 when its height-field
+    /// occluders make none): pieces that get walls.
+    pub fn ground_pieces(&self) -> usize {
+        self.ground.as_ref().map_or(0, Ground::pieces)
+    }
+
     /// The kept occluder `object`, when it is one.
     pub fn occluder(&self, object: u32) -> Option<&Occluder> {
         let i = self.occluders.binary_search_by_key(&object, |o| o.object).ok()?;
@@ -405,8 +456,13 @@ impl OccluderDb {
             config: OccluderDbConfig::default(),
             bakes: Vec::new(),
             shells: Vec::new(),
+            ground: None,
         };
         db.shells = check_shells(scene, &db.verdicts, Vec::new());
+        db.ground = find_ground(scene, &mut db.verdicts, &db.shells);
+        for o in &mut db.occluders {
+            o.triangles += db.ground.as_ref().map_or(0, |g| g.wall_count(o.object));
+        }
         db
     }
 
@@ -473,7 +529,8 @@ impl OccluderDb {
             self.config.min_fill,
             count(Verdict::Redundant),
             count(Verdict::NotAnOccluder),
-        ) + &self.virtual_report()
+        ) + &format!("; {} ground pieces with walls", self.ground_pieces())
+            + &self.virtual_report()
     }
 
     /// With virtual occluders: how many occluders have one, and their size.
@@ -490,6 +547,43 @@ impl OccluderDb {
             triangles as f64 / with.len().max(1) as f64
         )
     }
+}
+
+/// The ground made by the static, opaque objects not dropped for their cost
+/// whose meshes are open height fields (`shells`, by mesh id), when they
+/// make one; its ill-shaped pieces are then kept. The fill rule compares a
+/// mesh's area with its box's: a piece of hilly terrain fills little of a
+/// tall box and hides all the more (bunny_hill: 429 of its 1,024 terrain
+/// pieces were ill-shaped, the crests among them), and with its walls it
+/// covers what lies under it.
+fn find_ground(scene: &Scene, verdicts: &mut [Verdict], shells: &[Shell]) -> Option<Ground> {
+    let candidates: Vec<u32> = scene
+        .objects()
+        .iter()
+        .enumerate()
+        .filter(|(id, o)| {
+            ground_candidate(verdicts[*id])
+                && !o.is_dynamic()
+                && matches!(shells.get(o.mesh as usize), Some(Shell::HeightField(_)))
+        })
+        .map(|(id, _)| id as u32)
+        .collect();
+    if candidates.is_empty() {
+        return None;
+    }
+    let ground = Ground::find(scene, &candidates)?;
+    for &id in &candidates {
+        if verdicts[id as usize] == Verdict::IllShaped {
+            verdicts[id as usize] = Verdict::Kept;
+        }
+    }
+    Some(ground)
+}
+
+/// Whether an object with this verdict may be a piece of the ground: drawn
+/// opaque by the renderer, whatever its size or fill.
+fn ground_candidate(v: Verdict) -> bool {
+    matches!(v, Verdict::Kept | Verdict::IllShaped | Verdict::TooSmall)
 }
 
 /// Marks static kept objects whose box sits inside the box of a larger,

@@ -63,6 +63,9 @@ pub(crate) fn draw_occluders(
     let (mut submitted, mut cut_count) = (0, 0);
     let mut world = Vec::new();
     let mut cut = Vec::new();
+    // The ground's walls, from an eye where they hold (`ground.rs`).
+    let walls_from = db.ground().and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)));
+    let (mut wall_positions, mut wall_triangles) = (Vec::new(), Vec::new());
     for (_, id) in order {
         let o = scene.object(id);
         cut.clear();
@@ -104,6 +107,17 @@ pub(crate) fn draw_occluders(
         };
         debug_assert!(drawn.is_ok(), "occluder {id}: {drawn:?}");
         submitted += triangles.len() as u64;
+        if let (Some((ground, e)), None, false) = (walls_from, boxes, is_cut) {
+            wall_positions.clear();
+            wall_triangles.clear();
+            ground.walls_facing(id, e, &mut wall_positions, &mut wall_triangles);
+            if !wall_triangles.is_empty() {
+                let drawn =
+                    buffer.render_stand_in_triangles(&wall_positions, &wall_triangles, world_to_clip, FaceCull::None);
+                debug_assert!(drawn.is_ok(), "walls of {id}: {drawn:?}");
+                submitted += wall_triangles.len() as u64;
+            }
+        }
     }
     (submitted, cut_count)
 }

@@ -4,6 +4,7 @@
 mod cuts;
 mod database;
 mod draw;
+mod ground;
 mod selection;
 mod virtual_occluder;
 
