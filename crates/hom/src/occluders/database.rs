@@ -406,7 +406,7 @@ impl OccluderDb {
             .as_ref()
             .and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)))
         {
-            ground.walls_facing(object, e, &mut positions, &mut triangles);
+            ground.walls_facing(object, e, &[], &mut positions, &mut triangles);
         }
         (positions, triangles)
     }

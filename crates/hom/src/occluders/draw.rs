@@ -66,6 +66,8 @@ pub(crate) fn draw_occluders(
     // The ground's walls, from an eye where they hold (`ground.rs`).
     let walls_from = db.ground().and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)));
     let (mut wall_positions, mut wall_triangles) = (Vec::new(), Vec::new());
+    let mut drawn_ids = ids.to_vec();
+    drawn_ids.sort_unstable();
     for (_, id) in order {
         let o = scene.object(id);
         cut.clear();
@@ -110,7 +112,7 @@ pub(crate) fn draw_occluders(
         if let (Some((ground, e)), None, false) = (walls_from, boxes, is_cut) {
             wall_positions.clear();
             wall_triangles.clear();
-            ground.walls_facing(id, e, &mut wall_positions, &mut wall_triangles);
+            ground.walls_facing(id, e, &drawn_ids, &mut wall_positions, &mut wall_triangles);
             if !wall_triangles.is_empty() {
                 let drawn =
                     buffer.render_stand_in_triangles(&wall_positions, &wall_triangles, world_to_clip, FaceCull::None);

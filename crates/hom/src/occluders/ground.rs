@@ -73,9 +73,14 @@ struct TriangleBound {
 struct Wall {
     a: Vec3,
     b: Vec3,
+    /// The object across the edge, [`NO_PIECE`] on the ground's border.
+    across: u32,
     outward: Vec3,
     depth: f32,
 }
+
+/// [`Wall::across`] on the ground's border.
+const NO_PIECE: u32 = u32::MAX;
 
 /// The scene's ground, when its height-field occluders make one.
 #[derive(Clone, Debug)]
@@ -188,11 +193,12 @@ impl Ground {
         for (from, to) in directed {
             let (piece, other) = edges[&(from, to)];
             let (a, b) = (points[from as usize], points[to as usize]);
-            match edges.get(&(to, from)) {
+            let across = match edges.get(&(to, from)) {
                 Some(&(neighbour, _)) if neighbour == piece => continue,
+                Some(&(neighbour, _)) => pieces[neighbour as usize].object,
                 None if !on_border(a, b) => return None, // a hole or a cut inside the rectangle
-                _ => {}
-            }
+                None => NO_PIECE,
+            };
             let along = b - a;
             let mut outward = Vec3::new(along.z, 0.0, -along.x).normalize_or_zero();
             if outward.dot(other - a) > 0.0 {
@@ -200,7 +206,13 @@ impl Ground {
             }
             let p = &pieces[piece as usize];
             let depth = (p.max - p.min).max_element();
-            walls_of[piece as usize].push(Wall { a, b, outward, depth });
+            walls_of[piece as usize].push(Wall {
+                a,
+                b,
+                across,
+                outward,
+                depth,
+            });
         }
         let mut walls = Vec::new();
         for (p, w) in pieces.iter_mut().zip(walls_of) {
@@ -276,11 +288,15 @@ impl Ground {
     }
 
     /// Appends the walls of `object` that face `eye` to `positions` and
-    /// `triangles` (two triangles each, world space).
+    /// `triangles` (two triangles each, world space), but not those under an
+    /// edge whose piece across is drawn too (`drawn`, object ids ascending):
+    /// a wall facing the eye faces that piece, whose own surface covers
+    /// nearly all the wall would.
     pub(crate) fn walls_facing(
         &self,
         object: u32,
         eye: Vec3,
+        drawn: &[u32],
         positions: &mut Vec<Vec3>,
         triangles: &mut Vec<[u32; 3]>,
     ) {
@@ -288,7 +304,7 @@ impl Ground {
             return;
         };
         for w in &self.walls[p.walls.start as usize..p.walls.end as usize] {
-            if (eye - w.a).dot(w.outward) <= 0.0 {
+            if (eye - w.a).dot(w.outward) <= 0.0 || drawn.binary_search(&w.across).is_ok() {
                 continue;
             }
             let n = positions.len() as u32;
@@ -460,7 +476,7 @@ mod tests {
         );
         let (mut p, mut t) = (Vec::new(), Vec::new());
         for id in 0..16 {
-            ground.walls_facing(id, eye, &mut p, &mut t);
+            ground.walls_facing(id, eye, &[], &mut p, &mut t);
         }
         assert!(
             !t.is_empty() && t.len() < 2 * ground.walls.len(),
