@@ -134,9 +134,10 @@ pub struct OccluderDb {
     /// Per mesh id.
     bakes: Vec<MeshBake>,
     /// Per mesh id: whether it is closed or an open height field, and which
-    /// way it is turned, checked for the meshes of kept occluders.
+    /// way it is turned, checked for the meshes of kept occluders and of
+    /// objects that may be pieces of the ground.
     shells: Vec<Shell>,
-    /// The ground the height-field occluders make, when they make one.
+    /// The ground the opaque height-field objects make, when they make one.
     ground: Option<Ground>,
 }
 
@@ -381,8 +382,8 @@ impl OccluderDb {
         }
     }
 
-    /// The ground the kept height-field occluders make, when they make one
-    /// (`occluders/ground.rs`).
+    /// The ground the scene's opaque height-field objects make, when they
+    /// make one (`occluders/ground.rs`).
     pub(crate) fn ground(&self) -> Option<&Ground> {
         self.ground.as_ref()
     }

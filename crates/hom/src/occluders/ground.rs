@@ -30,7 +30,11 @@
 //! (`virtual_occluder/mod.rs`), and the inner rule keeps the snapping error
 //! on the right side along the wall's top, which is the surface's own edge.
 //! From anywhere else (over the edge of the level, under the ground, a
-//! parallel projection) the walls are not drawn.
+//! parallel projection) the walls are not drawn. A piece that moves makes
+//! the scene's structure change, and the database finds the ground again
+//! (a moving piece: none). With `--lod` the walls hang under the full
+//! meshes, as the occluders are drawn (the cut's image may differ within
+//! the level-of-detail error, as for every occluder).
 //!
 //! Measured at the prototype (`hom bench --cullers frustum,masked
 //! --no-cost-model --frames 100`, walls drawn under every ground piece
