@@ -75,7 +75,7 @@ fn walls_against_ground(seed: u64) -> Result<u64, String> {
         };
         let mut buffer = HzBuffer::new(96, 96, exact).unwrap();
         for id in 0..scene.objects().len() as u32 {
-            let (p, t) = db.ground_walls(id, &Eye::Point(eye), &view);
+            let (p, t) = db.ground_walls(&scene, id, &Eye::Point(eye), &view);
             buffer.render_stand_in_triangles(&p, &t, &view, FaceCull::None).unwrap();
         }
         let mut depth = Vec::new();

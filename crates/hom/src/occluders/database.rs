@@ -388,7 +388,8 @@ impl OccluderDb {
         self.ground.as_ref()
     }
 
-    /// The walls the cullers draw under `object` in a view from `eye`
+    /// The walls the cullers draw under `object` of `scene` (the scene this
+    /// database was built for) in a view from `eye`
     /// through `world_to_clip` (hom's clip convention), by the inner rule
     /// ([`crate::occlusion::OcclusionBuffer::render_stand_in_triangles`]):
     /// world positions and triangles. Empty unless `object` is a piece of
@@ -397,6 +398,7 @@ impl OccluderDb {
     /// (`occluders/ground.rs` says why that is safe).
     pub fn ground_walls(
         &self,
+        scene: &Scene,
         object: u32,
         eye: &crate::geom::Eye,
         world_to_clip: &Mat4,
@@ -405,7 +407,7 @@ impl OccluderDb {
         if let Some((ground, e)) = self
             .ground
             .as_ref()
-            .and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)))
+            .and_then(|g| Some((g, g.eye_for(scene, eye, world_to_clip)?)))
         {
             ground.walls_facing(object, e, &[], &mut positions, &mut triangles);
         }

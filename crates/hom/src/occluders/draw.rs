@@ -64,7 +64,9 @@ pub(crate) fn draw_occluders(
     let mut world = Vec::new();
     let mut cut = Vec::new();
     // The ground's walls, from an eye where they hold (`ground.rs`).
-    let walls_from = db.ground().and_then(|g| Some((g, g.eye_for(eye, world_to_clip)?)));
+    let walls_from = db
+        .ground()
+        .and_then(|g| Some((g, g.eye_for(scene, eye, world_to_clip)?)));
     let (mut wall_positions, mut wall_triangles) = (Vec::new(), Vec::new());
     let mut drawn_ids = ids.to_vec();
     drawn_ids.sort_unstable();

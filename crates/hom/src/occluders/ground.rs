@@ -47,7 +47,6 @@
 use crate::geom::Eye;
 use crate::scene::Scene;
 use glam::{Mat4, Vec2, Vec3};
-use std::collections::HashMap;
 use std::ops::Range;
 
 /// A ground piece: one object of the ground.
@@ -57,18 +56,8 @@ struct Piece {
     /// Its world box across (x, z).
     min: Vec2,
     max: Vec2,
-    /// Its triangles' bounds in [`Ground::triangles`].
-    triangles: Range<u32>,
     /// Its walls in [`Ground::walls`].
     walls: Range<u32>,
-}
-
-/// A ground triangle as the eye's clearance needs it.
-#[derive(Clone, Copy, Debug)]
-struct TriangleBound {
-    min: Vec2,
-    max: Vec2,
-    top: f32,
 }
 
 /// A wall: a vertical quad under the boundary edge `a`–`b` of a piece,
@@ -94,7 +83,6 @@ pub(crate) struct Ground {
     max: Vec2,
     /// By object id.
     pieces: Vec<Piece>,
-    triangles: Vec<TriangleBound>,
     walls: Vec<Wall>,
 }
 
@@ -105,43 +93,33 @@ fn key(p: Vec3) -> [u32; 3] {
 
 impl Ground {
     /// The ground made of the objects `candidates` (static occluders whose
-    /// meshes are open height fields), or `None` when they do not make
-    /// one watertight height field over a rectangle (see the module docs).
+    /// meshes are open height fields), or `None` when they do not make one
+    /// watertight height field over a rectangle (see the module docs).
+    ///
+    /// Vertices are matched and edges paired by sorting, not hashing: a
+    /// course of 660,000 triangles is checked in a fraction of its load.
     pub(crate) fn find(scene: &Scene, candidates: &[u32]) -> Option<Ground> {
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        // Every candidate's vertices in world space, piece after piece, and
+        // its triangles as indices into them.
         let mut points: Vec<Vec3> = Vec::new();
-        // Per directed edge (welded vertex ids): the piece it belongs to and
-        // the triangle's third vertex, which says which side is inside.
-        let mut edges: HashMap<(u32, u32), (u32, Vec3)> = HashMap::new();
-        let mut triangles = Vec::new();
-        let mut pieces = Vec::new();
+        let mut corners: Vec<[u32; 3]> = Vec::new();
+        let mut pieces = Vec::with_capacity(candidates.len());
+        // Where each piece's triangles end in `corners`.
+        let mut ends = Vec::with_capacity(candidates.len());
         let (mut min, mut max) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
         let mut area = 0.0f64;
         let mut up = None;
-        for (k, &id) in candidates.iter().enumerate() {
+        for &id in candidates {
             let o = scene.get(id)?;
             if o.is_dynamic() || o.is_removed() {
                 return None;
             }
             let mesh = scene.mesh_of(o);
-            let world: Vec<Vec3> = mesh
-                .positions()
-                .iter()
-                .map(|&p| o.transform.transform_point3(p))
-                .collect();
-            let welded: Vec<u32> = world
-                .iter()
-                .map(|&p| {
-                    *ids.entry(key(p)).or_insert_with(|| {
-                        points.push(p);
-                        points.len() as u32 - 1
-                    })
-                })
-                .collect();
-            let first = triangles.len() as u32;
+            let base = points.len() as u32;
+            points.extend(mesh.positions().iter().map(|&p| o.transform.transform_point3(p)));
             let (mut piece_min, mut piece_max) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
             for t in mesh.triangles() {
-                let [a, b, c] = t.map(|i| world[i as usize]);
+                let [a, b, c] = t.map(|i| points[(base + i) as usize]);
                 if !(a.is_finite() && b.is_finite() && c.is_finite()) {
                     return None;
                 }
@@ -150,22 +128,10 @@ impl Ground {
                     return None;
                 }
                 area += f64::from(cross_y.abs()) * 0.5;
-                let w = t.map(|i| welded[i as usize]);
-                for j in 0..3 {
-                    let (from, to, other) = (w[j], w[(j + 1) % 3], [a, b, c][(j + 2) % 3]);
-                    if edges.insert((from, to), (k as u32, other)).is_some() {
-                        return None; // two triangles on one side of an edge: not a surface
-                    }
-                }
                 let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-                let (lo2, hi2) = (Vec2::new(lo.x, lo.z), Vec2::new(hi.x, hi.z));
-                triangles.push(TriangleBound {
-                    min: lo2,
-                    max: hi2,
-                    top: hi.y,
-                });
-                piece_min = piece_min.min(lo2);
-                piece_max = piece_max.max(hi2);
+                piece_min = piece_min.min(Vec2::new(lo.x, lo.z));
+                piece_max = piece_max.max(Vec2::new(hi.x, hi.z));
+                corners.push(t.map(|i| base + i));
             }
             min = min.min(piece_min);
             max = max.max(piece_max);
@@ -173,15 +139,40 @@ impl Ground {
                 object: id,
                 min: piece_min,
                 max: piece_max,
-                triangles: first..triangles.len() as u32,
                 walls: 0..0,
             });
+            ends.push(corners.len() as u32);
         }
         let rectangle = f64::from(max.x - min.x) * f64::from(max.y - min.y);
         // Covered once: the projected area is the rectangle's, not twice it.
         if pieces.is_empty() || !(rectangle > 0.0 && area > 0.5 * rectangle && area < 1.5 * rectangle) {
             return None;
         }
+        // Vertices matched by position: each point's welded id.
+        let mut order: Vec<u32> = (0..points.len() as u32).collect();
+        order.sort_unstable_by_key(|&i| key(points[i as usize]));
+        let mut welded = vec![0u32; points.len()];
+        let mut id = 0;
+        for k in 0..order.len() {
+            if k > 0 && key(points[order[k] as usize]) != key(points[order[k - 1] as usize]) {
+                id += 1;
+            }
+            welded[order[k] as usize] = id;
+        }
+        drop(order);
+        // Directed edges (welded ends) with their triangle, sorted.
+        let edge = |from: u32, to: u32| (u64::from(welded[from as usize]) << 32) | u64::from(welded[to as usize]);
+        let mut edges: Vec<(u64, u32)> = Vec::with_capacity(corners.len() * 3);
+        for (t, c) in corners.iter().enumerate() {
+            for j in 0..3 {
+                edges.push((edge(c[j], c[(j + 1) % 3]), t as u32));
+            }
+        }
+        edges.sort_unstable();
+        if edges.windows(2).any(|w| w[0].0 == w[1].0) {
+            return None; // two triangles on one side of an edge: not a surface
+        }
+        let piece_of = |triangle: u32| ends.partition_point(|&end| end <= triangle);
         let on_border = |p: Vec3, q: Vec3| {
             (p.x == min.x && q.x == min.x)
                 || (p.x == max.x && q.x == max.x)
@@ -189,34 +180,39 @@ impl Ground {
                 || (p.z == max.y && q.z == max.y)
         };
         // Walls under each piece's own boundary: its edges whose reverse is
-        // not in the piece (another piece's, or none: the ground's border).
+        // not in the piece (another piece's, or none: the ground's border),
+        // in the order of its mesh's triangles (the order they are drawn in
+        // changes the masked buffer's layers a little).
         let mut walls_of: Vec<Vec<Wall>> = vec![Vec::new(); pieces.len()];
-        // In a fixed order, whatever the hash map's: buffers depend on the draw order.
-        let mut directed: Vec<(u32, u32)> = edges.keys().copied().collect();
-        directed.sort_unstable();
-        for (from, to) in directed {
-            let (piece, other) = edges[&(from, to)];
-            let (a, b) = (points[from as usize], points[to as usize]);
-            let across = match edges.get(&(to, from)) {
-                Some(&(neighbour, _)) if neighbour == piece => continue,
-                Some(&(neighbour, _)) => pieces[neighbour as usize].object,
-                None if !on_border(a, b) => return None, // a hole or a cut inside the rectangle
-                None => NO_PIECE,
-            };
-            let along = b - a;
-            let mut outward = Vec3::new(along.z, 0.0, -along.x).normalize_or_zero();
-            if outward.dot(other - a) > 0.0 {
-                outward = -outward;
+        for (triangle, c) in corners.iter().enumerate() {
+            let piece = piece_of(triangle as u32);
+            for j in 0..3 {
+                let reverse = edge(c[(j + 1) % 3], c[j]);
+                let (a, b, other) = (
+                    points[c[j] as usize],
+                    points[c[(j + 1) % 3] as usize],
+                    points[c[(j + 2) % 3] as usize],
+                );
+                let across = match edges.binary_search_by_key(&reverse, |e| e.0) {
+                    Ok(k) if piece_of(edges[k].1) == piece => continue,
+                    Ok(k) => pieces[piece_of(edges[k].1)].object,
+                    Err(_) if !on_border(a, b) => return None, // a hole or a cut inside the rectangle
+                    Err(_) => NO_PIECE,
+                };
+                let along = b - a;
+                let mut outward = Vec3::new(along.z, 0.0, -along.x).normalize_or_zero();
+                if outward.dot(other - a) > 0.0 {
+                    outward = -outward;
+                }
+                let p = &pieces[piece];
+                walls_of[piece].push(Wall {
+                    a,
+                    b,
+                    across,
+                    outward,
+                    depth: (p.max - p.min).max_element(),
+                });
             }
-            let p = &pieces[piece as usize];
-            let depth = (p.max - p.min).max_element();
-            walls_of[piece as usize].push(Wall {
-                a,
-                b,
-                across,
-                outward,
-                depth,
-            });
         }
         let mut walls = Vec::new();
         for (p, w) in pieces.iter_mut().zip(walls_of) {
@@ -229,7 +225,6 @@ impl Ground {
             min,
             max,
             pieces,
-            triangles,
             walls,
         })
     }
@@ -257,9 +252,9 @@ impl Ground {
 
     /// The eye the walls may be drawn for in a view from `eye` through
     /// `world_to_clip` (hom's clip convention), when they may be.
-    pub(crate) fn eye_for(&self, eye: &Eye, world_to_clip: &Mat4) -> Option<Vec3> {
+    pub(crate) fn eye_for(&self, scene: &Scene, eye: &Eye, world_to_clip: &Mat4) -> Option<Vec3> {
         match eye {
-            Eye::Point(e) if near_reach(world_to_clip, *e).is_some_and(|r| self.eye_clear(*e, r)) => Some(*e),
+            Eye::Point(e) if near_reach(world_to_clip, *e).is_some_and(|r| self.eye_clear(scene, *e, r)) => Some(*e),
             _ => None,
         }
     }
@@ -273,7 +268,7 @@ impl Ground {
     /// rectangle lies within `near_reach` of it: the eye over the ground's
     /// rectangle, and higher by more than `near_reach` than every ground
     /// triangle that comes within `near_reach` of it across (x, z).
-    pub(crate) fn eye_clear(&self, eye: Vec3, near_reach: f32) -> bool {
+    pub(crate) fn eye_clear(&self, scene: &Scene, eye: Vec3, near_reach: f32) -> bool {
         let e = Vec2::new(eye.x, eye.z);
         if !(e.cmpge(self.min).all() && e.cmple(self.max).all() && near_reach.is_finite() && eye.y.is_finite()) {
             return false;
@@ -282,9 +277,13 @@ impl Ground {
         let overlaps = |min: Vec2, max: Vec2| min.cmple(hi).all() && max.cmpge(lo).all();
         let mut top = f32::NEG_INFINITY;
         for p in self.pieces.iter().filter(|p| overlaps(p.min, p.max)) {
-            for t in &self.triangles[p.triangles.start as usize..p.triangles.end as usize] {
-                if overlaps(t.min, t.max) {
-                    top = top.max(t.top);
+            let o = scene.object(p.object);
+            let mesh = scene.mesh_of(o);
+            for t in mesh.triangles() {
+                let [a, b, c] = t.map(|i| o.transform.transform_point3(mesh.positions()[i as usize]));
+                let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+                if overlaps(Vec2::new(lo.x, lo.z), Vec2::new(hi.x, hi.z)) {
+                    top = top.max(hi.y);
                 }
             }
         }
@@ -320,7 +319,7 @@ impl Ground {
 
     /// Bytes held on the heap.
     pub(crate) fn heap_bytes(&self) -> usize {
-        crate::vec_bytes(&self.pieces) + crate::vec_bytes(&self.triangles) + crate::vec_bytes(&self.walls)
+        crate::vec_bytes(&self.pieces) + crate::vec_bytes(&self.walls)
     }
 }
 
@@ -450,21 +449,35 @@ mod tests {
         let scene = ground_scene(&mut rng, 8, 4, None);
         let ground = Ground::find(&scene, &all(&scene)).unwrap();
         // Heights are below 3 m.
-        assert!(ground.eye_clear(Vec3::new(4.0, 3.5, 4.0), 0.1));
-        assert!(!ground.eye_clear(Vec3::new(4.0, -1.0, 4.0), 0.1), "under the ground");
-        assert!(!ground.eye_clear(Vec3::new(-0.5, 10.0, 4.0), 0.1), "beside it");
-        assert!(!ground.eye_clear(Vec3::new(4.0, f32::NAN, 4.0), 0.1));
+        assert!(ground.eye_clear(&scene, Vec3::new(4.0, 3.5, 4.0), 0.1));
+        assert!(
+            !ground.eye_clear(&scene, Vec3::new(4.0, -1.0, 4.0), 0.1),
+            "under the ground"
+        );
+        assert!(!ground.eye_clear(&scene, Vec3::new(-0.5, 10.0, 4.0), 0.1), "beside it");
+        assert!(!ground.eye_clear(&scene, Vec3::new(4.0, f32::NAN, 4.0), 0.1));
         // Above the triangles within reach across, but not by the reach.
-        let near = |t: &&TriangleBound| t.min.cmple(Vec2::splat(4.1)).all() && t.max.cmpge(Vec2::splat(3.9)).all();
-        let local = ground
-            .triangles
+        let near = |t: &[Vec3; 3]| {
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            lo.x <= 4.1 && lo.z <= 4.1 && hi.x >= 3.9 && hi.z >= 3.9
+        };
+        let world: Vec<[Vec3; 3]> = (0..16)
+            .flat_map(|id| {
+                let mesh = scene.mesh_of(scene.object(id));
+                mesh.triangles()
+                    .iter()
+                    .map(|t| t.map(|i| mesh.positions()[i as usize]))
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let local = world
             .iter()
-            .filter(near)
-            .map(|t| t.top)
+            .filter(|t| near(t))
+            .flat_map(|t| t.map(|p| p.y))
             .fold(f32::MIN, f32::max);
-        assert!(!ground.eye_clear(Vec3::new(4.0, local + 0.05, 4.0), 0.1));
-        assert!(ground.eye_clear(Vec3::new(4.0, local + 0.15, 4.0), 0.1));
-        let top = ground.triangles.iter().map(|t| t.top).fold(f32::MIN, f32::max);
+        assert!(!ground.eye_clear(&scene, Vec3::new(4.0, local + 0.05, 4.0), 0.1));
+        assert!(ground.eye_clear(&scene, Vec3::new(4.0, local + 0.15, 4.0), 0.1));
+        let top = world.iter().flat_map(|t| t.map(|p| p.y)).fold(f32::MIN, f32::max);
         // A perspective view from above: its near rectangle reaches a little
         // farther than the near distance, and the walls face the eye.
         let eye = Vec3::new(4.0, top + 2.0, 7.5);
@@ -472,9 +485,9 @@ mod tests {
             crate::geom::Camera::new(eye, Vec3::new(4.0, 0.0, 4.0), Vec3::Y, 1.0, 0.1, 100.0, 64, 64).view_proj();
         let reach = near_reach(&view, eye).unwrap();
         assert!(reach > 0.1 && reach < 0.2, "{reach}");
-        assert_eq!(ground.eye_for(&Eye::Point(eye), &view), Some(eye));
+        assert_eq!(ground.eye_for(&scene, &Eye::Point(eye), &view), Some(eye));
         assert_eq!(
-            ground.eye_for(&Eye::Direction(Vec3::NEG_Y), &view),
+            ground.eye_for(&scene, &Eye::Direction(Vec3::NEG_Y), &view),
             None,
             "parallel projections draw no walls"
         );
