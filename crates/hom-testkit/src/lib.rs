@@ -243,6 +243,41 @@ pub fn grid_obj(n: usize) -> String {
     text
 }
 
+/// A height field of 1 m cells from the origin, `heights` its
+/// `(cells + 1)²` node heights row by row (x fastest), cut into
+/// `pieces` × `pieces` meshes (`cells` a multiple of `pieces`), each a
+/// positions-and-triangles pair in world space with every triangle
+/// counter-clockwise seen from above, as terrain comes; the piece at
+/// `(skip, skip)` left out when `skip` is some. Plain glam types, so hom's
+/// own unit tests can build their scenes from it.
+pub fn height_field_pieces(
+    heights: &[f32],
+    cells: u32,
+    pieces: u32,
+    skip: Option<u32>,
+) -> Vec<(Vec<Vec3>, Vec<[u32; 3]>)> {
+    let node = |i: u32, j: u32| Vec3::new(i as f32, heights[(j * (cells + 1) + i) as usize], j as f32);
+    let per = cells / pieces;
+    let mut out = Vec::new();
+    for pj in 0..pieces {
+        for pi in 0..pieces {
+            if skip == Some(pi) && skip == Some(pj) {
+                continue;
+            }
+            let (mut p, mut t) = (Vec::new(), Vec::new());
+            for j in pj * per..(pj + 1) * per {
+                for i in pi * per..(pi + 1) * per {
+                    let n = p.len() as u32;
+                    p.extend([node(i, j), node(i + 1, j), node(i, j + 1), node(i + 1, j + 1)]);
+                    t.extend([[n, n + 2, n + 1], [n + 1, n + 2, n + 3]]);
+                }
+            }
+            out.push((p, t));
+        }
+    }
+    out
+}
+
 /// A random scene of `n` static slabs and open quads at random slants
 /// (ramps, roofs, leaning walls), their vertices in world space under the
 /// identity transform, so each object's axis-aligned box is loose and its

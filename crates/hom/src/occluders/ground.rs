@@ -347,30 +347,14 @@ mod tests {
     use hom_testkit::Rng;
 
     /// A `cells` × `cells` grid of 1 m cells from the origin with random
-    /// heights, cut into `pieces` × `pieces` objects (each triangle counter-
-    /// clockwise seen from above, as a piece of terrain comes), the piece
-    /// at `(skip, skip)` left out when `skip` is some.
+    /// heights, cut into `pieces` × `pieces` objects, the piece at
+    /// `(skip, skip)` left out when `skip` is some.
     fn ground_scene(rng: &mut Rng, cells: u32, pieces: u32, skip: Option<u32>) -> Scene {
         let heights: Vec<f32> = (0..(cells + 1) * (cells + 1)).map(|_| rng.range(0.0, 3.0)).collect();
-        let node = |i: u32, j: u32| Vec3::new(i as f32, heights[(j * (cells + 1) + i) as usize], j as f32);
-        let per = cells / pieces;
         let mut b = SceneBuilder::new("ground");
-        for pj in 0..pieces {
-            for pi in 0..pieces {
-                if skip == Some(pi) && skip == Some(pj) {
-                    continue;
-                }
-                let (mut p, mut t) = (Vec::new(), Vec::new());
-                for j in pj * per..(pj + 1) * per {
-                    for i in pi * per..(pi + 1) * per {
-                        let n = p.len() as u32;
-                        p.extend([node(i, j), node(i + 1, j), node(i, j + 1), node(i + 1, j + 1)]);
-                        t.extend([[n, n + 2, n + 1], [n + 1, n + 2, n + 3]]);
-                    }
-                }
-                let mesh = b.add_mesh(Mesh::new("piece", p, t).unwrap());
-                b.add_object("piece", mesh, Mat4::IDENTITY).unwrap();
-            }
+        for (p, t) in hom_testkit::height_field_pieces(&heights, cells, pieces, skip) {
+            let mesh = b.add_mesh(Mesh::new("piece", p, t).unwrap());
+            b.add_object("piece", mesh, Mat4::IDENTITY).unwrap();
         }
         b.build().unwrap()
     }
