@@ -68,8 +68,15 @@ pub(crate) fn draw_occluders(
         .ground()
         .and_then(|g| Some((g, g.eye_for(scene, eye, world_to_clip)?)));
     let (mut wall_positions, mut wall_triangles) = (Vec::new(), Vec::new());
-    let mut drawn_ids = ids.to_vec();
-    drawn_ids.sort_unstable();
+    // The occluders drawn, ascending: no wall under an edge whose piece across is one.
+    let drawn_ids = match walls_from {
+        Some(_) => {
+            let mut sorted = ids.to_vec();
+            sorted.sort_unstable();
+            sorted
+        }
+        None => Vec::new(),
+    };
     for (_, id) in order {
         let o = scene.object(id);
         cut.clear();

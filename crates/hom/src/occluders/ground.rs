@@ -60,8 +60,16 @@ struct Piece {
     walls: Range<u32>,
 }
 
+impl Piece {
+    /// How deep its walls reach: its width, which scales with the level.
+    fn wall_depth(&self) -> f32 {
+        (self.max - self.min).max_element()
+    }
+}
+
 /// A wall: a vertical quad under the boundary edge `a`–`b` of a piece,
-/// `depth` deep, facing `outward` (horizontal, away from the piece).
+/// [`Piece::wall_depth`] deep, facing `outward` (horizontal, away from the
+/// piece).
 #[derive(Clone, Copy, Debug)]
 struct Wall {
     a: Vec3,
@@ -69,7 +77,6 @@ struct Wall {
     /// The object across the edge, [`NO_PIECE`] on the ground's border.
     across: u32,
     outward: Vec3,
-    depth: f32,
 }
 
 /// [`Wall::across`] on the ground's border.
@@ -204,14 +211,7 @@ impl Ground {
                 if outward.dot(other - a) > 0.0 {
                     outward = -outward;
                 }
-                let p = &pieces[piece];
-                walls_of[piece].push(Wall {
-                    a,
-                    b,
-                    across,
-                    outward,
-                    depth: (p.max - p.min).max_element(),
-                });
+                walls_of[piece].push(Wall { a, b, across, outward });
             }
         }
         let mut walls = Vec::new();
@@ -306,12 +306,12 @@ impl Ground {
         let Some(p) = self.piece(object) else {
             return;
         };
+        let down = Vec3::new(0.0, p.wall_depth(), 0.0);
         for w in &self.walls[p.walls.start as usize..p.walls.end as usize] {
             if (eye - w.a).dot(w.outward) <= 0.0 || drawn.binary_search(&w.across).is_ok() {
                 continue;
             }
             let n = positions.len() as u32;
-            let down = Vec3::new(0.0, w.depth, 0.0);
             positions.extend([w.a, w.b, w.b - down, w.a - down]);
             triangles.extend([[n, n + 1, n + 2], [n, n + 2, n + 3]]);
         }
@@ -378,7 +378,7 @@ mod tests {
             for w in &ground.walls[piece.walls.start as usize..piece.walls.end as usize] {
                 // Horizontal outward, the piece's width deep, facing away from its centre.
                 assert_eq!(w.outward.y, 0.0);
-                assert_eq!(w.depth, 2.0);
+                assert_eq!(piece.wall_depth(), 2.0);
                 let mid = (w.a + w.b) * 0.5;
                 assert!(w.outward.dot(Vec3::new(mid.x - centre.x, 0.0, mid.z - centre.y)) > 0.0);
             }
