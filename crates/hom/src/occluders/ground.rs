@@ -245,6 +245,11 @@ impl Ground {
         self.walls.len()
     }
 
+    /// Whether object `object` is a piece of the ground.
+    pub(crate) fn has_piece(&self, object: u32) -> bool {
+        self.piece(object).is_some()
+    }
+
     fn piece(&self, object: u32) -> Option<&Piece> {
         let i = self.pieces.binary_search_by_key(&object, |p| p.object).ok()?;
         Some(&self.pieces[i])
