@@ -1,37 +1,43 @@
-//! What do the hidden objects HOM draws cost the renderer, and how many of
-//! them are its own occluders? (Few in triangles but large on screen; what
-//! keeps HOM from culling them is the depth test, the box's one nearest
+//! What do the hidden objects a culler draws cost the renderer, and how many
+//! of them are its own occluders? (Few in triangles but large on screen;
+//! what keeps HOM from culling them is the depth test, the box's one nearest
 //! depth against a cell's farthest first cover: docs/decisions/occluders.md,
-//! "Most of HOM's render excess is its own hidden occluders".) Over any
-//! scene's walk (a built-in name or a file, as `hom walk --scene` takes it;
-//! HOM without the cost model, its default depth check), every fifth frame:
-//! the objects HOM draws, the oracle's, the hidden occluders among HOM's
-//! and how many of those the other occluders alone hide (drawn by the
-//! renderer), then the render time of HOM's set, of HOM's set without its
-//! hidden occluders, of that set without the hidden objects whose boxes
-//! cross the near plane, and of the oracle's set (five timed renders each,
-//! interleaved, after one untimed).
+//! "Most of HOM's render excess is its own hidden occluders"; for masked,
+//! its subtiles' bounds.) Over any scene's walk (a built-in name or a file,
+//! as `hom walk --scene` takes it; the culler, HOM by default, without the
+//! cost model, its default depth check), every fifth frame: the objects it
+//! draws, the oracle's, the hidden occluders among its objects and how many
+//! of those the other occluders alone hide (drawn by the renderer), then
+//! the render time of its set, of its set without its hidden occluders, of
+//! that set without the hidden objects whose boxes cross the near plane,
+//! and of the oracle's set (five timed renders each, interleaved, after one
+//! untimed).
 //!
 //! `cargo run --release -p hom-walk --example hidden_occluders -- office`
-//! (or `-- FILE.pk3:oa_dm1`)
+//! (or `-- FILE.pk3:oa_dm1 masked`)
 
-use hom::cull::{CullOutput, Culler, HomConfig, HomCuller};
+use hom::cull::CullOutput;
 use hom_render::{Framebuffer, RenderOptions, Renderer};
+use hom_walk::cullers::{make, CullerSettings, BEST};
 use std::time::Instant;
 
 fn main() {
     let Some(name) = std::env::args().nth(1) else {
-        eprintln!("usage: hidden_occluders SCENE");
+        eprintln!("usage: hidden_occluders SCENE [CULLER]");
         std::process::exit(2);
     };
+    let culler_name = std::env::args().nth(2).unwrap_or_else(|| "hom".to_string());
     let b = hom_walk::open_walk(&name).unwrap_or_else(|e| {
         eprintln!("{e}");
         std::process::exit(2);
     });
     let scene = b.scene;
-    let mut config = HomConfig::for_scene(&scene);
-    config.cost_model = false;
-    let mut culler = HomCuller::new(&scene, config);
+    let mut settings = CullerSettings::for_scene(&scene);
+    settings.hom.cost_model = false;
+    let mut culler = make(&culler_name, &scene, &settings).unwrap_or_else(|e| {
+        eprintln!("{e} ({BEST} is the default culler)");
+        std::process::exit(2);
+    });
     let renderer = Renderer::new(0).expect("a render pool");
     let options = RenderOptions::default();
     let mut out = CullOutput::default();
@@ -98,21 +104,21 @@ fn main() {
         }
     }
     let per_frame = |x: f64| x / sampled as f64;
-    println!("{name}, {sampled} frames (every fifth of the walk), means per frame:");
+    println!("{name}, {culler_name}, {sampled} frames (every fifth of the walk), means per frame:");
     println!(
-        "objects drawn: HOM {:.1}, HOM without its hidden occluders {:.1}, nor hidden boxes across the near plane {:.1}, oracle {:.1}",
+        "objects drawn: {culler_name} {:.1}, without its hidden occluders {:.1}, nor hidden boxes across the near plane {:.1}, oracle {:.1}",
         per_frame(objects[0] as f64),
         per_frame(objects[1] as f64),
         per_frame(objects[2] as f64),
         per_frame(objects[3] as f64)
     );
     println!(
-        "hidden occluders HOM draws: {:.1}, {:.1} of them hidden by the other occluders alone",
+        "hidden occluders {culler_name} draws: {:.1}, {:.1} of them hidden by the other occluders alone",
         per_frame(hidden_occluders as f64),
         per_frame(by_occluders as f64)
     );
     println!(
-        "render ms: HOM {:.3}, HOM without its hidden occluders {:.3}, nor hidden boxes across the near plane {:.3}, oracle {:.3}",
+        "render ms: {culler_name} {:.3}, without its hidden occluders {:.3}, nor hidden boxes across the near plane {:.3}, oracle {:.3}",
         per_frame(render_ms[0]),
         per_frame(render_ms[1]),
         per_frame(render_ms[2]),
