@@ -642,7 +642,7 @@ fn mark_redundant(scene: &Scene, margin: f32, shells: &[Shell], verdicts: &mut [
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::scene::SceneBuilder;
     use glam::{Mat4, Vec3};
@@ -703,9 +703,10 @@ mod tests {
         }
     }
 
-    /// A wall filling its box as a floor does (0.5), and a thin sliver
-    /// along a diagonal of a 4 m box, which fills almost none of it.
-    fn wall_and_sliver() -> Scene {
+    /// A wall filling its box as a floor does (0.5), 5 m down -z, and a
+    /// thin sliver along a diagonal of a 4 m box about the origin, which
+    /// fills almost none of it (objects 0 and 1).
+    pub(in crate::occluders) fn wall_and_sliver() -> Scene {
         let mut b = SceneBuilder::new("wall and sliver");
         let wall = crate::scene::Mesh::new(
             "wall",

@@ -249,9 +249,11 @@ impl OccluderSelector {
             self.marks[id] = IN_VIEW;
         }
         stats.candidates = self.candidates.len() as u32;
-        // Ill-shaped occluders after every other, then by key.
+        // Ill-shaped occluders after every other, then by key: `shaped` the
+        // candidates before them.
         self.candidates
             .sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let shaped = self.candidates.partition_point(|c| !c.0);
 
         let mut spent: u64 = 0;
         let budget = self.budget as u64;
@@ -280,7 +282,7 @@ impl OccluderSelector {
                 // Not the ill-shaped: as hole fillers they took the budget
                 // first and, proven, the queue's (oa_shouse, masked,
                 // --no-cost-model: efficiency 50.1 -> 39.0 %).
-                for &(_, _, id, tris) in self.candidates.iter().filter(|c| !c.0) {
+                for &(_, _, id, tris) in &self.candidates[..shaped] {
                     let aabb = &objects.boxes[id as usize];
                     if self.last_selected[id as usize] || sub.test_aabb(aabb) == Containment::Outside {
                         continue;
@@ -293,8 +295,8 @@ impl OccluderSelector {
         }
         stats.hole_fillers = self.hole_fillers.len() as u32;
         // 3. The standard criterion for the rest of the budget; the
-        //    ill-shaped candidates (sorted last) wait for step 5.
-        for &(_, _, id, tris) in self.candidates.iter().filter(|c| !c.0) {
+        //    ill-shaped candidates wait for step 5.
+        for &(_, _, id, tris) in &self.candidates[..shaped] {
             take(&mut self.marks, id, tris, budget, &mut spent, out);
         }
         // 4. What is left buys originals back, nearest first.
@@ -325,7 +327,7 @@ impl OccluderSelector {
         //    their boxes overstate what they hide, so they come after every
         //    other use of the budget.
         let limit = budget.min(spent + (budget as f32 * self.config.ill_shaped_share) as u64);
-        for &(_, _, id, tris) in self.candidates.iter().filter(|c| c.0) {
+        for &(_, _, id, tris) in &self.candidates[shaped..] {
             take(&mut self.marks, id, tris, limit, &mut spent, out);
         }
         for &(_, _, id, _) in &self.candidates {
@@ -389,34 +391,16 @@ impl OccluderSelector {
 mod tests {
     use crate::cull::{CullOutput, Culler, HomConfig, MaskedCuller};
     use crate::geom::Camera;
-    use crate::scene::{Mesh, SceneBuilder};
-    use glam::{Mat4, Vec3};
+    use crate::occluders::database::tests::wall_and_sliver;
+    use glam::Vec3;
 
-    /// A wall 5 m away (2 triangles) and, nearer, a sliver that fills almost
+    /// A wall 11 m away (2 triangles) and, nearer, a sliver that fills almost
     /// none of its box (2 triangles, ill-shaped): with a budget for one, the
     /// wall is drawn though the sliver is nearer; with a budget for both,
     /// both, unless the sliver's share of it is too small.
     #[test]
     fn ill_shaped_candidates_take_what_the_others_leave() {
-        let mut b = SceneBuilder::new("wall and sliver");
-        let quad = |p: [Vec3; 4]| Mesh::new("m", p.to_vec(), vec![[0, 1, 2], [0, 2, 3]]).unwrap();
-        let wall = b.add_mesh(quad([
-            Vec3::new(-2.0, 0.0, 0.0),
-            Vec3::new(2.0, 0.0, 0.0),
-            Vec3::new(2.0, 3.0, 0.0),
-            Vec3::new(-2.0, 3.0, 0.0),
-        ]));
-        let sliver = b.add_mesh(quad([
-            Vec3::new(-2.0, 0.0, -2.0),
-            Vec3::new(-1.9, 0.0, -2.0),
-            Vec3::new(2.0, 4.0, 1.9),
-            Vec3::new(2.0, 4.0, 2.0),
-        ]));
-        b.add_object("wall", wall, Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0)))
-            .unwrap();
-        b.add_object("sliver", sliver, Mat4::from_translation(Vec3::new(0.0, 0.0, -1.0)))
-            .unwrap();
-        let scene = b.build().unwrap();
+        let scene = wall_and_sliver();
         let camera = Camera::new(
             Vec3::new(0.0, 1.5, 6.0),
             Vec3::new(0.0, 1.5, 0.0),
