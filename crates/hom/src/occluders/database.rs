@@ -600,8 +600,14 @@ fn ground_candidate(v: Verdict) -> bool {
     matches!(v, Verdict::Kept | Verdict::IllShaped | Verdict::TooSmall)
 }
 
+/// Fewest objects a closed occluder's box holds, besides half the others,
+/// to be the level's enclosure (see [`mark_redundant`]).
+const ENCLOSURE_HOLDS: usize = 16;
+
 /// Marks static kept objects whose box sits inside the box of a larger,
-/// static, kept and closed occluder (`shells`, by mesh id). Only a closed
+/// static, kept and closed occluder (`shells`, by mesh id) that does not
+/// enclose the level (its box holding half the others, and at least
+/// [`ENCLOSURE_HOLDS`]). Only a closed
 /// mesh's box stands for what it hides: the box of an open one (terrain, a
 /// road, a level's floor, a sky) holds everything standing on or under it
 /// and hides none of it (ctf_inyard, cut into objects of at most 64
@@ -619,13 +625,30 @@ fn mark_redundant(scene: &Scene, margin: f32, shells: &[Shell], verdicts: &mut [
         vb.total_cmp(&va).then(a.cmp(&b))
     });
     let boxes: Vec<Aabb> = kept.iter().map(|&i| objects[i as usize].aabb).collect();
+    let bvh = crate::spatial::Bvh::build(&boxes, &crate::spatial::BvhConfig::default());
+    let grown = |b: &Aabb| Aabb::new(b.min - margin, b.max + margin);
+    // A closed mesh whose box holds half the others is the level's
+    // enclosure (a sky box, a room as one mesh), not a solid among them:
+    // the eye is inside it, where it hides nothing (ctf_compromise's sky
+    // box held 1,270 of its 1,271 occluders).
+    let mut hits = Vec::new();
     let closed: Vec<bool> = kept
         .iter()
-        .map(|&i| matches!(shells.get(objects[i as usize].mesh as usize), Some(Shell::Closed(_))))
+        .enumerate()
+        .map(|(k, &i)| {
+            if !matches!(shells.get(objects[i as usize].mesh as usize), Some(Shell::Closed(_))) {
+                return false;
+            }
+            hits.clear();
+            bvh.overlapping(&grown(&boxes[k]), &mut hits);
+            let held = hits
+                .iter()
+                .filter(|&&j| j as usize != k && grown(&boxes[k]).contains(&boxes[j as usize]))
+                .count();
+            held < ENCLOSURE_HOLDS || 2 * held < kept.len() - 1
+        })
         .collect();
-    let bvh = crate::spatial::Bvh::build(&boxes, &crate::spatial::BvhConfig::default());
     let mut absorbed = vec![false; kept.len()];
-    let mut hits = Vec::new();
     for (k, &id) in kept.iter().enumerate() {
         let b = boxes[k];
         hits.clear();
@@ -682,6 +705,39 @@ pub(super) mod tests {
         }
         assert_eq!(t.len(), if open { 10 } else { 12 });
         crate::scene::Mesh::new("cube", p, t).unwrap()
+    }
+
+    /// A closed occluder whose box holds half the level is its enclosure:
+    /// it makes nothing redundant.
+    #[test]
+    fn a_closed_enclosure_makes_nothing_redundant() {
+        // A closed box around twenty small cubes (a level within its sky
+        // box): the eye is inside it, so every cube stays an occluder; a
+        // closed box around one cube among twenty still absorbs it.
+        for around_all in [true, false] {
+            let mut b = SceneBuilder::new("enclosed");
+            let cube_mesh = b.add_mesh(cube(false));
+            let (centre, scale) = if around_all {
+                (Vec3::splat(10.0), 30.0)
+            } else {
+                (Vec3::ZERO, 3.0)
+            };
+            b.add_object(
+                "enclosure",
+                cube_mesh,
+                Mat4::from_translation(centre) * Mat4::from_scale(Vec3::splat(scale)),
+            )
+            .unwrap();
+            for k in 0..20 {
+                let at = Vec3::new((k % 5) as f32 * 4.0, (k / 5) as f32 * 4.0, 0.0);
+                b.add_object(format!("cube{k}"), cube_mesh, Mat4::from_translation(at))
+                    .unwrap();
+            }
+            let scene = b.build().unwrap();
+            let db = OccluderDb::build(&scene, &OccluderDbConfig::default());
+            let redundant = db.verdicts().iter().filter(|&&v| v == Verdict::Redundant).count();
+            assert_eq!(redundant, usize::from(!around_all), "around all: {around_all}");
+        }
     }
 
     /// Only a closed occluder's box makes the objects inside it redundant:
