@@ -117,9 +117,10 @@ pub struct PvsBakeArgs {
     #[arg(long, default_value_t = 0.0)]
     pub fusion_spacing: f32,
     /// Portal cells beside the view cells (Quake 3 maps: the map's leaf portals followed
-    /// object by object, a set per cluster; other scenes have none yet). Off by default: under
-    /// an undrawn sky, sight passes through the solid space above, and following it there takes
-    /// minutes on outdoor maps (docs/decisions/pvs.md).
+    /// object by object, a set per cluster; other scenes have none yet). Off by default: where
+    /// a map's walls are not covered by drawn faces, sight passes into the solid space behind
+    /// them, and following it there takes seconds to minutes and loosens the sets
+    /// (docs/decisions/pvs.md).
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub portals: OnOff,
 }
@@ -486,7 +487,7 @@ pub struct WalkArgs {
     pub pvs: bool,
     /// With --pvs: measure the PVS the map's leaf portals give instead of the map's own
     /// (built from the BSP tree at load, object by object, per cluster; its build time is
-    /// printed; minutes on maps under an undrawn sky, see `hom pvs bake --portals`).
+    /// printed; up to minutes, see `hom pvs bake --portals`).
     #[arg(long, requires = "pvs")]
     pub pvs_portals: bool,
     /// A PVS baked by `hom pvs bake` for this scene: objects its cell hides are not drawn, after

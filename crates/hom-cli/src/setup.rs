@@ -5,6 +5,7 @@ use crate::args::{HomArgs, RendererArg, View};
 use anyhow::{bail, Context, Result};
 use hom::cull::{Coherence, Culler};
 use hom::experimental::HvPriming;
+use hom::glam::Vec3;
 use hom::occlusion::Opacity;
 use hom::scene::Scene;
 use hom_scene::bsp::BspMap;
@@ -187,12 +188,14 @@ pub fn progress_of(len: usize, what: &str, units: &str) -> ProgressBar {
     bar
 }
 
-/// What a Quake 3 map's clusters see through its leaf portals
-/// ([`BspMap::portal_pvs`]), with a progress bar over its leaves.
-pub fn follow_portals(map: &BspMap) -> Result<hom_scene::bsp::PortalPvs> {
+/// What a Quake 3 map's clusters see through its leaf portals from the
+/// space `path` reaches ([`BspMap::portal_pvs`]), with a progress bar over
+/// its leaves.
+pub fn follow_portals(map: &BspMap, path: &CameraPath) -> Result<hom_scene::bsp::PortalPvs> {
     let bar = progress_of(0, "portals", "leaves");
+    let eyes: Vec<Vec3> = path.frames.iter().map(|f| Vec3::from_array(f.eye)).collect();
     let portals = map
-        .portal_pvs(&|done, total| {
+        .portal_pvs(&eyes, &|done, total| {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
         })

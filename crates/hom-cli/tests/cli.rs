@@ -404,6 +404,29 @@ fn pvs_bake_adds_a_maps_portal_cells() {
     assert!(text.contains(", 0 oracle-visible objects outside the PVS"), "{text}");
 }
 
+/// A map's portal cells hide nothing a camera in the cells sees (skips
+/// without the fetched maps): oa_dm2 has pockets sealed inside its walls
+/// and walls its drawn faces leave open, where random viewpoints in the
+/// cells saw objects the portals hid until sight was followed from the
+/// space the path reaches and into the solid space behind open walls.
+#[test]
+fn pvs_portal_cells_pass_the_check_on_a_real_map() {
+    let Some(pk3) = openarena_maps() else { return };
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_portals_check");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = format!("{}:oa_dm2", pk3.display());
+    let pvs = dir.join("oa_dm2.pvs");
+    let pvs = pvs.to_str().unwrap();
+    let o = hom(&["pvs", "bake", "--scene", &spec, "--out", pvs, "--portals", "on"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = hom(&[
+        "pvs", "check", "--scene", &spec, "--pvs", pvs, "--points", "1000", "--cells", "1",
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}{}", stderr(&o));
+    assert!(text.contains("0 hidden objects seen"), "{text}");
+}
+
 #[test]
 fn pvs_bake_shards_merge_info_walk_and_refusals() {
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("pvs_cli");

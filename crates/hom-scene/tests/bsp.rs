@@ -196,6 +196,33 @@ fn tiny_map_geometry_flags_and_units() {
     assert_eq!(m.object_clusters, vec![vec![0, 1], vec![1]]);
 }
 
+/// A sky face (`SURF_SKY`, not nodraw) is an opaque wall in an object of its
+/// own after the others, as the player sees it; with `SkyFaces::Open` it is
+/// not drawn. A sky shader that is also nodraw is never drawn.
+#[test]
+fn sky_faces_are_opaque_walls_unless_open() {
+    let mut map = Map::tiny();
+    map.set(1, 72 + 64, 0x4); // the sky shader, without its nodraw flag
+    let bytes = map.bytes();
+    let m = parse(&bytes).unwrap();
+    let s = &m.scene;
+    assert_eq!(s.objects().len(), 3);
+    assert_eq!(s.object(0).triangles, 2 + 1 + 50, "the world's objects keep their ids");
+    assert_eq!(s.object(1).name, "see_through_1");
+    assert_eq!(s.object(2).name, "sky_2");
+    assert_eq!(s.object(2).triangles, 2);
+    assert!(s.object(2).occluder, "sky is a wall");
+    assert_eq!(m.object_clusters[2], vec![1], "the sky face lies in leaf 1's list");
+    let open = BspOptions {
+        sky: bsp::SkyFaces::Open,
+        ..BspOptions::default()
+    };
+    let m = bsp::parse(&bytes, "tiny", &open).unwrap();
+    assert_eq!(m.scene.objects().len(), 2);
+    // The tiny map's own sky shader is nodraw too: never drawn.
+    assert_eq!(tiny().scene.objects().len(), 2);
+}
+
 #[test]
 fn patch_tessellation_level_sets_the_triangle_count() {
     for level in [1u32, 3, 8] {

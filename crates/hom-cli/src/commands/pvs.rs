@@ -89,15 +89,16 @@ pub fn bake(a: PvsBakeArgs) -> Result<()> {
         (OnOff::On, true) => {
             let start = Instant::now();
             let map = hom_walk::pvs::open_map(&a.scene)?;
-            let portals = crate::setup::follow_portals(&map)?;
+            let portals = crate::setup::follow_portals(&map, &path)?;
             let cells = portals.cells(&map).context("the map's portal cells")?;
             let n = cells.cell_count();
             let pvs = pvs.with_portal_cells(cells).context("adding the portal cells")?;
             let note = format!(
-                "; {} portal cells ({} portals between {} leaves) in {:.1} s",
+                "; {} portal cells ({} portals between {} leaves the path reaches; {} cells it does not, hiding nothing) in {:.1} s",
                 n,
                 portals.portal_count(),
                 portals.leaf_count(),
+                portals.unreached_clusters(),
                 start.elapsed().as_secs_f64()
             );
             (pvs, note)

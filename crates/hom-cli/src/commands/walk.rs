@@ -45,7 +45,7 @@ pub fn run(a: WalkArgs) -> Result<()> {
     let portals = match (&map, a.pvs_portals) {
         (Some(m), true) => {
             let start = std::time::Instant::now();
-            let p = crate::setup::follow_portals(m)?;
+            let p = crate::setup::follow_portals(m, &w.path)?;
             eprintln!(
                 "leaf portals: {} portals between {} clustered leaves, followed in {:.1} s",
                 p.portal_count(),

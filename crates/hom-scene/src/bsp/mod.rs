@@ -5,9 +5,14 @@
 //!   (type 3) faces as triangle lists via their mesh vertex indices; Bezier
 //!   patches (type 2) tessellated at [`BspOptions::tessellation`] segments per
 //!   3 × 3 control-point quadratic patch; billboards (type 4) skipped.
-//! - **Skipped surfaces:** shader surface flags `SURF_NODRAW` (0x80) or `SURF_SKY`
-//!   (0x4), the name `noshader`, names containing `skies/`, and the editor's tool
-//!   shaders under `common/` (caulk, nodraw, hint, skip, clip, trigger, portals…).
+//! - **Skipped surfaces:** shader surface flag `SURF_NODRAW` (0x80), the name
+//!   `noshader`, and the editor's tool shaders under `common/` (caulk, nodraw,
+//!   hint, skip, clip, trigger, portals…).
+//! - **Sky** (surface flag `SURF_SKY` 0x4, or a shader name with `skies/`): an
+//!   opaque wall, as the player sees it — the game paints the sky box there, and
+//!   its `vis` takes sky as a wall — in objects of their own, after the rest
+//!   ([`BspOptions::sky`]; [`SkyFaces::Open`] leaves them undrawn, so the renderer
+//!   sees through the sky into the space around the level).
 //! - **See-through surfaces** (content flags `CONTENTS_TRANSLUCENT` 0x20000000,
 //!   water 0x20, lava 0x8, slime 0x10, fog 0x40, or a shader name with `glass`,
 //!   `grate`, `fence`, `foliage`, `leaves`, `forcefield`, `water`, `fog`, `trans`…)
@@ -15,8 +20,8 @@
 //! - **Units:** Quake's right-handed Z-up inches become hom's right-handed +Y-up
 //!   metres: `(x, y, z) → (x, z, −y) × 0.0254` (a rotation, so handedness is kept).
 //! - **Objects:** faces are never cut; they are grouped by [`crate::split`]:
-//!   opaque faces first, then see-through ones, each in the splitter's documented
-//!   order. Object ids are that order.
+//!   opaque faces first, then see-through ones, then sky, each in the splitter's
+//!   documented order. Object ids are that order.
 //! - **Spawn points** (`info_player_*` but `info_player_intermission`,
 //!   `team_CTF_*spawn`, `team_CTF_*player`) and a walkthrough through them.
 //! - **The map's PVS:** [`BspMap::cluster_of`], [`BspMap::cluster_visible`] and
@@ -94,6 +99,9 @@ pub(super) const PLANES: usize = 2;
 pub(super) const NODES: usize = 3;
 pub(super) const LEAFS: usize = 4;
 const LEAFFACES: usize = 5;
+const LEAFBRUSHES: usize = 6;
+const BRUSHES: usize = 8;
+const BRUSHSIDES: usize = 9;
 const MODELS: usize = 7;
 const VERTEXES: usize = 10;
 const MESHVERTS: usize = 11;
@@ -172,6 +180,21 @@ pub struct BspOptions {
     pub eye_height: f32,
     /// Walking speed of the walkthrough, metres per second (30 frames a second).
     pub speed: f32,
+    /// What sky faces are.
+    pub sky: SkyFaces,
+}
+
+/// What a map's sky faces (`SURF_SKY`) are in the scene.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SkyFaces {
+    /// Opaque walls (the default): what the player sees, the sky box painted
+    /// on them, and what the map's own `vis` assumes. They are occluders
+    /// like any wall, in objects named `sky_ID`.
+    #[default]
+    Opaque,
+    /// Not drawn: sight passes through them into the solid space around the
+    /// level (and the other areas seen across it), as before 2026-12-07.
+    Open,
 }
 
 impl Default for BspOptions {
@@ -184,6 +207,7 @@ impl Default for BspOptions {
             max_triangles: 8 << 20,
             eye_height: VIEW_HEIGHT,
             speed: 8.0,
+            sky: SkyFaces::Opaque,
         }
     }
 }
@@ -227,9 +251,24 @@ pub struct BspMap {
     /// Speed used by [`BspMap::camera_path`], metres per second.
     pub speed: f32,
     pvs: Pvs,
-    /// Per leaf: does its face list hold a face left undrawn?
-    undrawn: Vec<bool>,
+    /// For each object (by id): the leaves without a cluster whose face
+    /// lists hold its faces (sight may reach some: see `portals.rs`).
+    object_solid_leaves: Vec<Vec<u32>>,
+    /// The drawn faces' triangles, world positions (hom coordinates): what
+    /// covers the walls sight meets (see `portals.rs`).
+    drawn: Vec<[Vec3; 3]>,
+    /// Per leaf: the brushes it lists that tell whether the compiler filled
+    /// it for its `vis` alone (see `portals.rs`).
+    leaf_brushes: Vec<LeafBrushes>,
+    /// Per opaque brush (contents solid, not translucent): its sides'
+    /// planes, indices into the tree's planes (normals pointing out).
+    brush_planes: Vec<Vec<u32>>,
 }
+
+/// Content flag: solid.
+const CONTENTS_SOLID: i32 = 0x1;
+/// Content flag: translucent (the compiler lets sight through such brushes).
+const CONTENTS_TRANSLUCENT: i32 = 0x2000_0000;
 
 /// Quake (Z-up inches) to hom (+Y-up metres).
 pub fn to_hom(q: [f32; 3]) -> Vec3 {
@@ -246,14 +285,24 @@ impl BspMap {
     /// The cluster of the leaf holding `point` (hom coordinates), `None` in solid
     /// space or outside the map (cluster −1).
     pub fn cluster_of(&self, point: Vec3) -> Option<i32> {
+        let leaf = self.leaf_of(point)?;
+        self.pvs.leaf_cluster.get(leaf as usize).copied().filter(|&c| c >= 0)
+    }
+
+    /// The leaf of the map's BSP tree holding `point` (hom coordinates; a
+    /// point on a node's plane lies in front of it); `None` for a point that
+    /// is not finite.
+    pub fn leaf_of(&self, point: Vec3) -> Option<u32> {
         let pvs = &self.pvs;
+        if !point.is_finite() {
+            return None;
+        }
         let q = to_quake(point);
         let mut child: i32 = if pvs.nodes.is_empty() { -1 } else { 0 };
         // Indices are checked at load; the step bound stops a cyclic tree.
         for _ in 0..=pvs.nodes.len() {
             if child < 0 {
-                let leaf = (-(child as i64) - 1) as usize;
-                return pvs.leaf_cluster.get(leaf).copied().filter(|&c| c >= 0);
+                return u32::try_from(-(child as i64) - 1).ok();
             }
             let (plane, front, back) = pvs.nodes[child as usize];
             let (n, d) = pvs.planes[plane as usize];
@@ -579,20 +628,37 @@ enum Surface {
     Skip,
     Opaque,
     SeeThrough,
+    Sky,
 }
 
-fn classify(name: &str, flags: i32, contents: i32) -> Surface {
+fn classify(name: &str, flags: i32, contents: i32, sky: SkyFaces) -> Surface {
     let lower = name.to_ascii_lowercase();
     let tool = lower
         .find("common/")
         .map(|i| &lower[i + "common/".len()..])
         .is_some_and(|rest| TOOL_SHADERS.iter().any(|t| rest.starts_with(t)));
-    if flags & (SURF_NODRAW | SURF_SKY) != 0 || lower == "noshader" || lower.contains("skies/") || tool {
+    if flags & SURF_NODRAW != 0 || lower == "noshader" || tool {
         Surface::Skip
+    } else if flags & SURF_SKY != 0 || lower.contains("skies/") {
+        match sky {
+            SkyFaces::Opaque => Surface::Sky,
+            SkyFaces::Open => Surface::Skip,
+        }
     } else if contents & SEE_THROUGH_CONTENTS != 0 || SEE_THROUGH_NAMES.iter().any(|n| lower.contains(n)) {
         Surface::SeeThrough
     } else {
         Surface::Opaque
+    }
+}
+
+/// What a brush of the shader `name` with content flags `contents` is to sight.
+fn brush_kind(name: &str, contents: i32) -> BrushKind {
+    if name.to_ascii_lowercase().ends_with("common/antiportal") {
+        BrushKind::AntiPortal
+    } else if contents & (CONTENTS_SOLID | CONTENTS_TRANSLUCENT) == CONTENTS_SOLID {
+        BrushKind::Opaque
+    } else {
+        BrushKind::Other
     }
 }
 
@@ -614,15 +680,19 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     }
     let lumps = Lumps::new(data)?;
 
-    // Shaders.
-    let surfaces: Vec<Surface> = lumps
+    // Shaders: what a face of each is, and what a brush of each is.
+    let (surfaces, brush_kinds): (Vec<Surface>, Vec<BrushKind>) = lumps
         .records(TEXTURES, 72)?
         .map(|r| {
             let end = r[..64].iter().position(|&b| b == 0).unwrap_or(64);
             let name = String::from_utf8_lossy(&r[..end]);
-            classify(&name, le_i32(r, 64), le_i32(r, 68))
+            let (flags, contents) = (le_i32(r, 64), le_i32(r, 68));
+            (
+                classify(&name, flags, contents, options.sky),
+                brush_kind(&name, contents),
+            )
         })
-        .collect();
+        .unzip();
 
     // Vertices, converted and checked.
     let mut positions: Vec<Vec3> = Vec::with_capacity(lumps.bytes(VERTEXES).len() / 44);
@@ -664,8 +734,8 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     let budget = options.max_triangles;
     let too_big = || BspError::TooBig { limit: budget };
     let mut triangles: Vec<[u32; 3]> = Vec::new();
-    // (face index, see-through, triangle range)
-    let mut faces: Vec<(usize, bool, std::ops::Range<usize>)> = Vec::new();
+    // (face index, what it is, triangle range)
+    let mut faces: Vec<(usize, Surface, std::ops::Range<usize>)> = Vec::new();
     let level = options.tessellation as usize;
     for f in world_faces {
         let r = face_records[f];
@@ -752,50 +822,45 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             _ => return Err(BspError::BadFaceType { face: f, kind }),
         }
         if triangles.len() > start {
-            faces.push((f, surfaces[texture] == Surface::SeeThrough, start..triangles.len()));
+            faces.push((f, surfaces[texture], start..triangles.len()));
         }
     }
 
     let pvs = read_pvs(&lumps)?;
-    // Clustered leaves of every face, via the leaves' face lists.
+    // The leaves of every face, via the leaves' face lists.
     let leaffaces: Vec<i32> = lumps.records(LEAFFACES, 4)?.map(|r| le_i32(r, 0)).collect();
     let mut face_leaves: Vec<(u32, u32)> = Vec::new();
-    // Leaves whose face lists hold a face the loader leaves undrawn (sky,
-    // nodraw, caulk): sight may pass there into solid space.
-    let mut undrawn = vec![false; pvs.leaf_cluster.len()];
+    // The drawn faces' triangles (world positions): what covers the walls.
+    let drawn: Vec<[Vec3; 3]> = faces
+        .iter()
+        .flat_map(|(_, _, tris)| triangles[tris.clone()].iter())
+        .map(|t| t.map(|i| positions[i as usize]))
+        .collect();
     for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
-        let cluster = pvs.leaf_cluster[leaf];
         let list = range("leaf", leaf, "leaffaces", le_i32(r, 32), le_i32(r, 36), leaffaces.len())?;
         if face_leaves.len() + list.len() > budget {
             return Err(too_big());
         }
         for &lf in &leaffaces[list] {
             let face = index("leafface of leaf", leaf, "face", lf, face_records.len())?;
-            let texture = usize::try_from(le_i32(face_records[face], 0)).ok();
-            if texture
-                .and_then(|t| surfaces.get(t))
-                .is_none_or(|s| *s == Surface::Skip)
-            {
-                undrawn[leaf] = true;
-            }
-            if cluster >= 0 {
-                face_leaves.push((face as u32, leaf as u32));
-            }
+            face_leaves.push((face as u32, leaf as u32));
         }
     }
     face_leaves.sort_unstable();
     face_leaves.dedup();
+    let (leaf_brushes, brush_planes) = opaque_brushes(&lumps, &pvs, &brush_kinds, budget)?;
 
     // Entities and spawns.
     let entities = entities::parse(lumps.bytes(ENTITIES))?;
     let spawns = spawns(&entities)?;
 
-    // Objects: opaque faces, then see-through faces, grouped spatially.
+    // Objects: opaque faces, then see-through faces, then sky, grouped spatially.
     let mut builder = SceneBuilder::new(name);
     let mut object_clusters = Vec::new();
     let mut object_leaves = Vec::new();
-    for see_through in [false, true] {
-        let chosen: Vec<&(usize, bool, std::ops::Range<usize>)> = faces.iter().filter(|x| x.1 == see_through).collect();
+    let mut object_solid_leaves = Vec::new();
+    for kind in [Surface::Opaque, Surface::SeeThrough, Surface::Sky] {
+        let chosen: Vec<&(usize, Surface, std::ops::Range<usize>)> = faces.iter().filter(|x| x.1 == kind).collect();
         let pieces: Vec<Piece> = chosen
             .iter()
             .map(|(_, _, tr)| Piece {
@@ -805,7 +870,11 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             .collect();
         for group in group_pieces(&pieces, &options.split) {
             let id = builder.object_count();
-            let label = if see_through { "see_through" } else { "world" };
+            let label = match kind {
+                Surface::SeeThrough => "see_through",
+                Surface::Sky => "sky",
+                _ => "world",
+            };
             let object_name = format!("{label}_{id}");
             let tris: Vec<[u32; 3]> = group
                 .iter()
@@ -819,18 +888,21 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             }
             leaves.sort_unstable();
             leaves.dedup();
-            let mut clusters: Vec<i32> = leaves.iter().map(|&l| pvs.leaf_cluster[l as usize]).collect();
+            let (clustered, unclustered): (Vec<u32>, Vec<u32>) =
+                leaves.into_iter().partition(|&l| pvs.leaf_cluster[l as usize] >= 0);
+            let mut clusters: Vec<i32> = clustered.iter().map(|&l| pvs.leaf_cluster[l as usize]).collect();
             clusters.sort_unstable();
             clusters.dedup();
             object_clusters.push(clusters);
-            object_leaves.push(leaves);
+            object_leaves.push(clustered);
+            object_solid_leaves.push(unclustered);
             let scene_err = |source| BspError::BadGeometry { source };
             let mesh = compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
             let mesh = builder.add_mesh(mesh);
             let id = builder
                 .add_object(object_name, mesh, Mat4::IDENTITY)
                 .map_err(scene_err)?;
-            builder.set_occluder(id, !see_through);
+            builder.set_occluder(id, kind != Surface::SeeThrough);
         }
     }
     if builder.object_count() == 0 {
@@ -843,11 +915,96 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         entities,
         object_clusters,
         object_leaves,
-        undrawn,
+        object_solid_leaves,
+        drawn,
+        leaf_brushes,
+        brush_planes,
         eye_height: options.eye_height,
         speed: options.speed,
         pvs,
     })
+}
+
+/// What a brush is to sight, by its shader.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum BrushKind {
+    /// Contents solid, not translucent: its drawn faces hide what is inside.
+    Opaque,
+    /// q3map2's `common/antiportal`: no faces, nonsolid, but the compiler
+    /// takes the leaves it fills as solid for its `vis` (and drops the faces
+    /// of brushes that touch them only there).
+    AntiPortal,
+    /// Anything else (translucent, water, clip, hint, trigger…).
+    Other,
+}
+
+/// What the leaves list: per leaf, the opaque brushes it lists (indices
+/// into the second list; leaves without a cluster only) and whether it
+/// lists an antiportal; per opaque brush, its sides' planes (see
+/// [`BspMap::leaf_brushes`]). `kinds` is per shader; more than `budget`
+/// leaf→brush references is [`BspError::TooBig`].
+#[allow(clippy::type_complexity)]
+fn opaque_brushes(
+    lumps: &Lumps,
+    pvs: &Pvs,
+    kinds: &[BrushKind],
+    budget: usize,
+) -> Result<(Vec<LeafBrushes>, Vec<Vec<u32>>), BspError> {
+    let sides: Vec<&[u8]> = lumps.records(BRUSHSIDES, 8)?.collect();
+    let mut brush_planes = Vec::new();
+    let mut brush_kind = Vec::new();
+    for (b, r) in lumps.records(BRUSHES, 12)?.enumerate() {
+        let shader = index("brush", b, "shader", le_i32(r, 8), kinds.len())?;
+        let list = range("brush", b, "sides", le_i32(r, 0), le_i32(r, 4), sides.len())?;
+        let mut planes = Vec::new();
+        if kinds[shader] == BrushKind::Opaque {
+            for side in &sides[list] {
+                planes.push(index("brush side of brush", b, "plane", le_i32(side, 0), pvs.planes.len())? as u32);
+            }
+        }
+        brush_planes.push(planes);
+        brush_kind.push(kinds[shader]);
+    }
+    let leafbrushes: Vec<i32> = lumps.records(LEAFBRUSHES, 4)?.map(|r| le_i32(r, 0)).collect();
+    let mut leaf_brushes = Vec::with_capacity(pvs.leaf_cluster.len());
+    let mut references = 0usize;
+    for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
+        let mut listed = LeafBrushes::default();
+        let list = range(
+            "leaf",
+            leaf,
+            "leafbrushes",
+            le_i32(r, 40),
+            le_i32(r, 44),
+            leafbrushes.len(),
+        )?;
+        // Leaves' lists may overlap: a hostile file must not make them quadratic.
+        references += list.len();
+        if references > budget {
+            return Err(BspError::TooBig { limit: budget });
+        }
+        for &lb in &leafbrushes[list] {
+            let brush = index("leafbrush of leaf", leaf, "brush", lb, brush_planes.len())?;
+            match brush_kind[brush] {
+                // Only a leaf without a cluster asks which brush fills it.
+                BrushKind::Opaque if pvs.leaf_cluster[leaf] < 0 => listed.opaque.push(brush as u32),
+                BrushKind::AntiPortal => listed.antiportal = true,
+                _ => {}
+            }
+        }
+        leaf_brushes.push(listed);
+    }
+    Ok((leaf_brushes, brush_planes))
+}
+
+/// The brushes a leaf lists, as sight needs them.
+#[derive(Clone, Debug, Default)]
+pub(super) struct LeafBrushes {
+    /// Its opaque brushes (indices into [`BspMap::brush_planes`]; for a
+    /// leaf without a cluster).
+    pub(super) opaque: Vec<u32>,
+    /// Does it list an antiportal?
+    pub(super) antiportal: bool,
 }
 
 fn is_spawn(classname: &str) -> bool {
@@ -919,14 +1076,19 @@ mod tests {
 
     #[test]
     fn classifies_shaders() {
-        assert_eq!(classify("textures/base_wall/concrete", 0, 1), Surface::Opaque);
-        assert_eq!(classify("textures/skies/blue", 0, 1), Surface::Skip);
-        assert_eq!(classify("textures/x/y", SURF_SKY, 1), Surface::Skip);
-        assert_eq!(classify("textures/x/y", SURF_NODRAW, 1), Surface::Skip);
-        assert_eq!(classify("textures/common/caulk", 0, 1), Surface::Skip);
-        assert_eq!(classify("noshader", 0, 1), Surface::Skip);
-        assert_eq!(classify("textures/base/wall", 0, 0x20), Surface::SeeThrough);
-        assert_eq!(classify("textures/gothic/Grate1", 0, 1), Surface::SeeThrough);
-        assert_eq!(classify("textures/sfx/x", 0, 0x2000_0000), Surface::SeeThrough);
+        let c = |name, flags, contents| classify(name, flags, contents, SkyFaces::Opaque);
+        assert_eq!(c("textures/base_wall/concrete", 0, 1), Surface::Opaque);
+        assert_eq!(c("textures/skies/blue", 0, 1), Surface::Sky);
+        assert_eq!(c("textures/x/y", SURF_SKY, 1), Surface::Sky);
+        assert_eq!(c("textures/x/y", SURF_NODRAW | SURF_SKY, 1), Surface::Skip);
+        assert_eq!(c("textures/x/y", SURF_NODRAW, 1), Surface::Skip);
+        assert_eq!(c("textures/common/caulk", 0, 1), Surface::Skip);
+        assert_eq!(c("noshader", 0, 1), Surface::Skip);
+        assert_eq!(c("textures/base/wall", 0, 0x20), Surface::SeeThrough);
+        assert_eq!(c("textures/gothic/Grate1", 0, 1), Surface::SeeThrough);
+        assert_eq!(c("textures/sfx/x", 0, 0x2000_0000), Surface::SeeThrough);
+        // Open sky: not drawn.
+        assert_eq!(classify("textures/skies/blue", 0, 1, SkyFaces::Open), Surface::Skip);
+        assert_eq!(classify("textures/x/y", SURF_SKY, 1, SkyFaces::Open), Surface::Skip);
     }
 }
