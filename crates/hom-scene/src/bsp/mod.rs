@@ -254,9 +254,6 @@ pub struct BspMap {
     /// For each object (by id): the leaves without a cluster whose face
     /// lists hold its faces (sight may reach some: see `portals.rs`).
     object_solid_leaves: Vec<Vec<u32>>,
-    /// The drawn faces' triangles, world positions (hom coordinates): what
-    /// covers the walls sight meets (see `portals.rs`).
-    drawn: Vec<[Vec3; 3]>,
     /// Per leaf: the brushes it lists that tell whether the compiler filled
     /// it for its `vis` alone (see `portals.rs`).
     leaf_brushes: Vec<LeafBrushes>,
@@ -830,12 +827,6 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     // The leaves of every face, via the leaves' face lists.
     let leaffaces: Vec<i32> = lumps.records(LEAFFACES, 4)?.map(|r| le_i32(r, 0)).collect();
     let mut face_leaves: Vec<(u32, u32)> = Vec::new();
-    // The drawn faces' triangles (world positions): what covers the walls.
-    let drawn: Vec<[Vec3; 3]> = faces
-        .iter()
-        .flat_map(|(_, _, tris)| triangles[tris.clone()].iter())
-        .map(|t| t.map(|i| positions[i as usize]))
-        .collect();
     for (leaf, r) in lumps.records(LEAFS, 48)?.enumerate() {
         let list = range("leaf", leaf, "leaffaces", le_i32(r, 32), le_i32(r, 36), leaffaces.len())?;
         if face_leaves.len() + list.len() > budget {
@@ -916,7 +907,6 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
         object_clusters,
         object_leaves,
         object_solid_leaves,
-        drawn,
         leaf_brushes,
         brush_planes,
         eye_height: options.eye_height,

@@ -303,7 +303,7 @@ const NORMAL_STEP: f64 = 1.0 / 64.0;
 const DISTANCE_STEP: f64 = 0.05;
 
 impl FacePlanes {
-    fn new(tris: &[[glam::Vec3; 3]]) -> FacePlanes {
+    fn new(tris: impl IntoIterator<Item = [glam::Vec3; 3]>) -> FacePlanes {
         let mut by_plane: std::collections::HashMap<[i64; 4], Vec<[DVec3; 3]>> = Default::default();
         for t in tris {
             let t = t.map(|p| p.as_dvec3());
@@ -398,13 +398,10 @@ const MAX_PIECES: usize = 256;
 /// [`SEAM`]. Sight may pass where it is not: an undrawn face, a side the
 /// compiler kept no face for, a face off the plane.
 fn covered(poly: &[DVec3], tris: &[[DVec3; 3]]) -> bool {
-    let mut normal = DVec3::ZERO;
-    for i in 1..poly.len().saturating_sub(1) {
-        normal += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
-    }
-    let Some(n) = normal.try_normalize() else {
+    let n = winding_normal(poly);
+    if n == DVec3::ZERO {
         return true;
-    };
+    }
     let d = n.dot(poly[0]);
     let u = n.any_orthonormal_vector();
     let v = n.cross(u);
@@ -609,7 +606,11 @@ impl BspMap {
         let vis_only = vis_only_leaves(&self.pvs, &all, &self.leaf_brushes, &self.brush_planes);
         // Per portal between a clustered leaf and a solid one: is it covered
         // by the drawn faces on its plane?
-        let faces = FacePlanes::new(&self.drawn);
+        // The scene's triangles are the drawn faces, in world positions.
+        let faces = FacePlanes::new(self.scene.objects().iter().flat_map(|o| {
+            let mesh = self.scene.mesh_of(o);
+            mesh.triangles().iter().map(|t| t.map(|i| mesh.positions()[i as usize]))
+        }));
         let walled: Vec<bool> = all
             .iter()
             .map(|p| open(p.cells[0]) != open(p.cells[1]) && covered(&p.points, &faces.on_plane_of(&p.points)))
