@@ -221,6 +221,25 @@ impl MaskedZBuffer {
         }
     }
 
+    /// How many of tile `(tx, ty)`'s samples inside the viewport have a finite bound.
+    #[inline]
+    fn covered_count(&self, tx: u32, ty: u32) -> u32 {
+        let k = (ty * self.tiles_x + tx) as usize;
+        // A finite farthest reference depth: every subtile is covered whole
+        // (most tiles of a frame full of walls), no rows needed (oa_dm1's
+        // search 5 % faster for this alone).
+        if self.tiles[k].far.is_finite() {
+            let past_edge = if tx + 1 < self.tiles_x && ty + 1 < self.tiles_y {
+                0
+            } else {
+                self.outside[k].iter().map(|r| r.count_ones()).sum()
+            };
+            MASK_TILE_W * MASK_TILE_H - past_edge
+        } else {
+            self.covered_rows(k).iter().map(|r| r.count_ones()).sum()
+        }
+    }
+
     /// Tile `k`'s samples inside the viewport with a finite bound, a row of bits each.
     #[inline]
     fn covered_rows(&self, k: usize) -> [u32; MASK_TILE_H as usize] {
@@ -267,10 +286,15 @@ impl MaskedZBuffer {
             counts: vec![0; (tw * th) as usize],
         };
         let (per_x, per_y) = (size / MASK_TILE_W, size / MASK_TILE_H);
-        for k in 0..self.tiles.len() {
-            let (tx, ty) = (k as u32 % self.tiles_x, k as u32 / self.tiles_x);
-            let covered: u32 = self.covered_rows(k).iter().map(|r| r.count_ones()).sum();
-            top.counts[((ty / per_y) * tw + tx / per_x) as usize] += covered;
+        // A top pixel's run of tiles at a time: no division per tile (the
+        // three there were took suspended's search from 0.028 to 0.062 ms a
+        // frame at 1024², masked, `--no-cost-model`).
+        for ty in 0..self.tiles_y {
+            let row = (ty / per_y * tw) as usize;
+            for (px, tx0) in (0..self.tiles_x).step_by(per_x as usize).enumerate() {
+                let tiles = tx0..(tx0 + per_x).min(self.tiles_x);
+                top.counts[row + px] += tiles.map(|tx| self.covered_count(tx, ty)).sum::<u32>();
+            }
         }
         for (i, c) in top.counts.iter_mut().enumerate() {
             let (x, y) = (i as u32 % tw * size, i as u32 / tw * size);
