@@ -228,32 +228,16 @@ fn leaf_portals(pvs: &Pvs, all: Vec<Portal>, walled: &[bool], vis_only: &[bool],
     let leaves = pvs.leaf_cluster.len();
     let open = |l: u32| pvs.leaf_cluster.get(l as usize).is_some_and(|&c| c >= 0);
     let is = |flags: &[bool], l: u32| flags.get(l as usize).copied().unwrap_or(false);
-    let mut neighbours = vec![Vec::new(); leaves];
-    for p in &all {
-        neighbours[p.cells[0] as usize].push(p.cells[1]);
-        neighbours[p.cells[1] as usize].push(p.cells[0]);
-    }
     // Solid space sight enters, and all of it joined to there.
-    let mut entered = vec![false; leaves];
-    let mut stack: Vec<u32> = (0..leaves as u32).filter(|&l| is(vis_only, l) && !open(l)).collect();
+    let mut doors: Vec<u32> = (0..leaves as u32).filter(|&l| is(vis_only, l) && !open(l)).collect();
     for (k, p) in all.iter().enumerate() {
         let [a, b] = p.cells;
         let (from, to) = if open(a) { (a, b) } else { (b, a) };
         if open(from) && !open(to) && is(seen_from, from) && !is(walled, k as u32) {
-            stack.push(to);
+            doors.push(to);
         }
     }
-    while let Some(l) = stack.pop() {
-        if std::mem::replace(&mut entered[l as usize], true) {
-            continue;
-        }
-        stack.extend(
-            neighbours[l as usize]
-                .iter()
-                .copied()
-                .filter(|&m| !open(m) && !entered[m as usize]),
-        );
-    }
+    let entered = reached_leaves(&all, leaves, doors, |l| !open(l));
     // Solid leaves whose sides hold the faces the compiler kept.
     let filled = |l: u32| entered[l as usize] && !is(vis_only, l);
     let mut sink_of = vec![u32::MAX; leaves];
@@ -514,7 +498,8 @@ fn vis_only_leaves(pvs: &Pvs, all: &[Portal], leaf_brushes: &[LeafBrushes], brus
 
 /// The cells (`cells` of them) that `portals` between cells `walk` allows
 /// join to one of `from` (those `walk` refuses, or out of range, are
-/// ignored), as flags by cell: where a camera goes from there.
+/// ignored), as flags by cell: where a camera goes from there, or sight
+/// through solid space.
 fn reached_leaves(
     portals: &[Portal],
     cells: usize,

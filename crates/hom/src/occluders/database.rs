@@ -639,11 +639,12 @@ fn mark_redundant(scene: &Scene, margin: f32, shells: &[Shell], verdicts: &mut [
             if !matches!(shells.get(objects[i as usize].mesh as usize), Some(Shell::Closed(_))) {
                 return false;
             }
+            let around = grown(&boxes[k]);
             hits.clear();
-            bvh.overlapping(&grown(&boxes[k]), &mut hits);
+            bvh.overlapping(&around, &mut hits);
             let held = hits
                 .iter()
-                .filter(|&&j| j as usize != k && grown(&boxes[k]).contains(&boxes[j as usize]))
+                .filter(|&&j| j as usize != k && around.contains(&boxes[j as usize]))
                 .count();
             held < ENCLOSURE_HOLDS || 2 * held < kept.len() - 1
         })
@@ -652,10 +653,10 @@ fn mark_redundant(scene: &Scene, margin: f32, shells: &[Shell], verdicts: &mut [
     for (k, &id) in kept.iter().enumerate() {
         let b = boxes[k];
         hits.clear();
-        bvh.overlapping(&Aabb::new(b.min - margin, b.max + margin), &mut hits);
+        bvh.overlapping(&grown(&b), &mut hits);
         let inside_bigger = hits.iter().any(|&j| {
             let j = j as usize;
-            j < k && !absorbed[j] && closed[j] && Aabb::new(boxes[j].min - margin, boxes[j].max + margin).contains(&b)
+            j < k && !absorbed[j] && closed[j] && grown(&boxes[j]).contains(&b)
         });
         if inside_bigger {
             absorbed[k] = true;
