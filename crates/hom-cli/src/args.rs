@@ -5,7 +5,7 @@ use hom::cull::{Coherence, DepthCheck, Hierarchy, PSkip};
 use hom::occluders::{OccluderMeshes, SelectionMode};
 use hom::occlusion::DepthMode;
 use hom_walk::cullers;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The `hom` command.
 #[derive(Parser)]
@@ -722,6 +722,39 @@ pub struct BenchArgs {
 }
 
 impl BenchArgs {
+    /// The flags given that this kind of bench does not read (the walk's
+    /// with `raster`, the raster's with `walk`): an error, not silently ignored.
+    pub fn foreign_flags(&self) -> Vec<&'static str> {
+        let given = match self.kind {
+            BenchKind::Raster => vec![
+                ("--renderer", self.renderer != RendererArg::Software),
+                ("--scenes", !self.scenes.is_empty()),
+                ("--camera-path", self.camera_path.is_some()),
+                ("--budget", self.budget.is_some()),
+                ("--clusters", self.clusters != Clusters::ON),
+                ("--cullers", self.cullers != ["frustum", "hom", "masked"]),
+                ("--frames", self.frames.is_some()),
+                ("--speed", self.speed.is_some()),
+                ("--cuts", self.cuts.is_some()),
+                ("--coherence", !self.coherence.is_empty()),
+                ("--hierarchy", !self.hierarchy.is_empty()),
+                ("--occluders", !self.occluders.is_empty()),
+                ("--no-cost-model", self.no_cost_model),
+                ("--depth-check", self.depth_check.is_some()),
+                ("--hv-priming", self.hv_priming),
+                ("--width", self.width.is_some()),
+                ("--height", self.height.is_some()),
+                ("--threads", self.threads != 0),
+            ],
+            BenchKind::Walk => vec![
+                ("--data", self.data != Path::new("../shared/bench-data/moc")),
+                ("--runs", self.runs != 5),
+                ("--raster-threads", self.raster_threads != [1, 2]),
+            ],
+        };
+        given.into_iter().filter(|&(_, g)| g).map(|(flag, _)| flag).collect()
+    }
+
     /// The JSON file to write: `--json` as given, else the kind's default.
     pub fn json_path(&self) -> PathBuf {
         match (&self.json, self.kind) {
@@ -766,6 +799,23 @@ mod tests {
     #[test]
     fn the_command_line_is_well_formed() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn bench_flags_of_the_other_kind_are_named() {
+        assert_eq!(bench(&[]).foreign_flags(), Vec::<&str>::new());
+        assert_eq!(
+            bench(&["raster", "--runs", "3", "--data", "d"]).foreign_flags(),
+            Vec::<&str>::new()
+        );
+        assert_eq!(
+            bench(&["raster", "--scenes", "city", "--frames", "5", "--cullers", "hom"]).foreign_flags(),
+            ["--scenes", "--cullers", "--frames"]
+        );
+        assert_eq!(
+            bench(&["walk", "--raster-threads", "1"]).foreign_flags(),
+            ["--raster-threads"]
+        );
     }
 
     #[test]

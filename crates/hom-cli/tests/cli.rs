@@ -197,6 +197,9 @@ fn raster_bench_without_inputs_is_a_one_line_error() {
     let o = hom(&["bench", "raster", "--data", "/no/such/folder"]);
     assert_clean_failure(&o, "/no/such/folder");
     std::fs::remove_dir_all(&dir).unwrap();
+    // The walk's flags are named, not ignored.
+    let o = hom(&["bench", "raster", "--scenes", "city"]);
+    assert_clean_failure(&o, "does not take --scenes");
 }
 
 /// A one-triangle `.mocscene` with one rectangle behind it (the format of

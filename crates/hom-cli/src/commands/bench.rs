@@ -8,6 +8,19 @@ use std::path::Path;
 
 /// Runs `hom bench`.
 pub fn run(a: BenchArgs) -> Result<()> {
+    let foreign = a.foreign_flags();
+    if !foreign.is_empty() {
+        let (kind, other) = match a.kind {
+            BenchKind::Walk => ("walk", "raster"),
+            BenchKind::Raster => ("raster", "walk"),
+        };
+        anyhow::bail!(
+            "`hom bench {kind}` does not take {}: {} belong{} to `hom bench {other}`",
+            foreign.join(", "),
+            if foreign.len() == 1 { "it" } else { "they" },
+            if foreign.len() == 1 { "s" } else { "" },
+        );
+    }
     if a.kind == BenchKind::Raster {
         return raster(a);
     }
