@@ -5,7 +5,7 @@ use hom::cull::{Coherence, DepthCheck, Hierarchy, PSkip};
 use hom::occluders::{OccluderMeshes, SelectionMode};
 use hom::occlusion::DepthMode;
 use hom_walk::cullers;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The `hom` command.
 #[derive(Parser)]
@@ -640,6 +640,31 @@ pub enum BenchKind {
     Raster,
 }
 
+/// The flags of `hom bench` only one kind reads: argument id, flag, kind.
+const BENCH_KIND_FLAGS: [(&str, &str, BenchKind); 21] = [
+    ("renderer", "--renderer", BenchKind::Walk),
+    ("data", "--data", BenchKind::Raster),
+    ("runs", "--runs", BenchKind::Raster),
+    ("raster_threads", "--raster-threads", BenchKind::Raster),
+    ("scenes", "--scenes", BenchKind::Walk),
+    ("camera_path", "--camera-path", BenchKind::Walk),
+    ("budget", "--budget", BenchKind::Walk),
+    ("switch", "--clusters", BenchKind::Walk),
+    ("cullers", "--cullers", BenchKind::Walk),
+    ("frames", "--frames", BenchKind::Walk),
+    ("speed", "--speed", BenchKind::Walk),
+    ("cuts", "--cuts", BenchKind::Walk),
+    ("coherence", "--coherence", BenchKind::Walk),
+    ("hierarchy", "--hierarchy", BenchKind::Walk),
+    ("occluders", "--occluders", BenchKind::Walk),
+    ("no_cost_model", "--no-cost-model", BenchKind::Walk),
+    ("depth_check", "--depth-check", BenchKind::Walk),
+    ("hv_priming", "--hv-priming", BenchKind::Walk),
+    ("width", "--width", BenchKind::Walk),
+    ("height", "--height", BenchKind::Walk),
+    ("threads", "--threads", BenchKind::Walk),
+];
+
 /// `hom bench`.
 #[derive(Args)]
 pub struct BenchArgs {
@@ -722,37 +747,18 @@ pub struct BenchArgs {
 }
 
 impl BenchArgs {
-    /// The flags given that this kind of bench does not read (the walk's
-    /// with `raster`, the raster's with `walk`): an error, not silently ignored.
-    pub fn foreign_flags(&self) -> Vec<&'static str> {
-        let given = match self.kind {
-            BenchKind::Raster => vec![
-                ("--renderer", self.renderer != RendererArg::Software),
-                ("--scenes", !self.scenes.is_empty()),
-                ("--camera-path", self.camera_path.is_some()),
-                ("--budget", self.budget.is_some()),
-                ("--clusters", self.clusters != Clusters::ON),
-                ("--cullers", self.cullers != ["frustum", "hom", "masked"]),
-                ("--frames", self.frames.is_some()),
-                ("--speed", self.speed.is_some()),
-                ("--cuts", self.cuts.is_some()),
-                ("--coherence", !self.coherence.is_empty()),
-                ("--hierarchy", !self.hierarchy.is_empty()),
-                ("--occluders", !self.occluders.is_empty()),
-                ("--no-cost-model", self.no_cost_model),
-                ("--depth-check", self.depth_check.is_some()),
-                ("--hv-priming", self.hv_priming),
-                ("--width", self.width.is_some()),
-                ("--height", self.height.is_some()),
-                ("--threads", self.threads != 0),
-            ],
-            BenchKind::Walk => vec![
-                ("--data", self.data != Path::new("../shared/bench-data/moc")),
-                ("--runs", self.runs != 5),
-                ("--raster-threads", self.raster_threads != [1, 2]),
-            ],
-        };
-        given.into_iter().filter(|&(_, g)| g).map(|(flag, _)| flag).collect()
+    /// The flags given on the command line (`bench`: the subcommand's
+    /// matches) that this kind of bench does not read: an error, not
+    /// silently ignored. Asked of clap, so a flag given at its default value
+    /// counts and a default changed in one place cannot drift.
+    pub fn foreign_flags(&self, bench: &clap::ArgMatches) -> Vec<&'static str> {
+        BENCH_KIND_FLAGS
+            .iter()
+            .filter(|&&(id, _, kind)| {
+                kind != self.kind && bench.value_source(id) == Some(clap::parser::ValueSource::CommandLine)
+            })
+            .map(|&(_, flag, _)| flag)
+            .collect()
     }
 
     /// The JSON file to write: `--json` as given, else the kind's default.
@@ -801,21 +807,31 @@ mod tests {
         Cli::command().debug_assert();
     }
 
+    /// The flags `hom bench ARGS` was given that its kind does not read.
+    fn foreign(args: &[&str]) -> Vec<&'static str> {
+        let matches = Cli::command()
+            .try_get_matches_from(["hom", "bench"].iter().chain(args))
+            .unwrap();
+        let bench_matches = matches.subcommand_matches("bench").unwrap();
+        bench(args).foreign_flags(bench_matches)
+    }
+
     #[test]
     fn bench_flags_of_the_other_kind_are_named() {
-        assert_eq!(bench(&[]).foreign_flags(), Vec::<&str>::new());
+        assert_eq!(foreign(&[]), Vec::<&str>::new());
+        assert_eq!(foreign(&["raster", "--runs", "3", "--data", "d"]), Vec::<&str>::new());
         assert_eq!(
-            bench(&["raster", "--runs", "3", "--data", "d"]).foreign_flags(),
-            Vec::<&str>::new()
-        );
-        assert_eq!(
-            bench(&["raster", "--scenes", "city", "--frames", "5", "--cullers", "hom"]).foreign_flags(),
+            foreign(&["raster", "--scenes", "city", "--frames", "5", "--cullers", "hom"]),
             ["--scenes", "--cullers", "--frames"]
         );
+        // At its default value, still named.
+        assert_eq!(foreign(&["raster", "--cullers", "frustum,hom,masked"]), ["--cullers"]);
         assert_eq!(
-            bench(&["walk", "--raster-threads", "1"]).foreign_flags(),
-            ["--raster-threads"]
+            foreign(&["walk", "--raster-threads", "1", "--runs", "5"]),
+            ["--runs", "--raster-threads"]
         );
+        // Each call above asks clap for every id of the other kind, and clap
+        // panics on an id that is not one of the command's.
     }
 
     #[test]

@@ -10,7 +10,7 @@ mod setup;
 mod table;
 
 use args::{Cli, Command, OccludersCommand, PvsCommand, SceneCommand};
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 
 /// Output cut short by its reader (`hom scenes | head -1`) is not an error:
 /// `println!` panics when the pipe is closed, so that one panic ends the
@@ -33,13 +33,16 @@ fn quiet_when_the_reader_leaves() {
 
 fn main() {
     quiet_when_the_reader_leaves();
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Demo(a) => commands::demo::run(a),
         Command::Walk(a) => commands::walk::run(a),
         Command::View(a) => commands::view::run(a),
         Command::Render(a) => commands::render::run(a),
-        Command::Bench(a) => commands::bench::run(a),
+        Command::Bench(a) => {
+            commands::bench::run(a, matches.subcommand_matches("bench").expect("parsed a bench command"))
+        }
         Command::Scenes => commands::scene::list(),
         Command::Scene { command } => match command {
             SceneCommand::Info { scene, clusters } => commands::scene::info(&scene, clusters),

@@ -6,9 +6,9 @@ use anyhow::{Context, Result};
 use hom_walk::pictures;
 use std::path::Path;
 
-/// Runs `hom bench`.
-pub fn run(a: BenchArgs) -> Result<()> {
-    let foreign = a.foreign_flags();
+/// Runs `hom bench`; `given` is the subcommand's matches (which flags were given).
+pub fn run(a: BenchArgs, given: &clap::ArgMatches) -> Result<()> {
+    let foreign = a.foreign_flags(given);
     if !foreign.is_empty() {
         let (kind, other) = match a.kind {
             BenchKind::Walk => ("walk", "raster"),
