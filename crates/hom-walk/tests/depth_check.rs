@@ -127,27 +127,3 @@ fn the_masked_buffer_checks_against_its_subtile_bounds() {
         );
     }
 }
-
-/// An object the check found visible is not checked in the next frame (it
-/// stays visible), and is in the one after; what the check culls stays culled.
-#[test]
-fn what_the_check_finds_visible_rests_a_frame() {
-    let (scene, camera, near, far) = sloped_walls(1.0, 384, 288);
-    let mut culler = MaskedCuller::new(&scene, checking(DepthCheck::IfDrawn).with_buffer(()));
-    let stats: Vec<_> = (0..3)
-        .map(|frame| {
-            let out = assert_no_false_culls(&scene, &camera, &mut culler);
-            assert!(out.visible.contains(&near), "frame {frame}: the near wall is seen");
-            assert!(out.occluded.contains(&far), "frame {frame}: the far wall is culled");
-            out.stats.depth_check.expect("the check ran")
-        })
-        .collect();
-    assert_eq!(stats[0].rested, 0, "{stats:?}");
-    assert!(
-        stats[0].checked >= 2,
-        "the near wall checked and found visible: {stats:?}"
-    );
-    assert!(stats[1].rested >= 1, "{stats:?}");
-    assert_eq!(stats[1].checked + stats[1].rested, stats[0].checked, "{stats:?}");
-    assert_eq!((stats[2].checked, stats[2].rested), (stats[0].checked, 0), "{stats:?}");
-}

@@ -2,8 +2,7 @@
 //! traversal left visible whose rectangle the occluders cover (depth aside)
 //! is asked again with its own triangles against the occluders' depth at
 //! every sample ([`SampleDepths`]), and culled when it lies behind them at
-//! every sample it covers. An object the check found visible is not checked
-//! in the next frame ([`RESTS`]).
+//! every sample it covers.
 //!
 //! Why: an object close behind its hider passes the coverage test and fails
 //! the box's depth test — its box's nearest corner is nearer than its
@@ -43,16 +42,6 @@ use glam::{Mat4, Vec4};
 /// costs more than the check saves. The clusters real levels are cut into
 /// have at most 64.
 pub const DEPTH_CHECK_MAX_TRIANGLES: u32 = 256;
-
-/// Frames an object the check found visible goes unchecked (it stays
-/// visible: always safe). Most checks find the object visible, and it
-/// usually still is a frame later (oa_shouse, masked: 226 checks a frame,
-/// 35 culled). One frame: the check's time 20-35 % lower, the masked cull's
-/// 5-20 % (median cull oa_shouse 1.76 -> 1.34 ms, racetrack 1.05 -> 0.91,
-/// oa_thor 1.08 -> 0.95), efficiency at most 1.3 points lower (oa_dm1);
-/// three frames: the check 35-60 % lower, but efficiency up to 3.2 points
-/// lower (oa_dm1 91.4 -> 88.2 %), for speedups within the runs' noise.
-const RESTS: u8 = 1;
 
 /// Where an occluder culler runs the per-sample depth check (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -113,9 +102,6 @@ pub(crate) struct DepthChecker {
     vertices: Vec<Vec4>,
     tris: Vec<Tri>,
     hidden: Vec<u32>,
-    /// Per object id, the frames left before it is checked again ([`RESTS`]
-    /// after a check found it visible).
-    rest: Vec<u8>,
 }
 
 impl DepthChecker {
@@ -133,7 +119,6 @@ impl DepthChecker {
             + crate::vec_bytes(&self.vertices)
             + crate::vec_bytes(&self.tris)
             + crate::vec_bytes(&self.hidden)
-            + crate::vec_bytes(&self.rest)
     }
 
     /// Checks the objects of `visible` (ascending) against `buffer`'s
@@ -155,17 +140,9 @@ impl DepthChecker {
         let mut stats = DepthCheckStats::default();
         self.depths.reset();
         self.hidden.clear();
-        if self.rest.len() < scene.objects().len() {
-            self.rest.resize(scene.objects().len(), 0);
-        }
         for &id in visible.iter() {
             let o = scene.object(id);
             if o.triangles > DEPTH_CHECK_MAX_TRIANGLES || o.is_removed() {
-                continue;
-            }
-            if self.rest[id as usize] > 0 {
-                self.rest[id as usize] -= 1;
-                stats.rested += 1;
                 continue;
             }
             let straddles = match project_points(&o.test_corners(), &world_to_clip, width, height) {
@@ -190,8 +167,6 @@ impl DepthChecker {
             stats.checked += 1;
             if buffer.triangles_hidden(&self.tris, &mut self.depths, self.draw)? {
                 self.hidden.push(id);
-            } else {
-                self.rest[id as usize] = RESTS;
             }
         }
         let s = self.depths.stats();
