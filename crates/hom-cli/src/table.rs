@@ -7,8 +7,9 @@ use hom_walk::WalkResult;
 /// Prints the scene's counts, then one row of medians per (culler name, walk).
 pub fn print_table(scene: &Scene, rows: &[(&str, &WalkResult)]) {
     println!(
-        "scene {}: {} objects, {} triangles ({} dynamic objects)",
+        "scene {}: {} objects in {} clusters, {} triangles ({} dynamic)",
         scene.name(),
+        scene.parent_count(),
         scene.objects().len(),
         scene.triangle_count(),
         scene.dynamic_count()

@@ -623,6 +623,7 @@ fn clusters_off_keeps_whole_objects_in_info_export_and_bench() {
     let obj = dir.path().join("ground.obj");
     std::fs::write(&obj, hom_testkit::grid_obj(40)).unwrap();
     let obj = obj.to_str().unwrap();
+    // "objects:    N in M clusters (D dynamic)": (N, M).
     let objects = |o: &Output| {
         assert!(o.status.success(), "{}", stderr(o));
         let out = String::from_utf8_lossy(&o.stdout).into_owned();
@@ -631,18 +632,20 @@ fn clusters_off_keeps_whole_objects_in_info_export_and_bench() {
             .find(|l| l.starts_with("objects:"))
             .expect("an objects line")
             .to_owned();
-        line.split_whitespace().nth(1).unwrap().parse::<usize>().unwrap()
+        let n = |k: usize| line.split_whitespace().nth(k).unwrap().parse::<usize>().unwrap();
+        (n(1), n(3))
     };
-    let on = objects(&hom(&["scene", "info", "--scene", obj]));
-    assert!(on >= 50, "3,200 triangles in clusters of at most 64: {on} objects");
+    let (one, on) = objects(&hom(&["scene", "info", "--scene", obj]));
+    assert!(on >= 50, "3,200 triangles in clusters of at most 64: {on} clusters");
+    assert_eq!(one, 1, "the clusters are of one object, the file's");
     assert_eq!(
         objects(&hom(&["scene", "info", "--scene", obj, "--clusters", "off"])),
-        1
+        (1, 1)
     );
     // `--clusters` alone is `on`.
-    assert_eq!(objects(&hom(&["scene", "info", "--scene", obj, "--clusters"])), on);
+    assert_eq!(objects(&hom(&["scene", "info", "--scene", obj, "--clusters"])), (1, on));
 
-    // Export writes one `o` per object either way.
+    // Export writes one `o` per cluster, or per object with `--clusters off`.
     let out = dir.path().join("out.obj");
     let count_o = |args: &[&str]| {
         let o = hom(args);
@@ -683,4 +686,5 @@ fn clusters_off_keeps_whole_objects_in_info_export_and_bench() {
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(report["scenes"][0]["clusters"], serde_json::json!(false));
     assert_eq!(report["scenes"][0]["objects"], serde_json::json!(1));
+    assert_eq!(report["scenes"][0]["cluster_count"], serde_json::json!(1));
 }

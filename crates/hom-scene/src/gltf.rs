@@ -253,11 +253,9 @@ fn convert(
                             let parts = split_mesh(&c.mesh, &local).map_err(scene_error)?;
                             c.pieces = Some(parts.into_iter().map(|m| builder.add_mesh(m)).collect());
                         }
-                        for (k, &piece) in c.pieces.iter().flatten().enumerate() {
-                            builder
-                                .add_object(format!("{name}_{k}"), piece, world)
-                                .map_err(scene_error)?;
-                        }
+                        let clusters = c.pieces.iter().flatten().enumerate();
+                        let clusters: Vec<_> = clusters.map(|(k, &piece)| (format!("{name}_{k}"), piece)).collect();
+                        builder.add_clusters(name, clusters, world).map_err(scene_error)?;
                     } else {
                         let id = *c.whole.get_or_insert_with(|| builder.add_mesh(c.mesh.clone()));
                         builder.add_object(name, id, world).map_err(scene_error)?;

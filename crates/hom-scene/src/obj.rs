@@ -369,7 +369,7 @@ fn build(parsed: Parsed, label: &str, stem: &str, split: &SplitOptions) -> Resul
 
     let single = parsed.groups.len() == 1;
     for (group, model) in parsed.groups.into_iter().zip(models) {
-        let id = builder.object_count();
+        let id = builder.parent_count();
         let name = if group.name.is_empty() {
             format!("object_{id}")
         } else {
@@ -392,11 +392,13 @@ fn build(parsed: Parsed, label: &str, stem: &str, split: &SplitOptions) -> Resul
         } else {
             vec![mesh]
         };
-        for part in parts {
-            let name = part.name().to_owned();
-            let mesh = builder.add_mesh(part);
-            builder.add_object(name, mesh, Mat4::IDENTITY).map_err(scene_error)?;
-        }
+        let clusters: Vec<(String, u32)> = parts
+            .into_iter()
+            .map(|part| (part.name().to_owned(), builder.add_mesh(part)))
+            .collect();
+        builder
+            .add_clusters(name, clusters, Mat4::IDENTITY)
+            .map_err(scene_error)?;
     }
     builder.build().map_err(scene_error)
 }

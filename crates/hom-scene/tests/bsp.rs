@@ -196,6 +196,36 @@ fn tiny_map_geometry_flags_and_units() {
     assert_eq!(m.object_clusters, vec![vec![0, 1], vec![1]]);
 }
 
+/// Cut finer than its faces, the tiny map's world is several clusters of one
+/// parent, `world_0`, and its glass keeps parent 1: the ids it has whole.
+#[test]
+fn a_maps_clusters_keep_the_ids_it_has_whole() {
+    let bytes = Map::tiny().bytes();
+    let with = |split| {
+        bsp::parse(
+            &bytes,
+            "tiny",
+            &BspOptions {
+                split,
+                ..BspOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let fine = with(hom_scene::split::SplitOptions {
+        max_triangles: 2,
+        ..Default::default()
+    });
+    let whole = with(hom_scene::split::SplitOptions {
+        enabled: false,
+        ..Default::default()
+    });
+    assert!(fine.scene.objects().len() > 2, "{}", fine.scene.objects().len());
+    hom_testkit::assert_clusters_of_whole_objects(&fine.scene, &whole.scene);
+    let names: Vec<&str> = (0..2).filter_map(|p| fine.scene.parent_name(p)).collect();
+    assert_eq!(names, vec!["world_0", "see_through_1"]);
+}
+
 /// A sky face (`SURF_SKY`, not nodraw) is an opaque wall in an object of its
 /// own after the others, as the player sees it; with `SkyFaces::Open` it is
 /// not drawn. A sky shader that is also nodraw is never drawn.

@@ -110,6 +110,7 @@ fn terrain_is_two_triangles_per_cell_cut_into_cluster_sized_occluders() {
     let whole = etr::load(&dim_file(&dir), &options).unwrap();
     assert_eq!(whole.scene.objects().len(), 1);
     assert_eq!(whole.scene.triangle_count(), 2 * 39 * 29);
+    hom_testkit::assert_clusters_of_whole_objects(s, &whole.scene);
 }
 
 #[test]

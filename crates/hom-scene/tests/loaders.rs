@@ -870,6 +870,20 @@ fn a_single_big_obj_object_is_split_unless_turned_off() {
     assert_eq!(names(&small), vec!["ground", "other"]);
     let whole = obj::parse_with(format!("{text}{other}").as_bytes(), Path::new("test.obj"), &off).unwrap();
     assert_eq!(names(&whole), vec!["ground", "other"]);
+    // The cut ground's clusters keep its id (parent 0), "other" keeps 1.
+    hom_testkit::assert_clusters_of_whole_objects(&two, &whole);
+    assert_eq!(two.object(two.objects().len() as u32 - 1).parent(), 1);
+    let unnamed = format!("{text}o\nv 0 1 0\nv 1 1 0\nv 0 1 1\nf -1 -2 -3\n");
+    let (cut, whole) = (
+        load_obj_text(&unnamed).unwrap(),
+        obj::parse_with(unnamed.as_bytes(), Path::new("u.obj"), &off).unwrap(),
+    );
+    hom_testkit::assert_clusters_of_whole_objects(&cut, &whole);
+    assert_eq!(
+        cut.parent_name(1),
+        Some("object_1"),
+        "an unnamed object is named by its id, not its clusters'"
+    );
 }
 
 /// A glTF strip of `n` unit quads along +X (one mesh, "strip") instanced by
@@ -946,6 +960,7 @@ fn a_gltf_mesh_that_spans_the_level_is_cut_per_node() {
     let whole = hom_scene::gltf::load_with(&dir.path().join("strip.gltf"), &off).unwrap();
     assert_eq!(names(&whole), vec!["long", "short"]);
     assert_eq!(all_world_triangles(&cut), all_world_triangles(&whole));
+    hom_testkit::assert_clusters_of_whole_objects(&cut, &whole);
     // Scaled up 4×, "short" spans too: it shares the cut "long" made (pieces of
     // 3 m in the mesh's space, so 12 m of centroids in its world) and names them.
     let both = load_gltf_doc(dir.path(), "both.gltf", &strip_document(40, 4.0)).unwrap();
@@ -953,5 +968,7 @@ fn a_gltf_mesh_that_spans_the_level_is_cut_per_node() {
     assert_eq!(shorts.len(), n - 1);
     assert_eq!(both.objects().len(), 2 * (n - 1));
     assert!(shorts.iter().all(|o| o.aabb.extent().max_element() <= 4.0 * 4.0 + 0.01));
+    let both_whole = hom_scene::gltf::load_with(&dir.path().join("both.gltf"), &off).unwrap();
+    hom_testkit::assert_clusters_of_whole_objects(&both, &both_whole);
     assert_eq!(both.meshes().len(), n - 1, "the two nodes share the pieces' meshes");
 }

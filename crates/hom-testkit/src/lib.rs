@@ -180,6 +180,36 @@ pub fn assert_no_false_culls(scene: &Scene, camera: &Camera, culler: &mut dyn Cu
     out
 }
 
+/// Panics unless `cut` (a file loaded with clusters) is `whole` (the same
+/// file loaded with splitting off) cut into clusters: one parent per whole
+/// object, with its name, id and occluder flag; each parent's clusters
+/// consecutive, in parent order, holding its triangles.
+pub fn assert_clusters_of_whole_objects(cut: &Scene, whole: &Scene) {
+    assert_eq!(cut.parent_count(), whole.objects().len(), "one parent per whole object");
+    assert_eq!(
+        whole.parent_count(),
+        whole.objects().len(),
+        "uncut objects are their own parents"
+    );
+    let mut triangles = vec![0u64; whole.objects().len()];
+    let mut last = 0;
+    for o in cut.objects() {
+        assert!(o.parent() >= last, "{}: clusters in parent order", o.name);
+        last = o.parent();
+        triangles[o.parent() as usize] += u64::from(o.triangles);
+        assert_eq!(
+            o.occluder,
+            whole.object(o.parent()).occluder,
+            "{}: occluder flag",
+            o.name
+        );
+    }
+    for (p, w) in (0u32..).zip(whole.objects()) {
+        assert_eq!(cut.parent_name(p), Some(w.name.as_str()), "parent {p}");
+        assert_eq!(triangles[p as usize], u64::from(w.triangles), "parent {p} ({})", w.name);
+    }
+}
+
 /// Where a stand-in breaks the virtual-occluder guarantee from `camera`
 /// (Law & Tan 1999, section 4: an occluder's stand-in must never hide what
 /// the original would not): the samples the stand-in covers, as the cullers

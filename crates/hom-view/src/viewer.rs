@@ -49,9 +49,10 @@ impl Default for ViewerOptions {
 /// What one frame drew and what it cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameFigures {
-    /// Objects drawn.
+    /// Objects drawn: the scene's objects as the cullers see them, a cut
+    /// object's clusters each counted ([`hom::scene::Object::parent`]).
     pub objects_drawn: usize,
-    /// Live objects of the scene.
+    /// Live objects of the scene, counted as `objects_drawn`.
     pub objects: usize,
     /// Triangles drawn.
     pub triangles_drawn: u64,

@@ -109,7 +109,7 @@ fn a_walk_timed_by_wgpu_keeps_the_software_walks_frames() {
     assert_eq!(software.header.renderer, "software");
     assert!(wgpu.header.renderer.starts_with("wgpu: "));
     for (s, w) in software.frames.iter().zip(&wgpu.frames) {
-        assert_eq!(s.visible, w.visible, "frame {}", s.frame);
+        assert_eq!(s.visible_clusters, w.visible_clusters, "frame {}", s.frame);
         let o = w.oracle.as_ref().unwrap();
         assert!(o.false_culls.is_empty(), "frame {}: {:?}", w.frame, o.false_culls);
         assert!(w.stages_ms["render"] > 0.0, "frame {}", w.frame);

@@ -245,8 +245,12 @@ pub struct BenchScene {
     pub spec: String,
     /// The scene's own name.
     pub name: String,
-    /// Number of objects.
+    /// Number of objects as the file or generator names them (parents,
+    /// [`hom::scene::Object::parent`]).
     pub objects: usize,
+    /// Number of what is culled and drawn: the objects' clusters (an object
+    /// not cut is one).
+    pub cluster_count: usize,
     /// Number of triangles.
     pub triangles: u64,
     /// Number of dynamic objects.
@@ -313,6 +317,11 @@ pub struct BenchRow {
     pub median_pct_triangles_culled: f64,
     /// Median percentage of all triangles culled as occluded.
     pub median_pct_occlusion_culled: f64,
+    /// Median objects drawn per frame (parents: an object is drawn when any
+    /// of its clusters is; the oracle row: those it sees).
+    pub median_objects_drawn: f64,
+    /// Median clusters drawn per frame (the oracle row: those it sees).
+    pub median_clusters_drawn: f64,
     /// Occlusion-culled triangles ÷ invisible in-frustum triangles.
     pub efficiency: Option<f64>,
     /// Mean objects drawn per frame that own no pixel.
@@ -552,7 +561,8 @@ pub fn run_bench_drawn(
         report.scenes.push(BenchScene {
             spec: spec.to_string(),
             name: scene.name().to_string(),
-            objects: scene.objects().len(),
+            objects: scene.parent_count(),
+            cluster_count: scene.objects().len(),
             triangles: scene.triangle_count(),
             dynamic_objects: scene.dynamic_count(),
             width: path.width,
@@ -661,6 +671,8 @@ fn culler_row(
         median_baseline_frame_ms: s.median_baseline_frame_ms,
         median_pct_triangles_culled: s.median_pct_triangles_culled,
         median_pct_occlusion_culled: s.median_pct_occlusion_culled,
+        median_objects_drawn: s.median_objects_drawn,
+        median_clusters_drawn: s.median_clusters_drawn,
         efficiency: s.efficiency,
         mean_hidden_drawn: s.mean_hidden_drawn,
         mean_hidden_occluders_drawn: s.mean_hidden_occluders_drawn,
@@ -738,6 +750,12 @@ fn oracle_row(
         median_baseline_frame_ms: Some(median(frames.iter().filter_map(|f| f.baseline_frame_ms))),
         median_pct_triangles_culled: pct_culled,
         median_pct_occlusion_culled: pct_occluded,
+        median_objects_drawn: median(
+            oracle_frames
+                .iter()
+                .map(|(_, o)| scene.parents_of(&o.oracle_visible).len() as f64),
+        ),
+        median_clusters_drawn: median(oracle_frames.iter().map(|(_, o)| o.oracle_visible.len() as f64)),
         efficiency: (invisible > 0).then_some(1.0),
         mean_hidden_drawn: Some(0.0),
         mean_hidden_occluders_drawn: Some(0.0),
@@ -776,8 +794,16 @@ impl BenchReport {
         for sc in &self.scenes {
             let _ = writeln!(
                 s,
-                "scene {}: {} objects, {} triangles ({} dynamic), {}x{}, {} frames, path {}",
-                sc.name, sc.objects, sc.triangles, sc.dynamic_objects, sc.width, sc.height, sc.frames, sc.path
+                "scene {}: {} objects in {} clusters, {} triangles ({} dynamic), {}x{}, {} frames, path {}",
+                sc.name,
+                sc.objects,
+                sc.cluster_count,
+                sc.triangles,
+                sc.dynamic_objects,
+                sc.width,
+                sc.height,
+                sc.frames,
+                sc.path
             );
         }
         let _ = writeln!(

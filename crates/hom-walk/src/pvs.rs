@@ -192,7 +192,7 @@ pub fn pvs_frame(
 /// oracle count is 0 and no violation can be found).
 pub fn pvs_for_record(pvs: &impl ClusterPvs, scene: &Scene, camera: &Camera, record: &FrameRecord) -> PvsFrame {
     let oracle: &[u32] = record.oracle.as_ref().map_or(&[], |o| &o.oracle_visible);
-    pvs_frame(pvs, scene, camera, &record.visible, oracle)
+    pvs_frame(pvs, scene, camera, &record.visible_clusters, oracle)
 }
 
 /// The yardstick over a walk.

@@ -16,8 +16,12 @@ pub struct Header {
     pub kind: &'static str,
     /// Scene name.
     pub scene: String,
-    /// Number of objects.
+    /// Number of objects as the file or generator names them (parents,
+    /// [`hom::scene::Object::parent`]): the ids `visible` lists.
     pub objects: usize,
+    /// Number of what is culled and drawn: the objects' clusters (an object
+    /// not cut is one), the ids `visible_clusters` lists.
+    pub cluster_count: usize,
     /// Number of triangles (all objects).
     pub triangles: u64,
     /// Number of dynamic objects.
@@ -55,7 +59,8 @@ impl Header {
         Header {
             kind: "header",
             scene: scene.name().to_string(),
-            objects: scene.objects().len(),
+            objects: scene.parent_count(),
+            cluster_count: scene.objects().len(),
             triangles: scene.triangle_count(),
             dynamic_objects: scene.dynamic_count(),
             width: path.width,
@@ -70,10 +75,11 @@ impl Header {
     }
 }
 
-/// What the oracle found for one frame.
+/// What the oracle found for one frame. It works per cluster: every id here
+/// is a cluster's (`visible_clusters`), and so is every count.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct OracleFrame {
-    /// Sorted ids of objects owning at least one pixel.
+    /// Sorted ids of clusters owning at least one pixel.
     pub oracle_visible: Vec<u32>,
     /// Sorted ids culled by the culler (either reason) that own at least one pixel.
     pub false_culls: Vec<u32>,
@@ -110,17 +116,26 @@ pub struct FrameRecord {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Sorted ids sent to the renderer.
+    /// Sorted ids of the objects drawn, as the file or generator names them
+    /// (parents, [`hom::scene::Object::parent`]): an object is drawn when
+    /// any of its clusters is. Equal to `visible_clusters` where nothing was cut.
     pub visible: Vec<u32>,
-    /// Ids of this frame's occluders.
+    /// Sorted ids of the clusters sent to the renderer: what the cullers
+    /// test and the renderer draws; the ids every other list here uses.
+    pub visible_clusters: Vec<u32>,
+    /// Objects drawn (`visible`'s length).
+    pub objects_drawn: u64,
+    /// Clusters drawn (`visible_clusters`' length).
+    pub clusters_drawn: u64,
+    /// Cluster ids of this frame's occluders.
     pub occluders: Vec<u32>,
     /// Triangles sent to the renderer.
     pub triangles_drawn: u64,
-    /// Objects culled by the view frustum.
+    /// Clusters culled by the view frustum.
     pub objects_frustum_culled: u64,
     /// Triangles culled by the view frustum.
     pub triangles_frustum_culled: u64,
-    /// Objects culled as occluded.
+    /// Clusters culled as occluded.
     pub objects_occlusion_culled: u64,
     /// Triangles culled as occluded.
     pub triangles_occlusion_culled: u64,
@@ -182,6 +197,10 @@ pub struct Summary {
     pub median_pct_occlusion_culled: f64,
     /// Median triangles drawn per frame.
     pub median_triangles_drawn: f64,
+    /// Median objects drawn per frame (`objects_drawn`).
+    pub median_objects_drawn: f64,
+    /// Median clusters drawn per frame (`clusters_drawn`).
+    pub median_clusters_drawn: f64,
     /// Falsely culled objects, summed over frames.
     pub false_culls: Option<u64>,
     /// Frames with at least one false cull.

@@ -462,6 +462,7 @@ pub fn walk_drawn(
             stages_ms.insert("lod".into(), l.lod_ms);
         }
         stages_ms.insert("render".into(), render_ms);
+        let visible = scene.parents_of(&out.visible);
         let record = FrameRecord {
             kind: "frame",
             frame: i,
@@ -469,7 +470,10 @@ pub fn walk_drawn(
             view_proj: camera.view_proj().to_cols_array(),
             width: camera.width,
             height: camera.height,
-            visible: out.visible.clone(),
+            objects_drawn: visible.len() as u64,
+            visible,
+            visible_clusters: out.visible.clone(),
+            clusters_drawn: out.visible.len() as u64,
             occluders: out.occluders.clone(),
             triangles_drawn,
             objects_frustum_culled,
@@ -559,6 +563,8 @@ pub fn summarize(frames: &[FrameRecord], total_triangles: u64) -> Summary {
                 .map(|f| 100.0 * f.triangles_occlusion_culled as f64 / total),
         ),
         median_triangles_drawn: median(frames.iter().map(|f| f.triangles_drawn as f64)),
+        median_objects_drawn: median(frames.iter().map(|f| f.objects_drawn as f64)),
+        median_clusters_drawn: median(frames.iter().map(|f| f.clusters_drawn as f64)),
         false_culls: oracles
             .as_ref()
             .map(|o| o.iter().map(|f| f.false_culls.len() as u64).sum()),
@@ -594,6 +600,9 @@ mod tests {
             width: 1,
             height: 1,
             visible: Vec::new(),
+            visible_clusters: Vec::new(),
+            objects_drawn: 0,
+            clusters_drawn: 0,
             occluders: Vec::new(),
             triangles_drawn: 0,
             objects_frustum_culled: 0,

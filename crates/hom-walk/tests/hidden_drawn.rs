@@ -35,7 +35,12 @@ fn run(name: &str, scene: &mut Scene, built: &hom_scene::Builtin, renderer: &Ren
 fn hidden(f: &FrameRecord) -> (BTreeSet<u32>, BTreeSet<u32>) {
     let o = f.oracle.as_ref().expect("walked with the oracle");
     let seen: BTreeSet<u32> = o.oracle_visible.iter().copied().collect();
-    let drawn: BTreeSet<u32> = f.visible.iter().copied().filter(|id| !seen.contains(id)).collect();
+    let drawn: BTreeSet<u32> = f
+        .visible_clusters
+        .iter()
+        .copied()
+        .filter(|id| !seen.contains(id))
+        .collect();
     let occluders = drawn.iter().copied().filter(|id| f.occluders.contains(id)).collect();
     (drawn, occluders)
 }

@@ -171,7 +171,7 @@ fn sampled_builtin_walks_are_exact() {
                 f.frame,
                 oracle.false_culls
             );
-            assert_eq!(f.visible, oracle.oracle_visible, "{name} frame {}", f.frame);
+            assert_eq!(f.visible_clusters, oracle.oracle_visible, "{name} frame {}", f.frame);
             assert!(f.stats.hv.unwrap().depth_comparisons() > 0, "{name} frame {}", f.frame);
         }
     }
@@ -221,8 +221,8 @@ fn coherence_and_priming_save_work_on_the_city_walk() {
     let exact = run(Coherence::Exact, false);
     let primed = run(Coherence::Exact, true);
     for ((a, b), c) in classical.frames.iter().zip(&exact.frames).zip(&primed.frames) {
-        assert_eq!(a.visible, b.visible, "frame {}", a.frame);
-        assert_eq!(a.visible, c.visible, "frame {}", a.frame);
+        assert_eq!(a.visible_clusters, b.visible_clusters, "frame {}", a.frame);
+        assert_eq!(a.visible_clusters, c.visible_clusters, "frame {}", a.frame);
     }
     let (off, on) = (sum(&classical, |s| s.node_tests), sum(&exact, |s| s.node_tests));
     assert!(on * 100 < off * 95, "exact made {on} node tests, classical {off}");

@@ -233,6 +233,7 @@ pub struct Object {
     removed: bool,
     /// The scene's structure revision when this object last changed structurally.
     changed: u64,
+    parent: u32,
 }
 
 impl Object {
@@ -260,6 +261,14 @@ impl Object {
         self.removed
     }
 
+    /// The id of the object this one is part of, as the file or the engine
+    /// named it ([`Scene::parent_name`]): itself, numbered among the parents,
+    /// unless it is one cluster of an object cut by [`Scene::add_clusters`].
+    /// Reports list parents as `visible` and objects as `visible_clusters`.
+    pub fn parent(&self) -> u32 {
+        self.parent
+    }
+
     /// The scene's [`Revision::structure`] at which this object was added,
     /// removed, became dynamic or changed its occluder flag.
     pub fn changed_at(&self) -> u64 {
@@ -283,11 +292,21 @@ pub struct Revision {
 /// A scene: meshes and the objects that place them. An engine keeps it in
 /// step with its own world — [`Scene::add_object`], [`Scene::set_transform`],
 /// [`Scene::remove_object`] — and the cullers built for it follow.
+///
+/// **Objects and clusters.** An [`Object`] is what the cullers test and the
+/// renderer draws. A loader that cuts a big mesh into clusters
+/// ([`Scene::add_clusters`]) adds one object per cluster; each knows the
+/// object it is part of ([`Object::parent`]), whose id — the index among
+/// parents, in the order they were added — is the id the same file has
+/// loaded whole (`--clusters off`). An object added whole is its own and
+/// only cluster.
 #[derive(Debug)]
 pub struct Scene {
     name: String,
     meshes: Vec<Mesh>,
     objects: Vec<Object>,
+    /// The parents' names, by parent id.
+    parents: Vec<String>,
     triangle_count: u64,
     dynamic_count: usize,
     live_count: usize,
@@ -308,6 +327,7 @@ impl Clone for Scene {
             name: self.name.clone(),
             meshes: self.meshes.clone(),
             objects: self.objects.clone(),
+            parents: self.parents.clone(),
             triangle_count: self.triangle_count,
             dynamic_count: self.dynamic_count,
             live_count: self.live_count,
@@ -364,6 +384,21 @@ impl SceneBuilder {
         self.scene.add_dynamic_object(name, mesh, transform)
     }
 
+    /// Adds object `name` cut into clusters; see [`Scene::add_clusters`].
+    pub fn add_clusters(
+        &mut self,
+        name: impl Into<String>,
+        clusters: impl IntoIterator<Item = (String, MeshId)>,
+        transform: Mat4,
+    ) -> Result<std::ops::Range<u32>, SceneError> {
+        self.scene.add_clusters(name, clusters, transform)
+    }
+
+    /// Number of parents added so far (the id the next one gets).
+    pub fn parent_count(&self) -> usize {
+        self.scene.parents.len()
+    }
+
     /// Marks object `id` as one that may (`true`, the default) or must never (`false`)
     /// be used as an occluder, for example a see-through surface. Returns false when
     /// no object has this id.
@@ -387,6 +422,7 @@ impl Scene {
             name: name.into(),
             meshes: Vec::new(),
             objects: Vec::new(),
+            parents: Vec::new(),
             triangle_count: 0,
             dynamic_count: 0,
             live_count: 0,
@@ -424,20 +460,62 @@ impl Scene {
         self.push(name.into(), mesh, transform, true)
     }
 
+    /// Adds the static object `name` cut into clusters: one object per
+    /// `(cluster name, mesh)`, each placing its mesh with `transform`, all
+    /// with one new parent called `name` ([`Object::parent`]). Returns the
+    /// clusters' ids (consecutive). Nothing is added when a mesh id is
+    /// unknown or the transform is bad; no clusters add nothing.
+    pub fn add_clusters(
+        &mut self,
+        name: impl Into<String>,
+        clusters: impl IntoIterator<Item = (String, MeshId)>,
+        transform: Mat4,
+    ) -> Result<std::ops::Range<u32>, SceneError> {
+        let name = name.into();
+        let clusters: Vec<(String, MeshId)> = clusters.into_iter().collect();
+        let first = self.objects.len() as u32;
+        if clusters.is_empty() {
+            return Ok(first..first);
+        }
+        for (cluster, mesh) in &clusters {
+            self.check(cluster, *mesh, &transform, clusters.len())?;
+        }
+        let parent = self.parents.len() as u32;
+        self.parents.push(name);
+        for (cluster, mesh) in clusters {
+            self.push_checked(cluster, mesh, transform, false, parent);
+        }
+        Ok(first..self.objects.len() as u32)
+    }
+
     fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, dynamic: bool) -> Result<u32, SceneError> {
-        let Some(m) = self.meshes.get(mesh as usize) else {
+        self.check(&name, mesh, &transform, 1)?;
+        let parent = self.parents.len() as u32;
+        self.parents.push(name.clone());
+        Ok(self.push_checked(name, mesh, transform, dynamic, parent))
+    }
+
+    /// Whether `adding` more objects, the first placing `mesh` with `transform`, may be added.
+    fn check(&self, name: &str, mesh: MeshId, transform: &Mat4, adding: usize) -> Result<(), SceneError> {
+        if self.meshes.get(mesh as usize).is_none() {
             return Err(SceneError::UnknownMesh {
-                object: name,
+                object: name.to_string(),
                 mesh,
                 mesh_count: self.meshes.len(),
             });
-        };
-        check_transform(&name, &transform)?;
-        if self.objects.len() >= (u32::MAX - 1) as usize {
+        }
+        check_transform(name, transform)?;
+        if self.objects.len().saturating_add(adding) > (u32::MAX - 1) as usize {
             return Err(SceneError::TooManyObjects {
-                count: self.objects.len() + 1,
+                count: self.objects.len() + adding,
             });
         }
+        Ok(())
+    }
+
+    /// Adds an object [`Scene::check`] accepted.
+    fn push_checked(&mut self, name: String, mesh: MeshId, transform: Mat4, dynamic: bool, parent: u32) -> u32 {
+        let m = &self.meshes[mesh as usize];
         let bounds = m.bounds();
         let triangles = m.triangle_count() as u32;
         self.revision.structure += 1;
@@ -452,11 +530,12 @@ impl Scene {
             dynamic,
             removed: false,
             changed: self.revision.structure,
+            parent,
         });
         self.triangle_count += u64::from(triangles);
         self.dynamic_count += usize::from(dynamic);
         self.live_count += 1;
-        Ok((self.objects.len() - 1) as u32)
+        (self.objects.len() - 1) as u32
     }
 
     /// The live object `id`, mutably, for the changes below.
@@ -552,6 +631,29 @@ impl Scene {
     /// The live object with id `id`, if there is one.
     pub fn get(&self, id: u32) -> Option<&Object> {
         self.objects.get(id as usize).filter(|o| !o.removed)
+    }
+
+    /// Number of parents ([`Object::parent`]): the objects as the file or
+    /// the engine named them, before any was cut into clusters.
+    pub fn parent_count(&self) -> usize {
+        self.parents.len()
+    }
+
+    /// The name of parent `parent`, if there is one.
+    pub fn parent_name(&self, parent: u32) -> Option<&str> {
+        self.parents.get(parent as usize).map(String::as_str)
+    }
+
+    /// The sorted, distinct parents of objects `ids` (an object is visible
+    /// when any of its clusters is).
+    ///
+    /// # Panics
+    /// If an id is not an object id of this scene.
+    pub fn parents_of(&self, ids: &[u32]) -> Vec<u32> {
+        let mut parents: Vec<u32> = ids.iter().map(|&id| self.objects[id as usize].parent).collect();
+        parents.sort_unstable();
+        parents.dedup();
+        parents
     }
 
     /// The mesh an object places.
@@ -660,6 +762,43 @@ mod tests {
             s.clone().revision().scene,
             s.revision().scene,
             "a clone is another scene"
+        );
+    }
+
+    #[test]
+    fn clusters_share_their_parent_and_whole_objects_are_their_own() {
+        let mut s = Scene::new("cut");
+        let m = s.add_mesh(quad());
+        let n = s.add_mesh(quad());
+        let lamp = s.add_object("lamp", m, Mat4::IDENTITY).unwrap();
+        let parts = vec![("road_0".to_string(), m), ("road_1".to_string(), n)];
+        let road = s.add_clusters("road", parts, Mat4::from_translation(Vec3::X)).unwrap();
+        let car = s.add_dynamic_object("car", n, Mat4::IDENTITY).unwrap();
+        assert_eq!((lamp, road.clone(), car), (0, 1..3, 3));
+        let parents: Vec<u32> = s.objects().iter().map(Object::parent).collect();
+        assert_eq!(parents, vec![0, 1, 1, 2]);
+        assert_eq!(s.parent_count(), 3);
+        let names: Vec<&str> = (0..3).filter_map(|p| s.parent_name(p)).collect();
+        assert_eq!(names, vec!["lamp", "road", "car"]);
+        assert_eq!((s.object(2).name.as_str(), s.parent_name(3)), ("road_1", None));
+        assert_eq!(s.parents_of(&[3, 2, 1]), vec![1, 2], "one road, one car");
+        assert_eq!((s.live_count(), s.triangle_count()), (4, 8));
+
+        let bad = vec![("a".to_string(), m), ("b".to_string(), 9)];
+        assert!(matches!(
+            s.add_clusters("bad", bad, Mat4::IDENTITY),
+            Err(SceneError::UnknownMesh { mesh: 9, .. })
+        ));
+        let nan = Mat4::from_scale(Vec3::NAN);
+        assert!(matches!(
+            s.add_clusters("nan", vec![("a".to_string(), m)], nan),
+            Err(SceneError::BadTransform { .. })
+        ));
+        assert_eq!(s.add_clusters("none", Vec::new(), Mat4::IDENTITY).unwrap(), 4..4);
+        assert_eq!(
+            (s.objects().len(), s.parent_count()),
+            (4, 3),
+            "a refused object adds nothing"
         );
     }
 }

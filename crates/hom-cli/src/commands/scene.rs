@@ -33,12 +33,16 @@ pub fn info(spec: &str, clusters: Clusters) -> Result<()> {
     let dynamic = scene.dynamic_count();
     let max_tris = scene.objects().iter().map(|o| o.triangles).max().unwrap_or(0);
     println!("scene:      {}", scene.name());
-    println!("objects:    {} ({dynamic} dynamic)", scene.objects().len());
+    println!(
+        "objects:    {} in {} clusters ({dynamic} dynamic)",
+        scene.parent_count(),
+        scene.objects().len()
+    );
     let vertices: usize = scene.meshes().iter().map(|m| m.positions().len()).sum();
     println!("meshes:     {} ({vertices} vertices)", scene.meshes().len());
     println!("triangles:  {}", scene.triangle_count());
     println!(
-        "per object: {:.0} triangles on average, {max_tris} at most",
+        "per cluster: {:.0} triangles on average, {max_tris} at most",
         scene.triangle_count() as f64 / scene.objects().len() as f64
     );
     println!("bounds:     {:?} .. {:?}", b.min.to_array(), b.max.to_array());
@@ -51,15 +55,22 @@ pub fn info(spec: &str, clusters: Clusters) -> Result<()> {
     Ok(())
 }
 
-/// `hom scene export`: the scene `spec` as OBJ in `out`, one `o` per object
-/// (per cluster-sized object with `--clusters on`).
+/// `hom scene export`: the scene `spec` as OBJ in `out`, one `o` per
+/// cluster in cluster-id order (`--clusters`, the default: the ids of a
+/// report's `visible_clusters`), or per whole object (`--clusters off`: the
+/// ids of its `visible`).
 pub fn export(spec: &str, out: &Path, clusters: Clusters) -> Result<()> {
     let scene = hom_walk::open_walk_with(spec, &clusters.load_options())?.scene;
     hom_scene::export::write_obj(&scene, out)?;
     println!(
-        "wrote {} ({} objects, {} triangles)",
+        "wrote {} ({} {}, {} triangles)",
         out.display(),
         scene.objects().len(),
+        if clusters.switch == crate::args::OnOff::On {
+            "clusters"
+        } else {
+            "objects"
+        },
         scene.triangle_count()
     );
     Ok(())

@@ -21,7 +21,9 @@
 //!   metres: `(x, y, z) → (x, z, −y) × 0.0254` (a rotation, so handedness is kept).
 //! - **Objects:** faces are never cut; they are grouped by [`crate::split`]:
 //!   opaque faces first, then see-through ones, then sky, each in the splitter's
-//!   documented order. Object ids are that order.
+//!   documented order. Object ids are that order. Their parents
+//!   ([`hom::scene::Object::parent`]) are what the map loads as with
+//!   splitting off: `world_0`, then `see_through_K` and `sky_K` where the map has them.
 //! - **Spawn points** (`info_player_*` but `info_player_intermission`,
 //!   `team_CTF_*spawn`, `team_CTF_*player`) and a walkthrough through them.
 //! - **The map's PVS:** [`BspMap::cluster_of`], [`BspMap::cluster_visible`] and
@@ -859,13 +861,14 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
                 triangles: tr.len() as u32,
             })
             .collect();
+        let label = match kind {
+            Surface::SeeThrough => "see_through",
+            Surface::Sky => "sky",
+            _ => "world",
+        };
+        let mut parts = Vec::new();
         for group in group_pieces(&pieces, &options.split) {
-            let id = builder.object_count();
-            let label = match kind {
-                Surface::SeeThrough => "see_through",
-                Surface::Sky => "sky",
-                _ => "world",
-            };
+            let id = builder.object_count() + parts.len();
             let object_name = format!("{label}_{id}");
             let tris: Vec<[u32; 3]> = group
                 .iter()
@@ -889,10 +892,13 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             object_solid_leaves.push(unclustered);
             let scene_err = |source| BspError::BadGeometry { source };
             let mesh = compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
-            let mesh = builder.add_mesh(mesh);
-            let id = builder
-                .add_object(object_name, mesh, Mat4::IDENTITY)
-                .map_err(scene_err)?;
+            parts.push((object_name, builder.add_mesh(mesh)));
+        }
+        let name = format!("{label}_{}", builder.parent_count());
+        let ids = builder
+            .add_clusters(name, parts, Mat4::IDENTITY)
+            .map_err(|source| BspError::BadGeometry { source })?;
+        for id in ids {
             builder.set_occluder(id, kind != Surface::SeeThrough);
         }
     }

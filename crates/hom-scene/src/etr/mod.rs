@@ -690,13 +690,16 @@ fn build(
         })
         .collect();
     let mut builder = SceneBuilder::new(name);
-    for group in group_pieces(&pieces, &options.split) {
-        let id = builder.object_count();
+    let mut clusters = Vec::new();
+    for (id, group) in group_pieces(&pieces, &options.split).into_iter().enumerate() {
         let object_name = format!("terrain_{id}");
         let tris: Vec<[u32; 3]> = group.iter().flat_map(|&c| cell_triangles(c as usize)).collect();
-        let mesh = builder.add_mesh(compact(object_name.clone(), &positions, &tris)?);
-        builder.add_object(object_name, mesh, Mat4::IDENTITY)?;
+        clusters.push((
+            object_name.clone(),
+            builder.add_mesh(compact(object_name, &positions, &tris)?),
+        ));
     }
+    builder.add_clusters("terrain_0", clusters, Mat4::IDENTITY)?;
     let terrain_objects = builder.object_count();
 
     // Unit billboards: crossed quads for plants, one quad for other items.
