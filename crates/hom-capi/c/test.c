@@ -108,6 +108,8 @@ int main(void) {
         CHECK(hom_scene_add_object(scene, 0, behind_model, 0) == 1, "box behind");
         CHECK(hom_scene_add_object(scene, 0, front_model, 1) == 2, "box in front, dynamic");
         CHECK(hom_scene_add_object(scene, 5, front_model, 0) == HOM_ERROR_INVALID, "no mesh 5");
+        CHECK(hom_scene_parent_of(scene, 2) == 2 && hom_scene_parent_of(scene, 3) == HOM_ERROR_INVALID,
+              "objects added whole are their own parents");
         const int kinds[4] = {HOM_CULLER_FRUSTUM, HOM_CULLER_HOM, HOM_CULLER_HZB, HOM_CULLER_MASKED};
         for (int k = 0; k < 4; k++) {
             HomCuller *culler = hom_culler_new(scene, kinds[k]);

@@ -50,6 +50,9 @@ int main() {
         std::vector<uint32_t> visible;  // empty: the wrapper grows it
         culler.cull(scene, m, 320, 240, hom::Clip::ZeroToOne, visible);
         failures += visible != std::vector<uint32_t>{0};
+        uint32_t count = 0;
+        const uint32_t first = scene.add_clustered_object(mesh, wall, count);
+        failures += first != 2 || count != 1 || scene.parent_of(first) != 2;  // a cube is one cluster
         try {
             scene.add_object(7, wall);
             failures++;

@@ -366,6 +366,41 @@ int64_t hom_scene_add_object(struct HomScene *scene,
                              int32_t dynamic);
 
 /*
+ Places mesh `mesh` by the column-major `transform` as one static object
+ cut into clusters ([`hom_cluster_triangles`]'s cut: at most
+ `max_triangles` triangles and `max_extent` of centroid spread each; a
+ ground, a track, a block of buildings). Each cluster is an object of its
+ own with consecutive ids, tested by the cullers and listed by
+ [`hom_culler_cull`]; [`hom_scene_parent_of`] maps them back to this one.
+ Returns the first cluster's id and writes how many there are to `count`
+ (when not `NULL`), or a negative code. A mesh that is one cluster is
+ placed whole. To move it, move each cluster.
+
+ # Safety
+ `transform` must be `NULL` or point at 16 floats; `count` `NULL` or one
+ writable `uint32_t`; `scene` a live scene.
+ */
+int64_t hom_scene_add_clustered_object(struct HomScene *scene,
+                                       uint32_t mesh,
+                                       const float *transform,
+                                       uint32_t max_triangles,
+                                       float max_extent,
+                                       uint32_t *count);
+
+/*
+ The object that object `object` is part of: the clusters of one
+ [`hom_scene_add_clustered_object`] share it, an object added whole has
+ its own. Objects are numbered from 0 in the order they were added (each
+ `hom_scene_add_object` or `hom_scene_add_clustered_object` call adds
+ one), so an engine maps an id [`hom_culler_cull`] lists back to its own
+ entity. Returns it, or a negative code.
+
+ # Safety
+ `scene` must be `NULL` or a live scene.
+ */
+int64_t hom_scene_parent_of(const struct HomScene *scene, uint32_t object);
+
+/*
  Moves object `object` to the column-major `transform`. 0, or a negative code.
 
  # Safety

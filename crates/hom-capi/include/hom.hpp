@@ -154,6 +154,17 @@ class Scene {
     uint32_t add_object(uint32_t mesh, const float transform[16], bool dynamic = false) {
         return static_cast<uint32_t>(check(hom_scene_add_object(scene_, mesh, transform, dynamic ? 1 : 0)));
     }
+    /// The first of the consecutive ids of the mesh's clusters, one static
+    /// object cut into clusters; `count` gets how many.
+    uint32_t add_clustered_object(uint32_t mesh, const float transform[16], uint32_t &count,
+                                  uint32_t max_triangles = 64, float max_extent = 3.0f) {
+        return static_cast<uint32_t>(
+            check(hom_scene_add_clustered_object(scene_, mesh, transform, max_triangles, max_extent, &count)));
+    }
+    /// The object (numbered in the order objects were added) that `object` is part of.
+    uint32_t parent_of(uint32_t object) const {
+        return static_cast<uint32_t>(check(hom_scene_parent_of(scene_, object)));
+    }
     void set_transform(uint32_t object, const float transform[16]) {
         check(hom_scene_set_transform(scene_, object, transform));
     }

@@ -921,6 +921,74 @@ pub unsafe extern "C" fn hom_scene_add_object(
     })
 }
 
+/// Places mesh `mesh` by the column-major `transform` as one static object
+/// cut into clusters ([`hom_cluster_triangles`]'s cut: at most
+/// `max_triangles` triangles and `max_extent` of centroid spread each; a
+/// ground, a track, a block of buildings). Each cluster is an object of its
+/// own with consecutive ids, tested by the cullers and listed by
+/// [`hom_culler_cull`]; [`hom_scene_parent_of`] maps them back to this one.
+/// Returns the first cluster's id and writes how many there are to `count`
+/// (when not `NULL`), or a negative code. A mesh that is one cluster is
+/// placed whole. To move it, move each cluster.
+///
+/// # Safety
+/// `transform` must be `NULL` or point at 16 floats; `count` `NULL` or one
+/// writable `uint32_t`; `scene` a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_add_clustered_object(
+    scene: *mut HomScene,
+    mesh: u32,
+    transform: *const f32,
+    max_triangles: u32,
+    max_extent: f32,
+    count: *mut u32,
+) -> i64 {
+    guard(i64::from, || {
+        // SAFETY: the caller's promise, passed on (all three below).
+        let scene = unsafe { scene_mut(scene) }?;
+        // SAFETY: as above.
+        let m = unsafe { matrix(transform, "transform") }?;
+        let options = ClusterOptions {
+            max_triangles,
+            max_extent,
+        };
+        let ids = scene
+            .scene
+            .add_clustered_object("object", mesh, m, &options)
+            .map_err(|e| invalid(e.to_string()))?;
+        // SAFETY: as above: `count` is NULL or one writable u32.
+        if let Some(count) = unsafe { count.as_mut() } {
+            *count = ids.end - ids.start;
+        }
+        Ok(i64::from(ids.start))
+    })
+}
+
+/// The object that object `object` is part of: the clusters of one
+/// [`hom_scene_add_clustered_object`] share it, an object added whole has
+/// its own. Objects are numbered from 0 in the order they were added (each
+/// `hom_scene_add_object` or `hom_scene_add_clustered_object` call adds
+/// one), so an engine maps an id [`hom_culler_cull`] lists back to its own
+/// entity. Returns it, or a negative code.
+///
+/// # Safety
+/// `scene` must be `NULL` or a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn hom_scene_parent_of(scene: *const HomScene, object: u32) -> i64 {
+    guard(i64::from, || {
+        // SAFETY: the caller's promise: NULL or a live scene, not written meanwhile.
+        let scene = unsafe { scene.as_ref() }.ok_or_else(|| null("scene"))?;
+        let objects = scene.scene.objects();
+        let o = objects.get(object as usize).ok_or_else(|| {
+            invalid(format!(
+                "no object {object}: the scene has {} object ids",
+                objects.len()
+            ))
+        })?;
+        Ok(i64::from(o.parent()))
+    })
+}
+
 /// Moves object `object` to the column-major `transform`. 0, or a negative code.
 ///
 /// # Safety

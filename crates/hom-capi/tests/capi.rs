@@ -618,3 +618,62 @@ fn clusters_equal_the_front_doors() {
         assert_eq!(one[0], HomCluster::default());
     }
 }
+
+/// A 40 m ground of 1 m quads, added cut into clusters: consecutive ids,
+/// the Rust twin's cut, one parent; an object added after is the next parent.
+#[test]
+fn a_clustered_object_is_its_clusters_under_one_parent() {
+    let n = 40u32;
+    let points: Vec<Vec3> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, 0.0, j as f32)))
+        .collect();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    let tris: Vec<[u32; 3]> = (0..n)
+        .flat_map(|j| {
+            (0..n).flat_map(move |i| {
+                [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ]
+            })
+        })
+        .collect();
+    let flat: Vec<f32> = points.iter().flat_map(|p| p.to_array()).collect();
+    let indices: Vec<u32> = tris.concat();
+    let mut rust = hom::scene::Scene::new("rust");
+    let mesh = rust.add_mesh(hom::scene::Mesh::new("mesh", points.clone(), tris).unwrap());
+    let options = hom::clusters::ClusterOptions::default();
+    let want = rust
+        .add_clustered_object("ground", mesh, Mat4::IDENTITY, &options)
+        .unwrap();
+    let c = hom_scene_new();
+    let identity = Mat4::IDENTITY.to_cols_array();
+    // SAFETY: `c` is live; every pointer points at what its count says.
+    unsafe {
+        assert_eq!(
+            hom_scene_add_mesh(c, flat.as_ptr(), points.len(), 12, indices.as_ptr(), indices.len()),
+            0
+        );
+        let mut count = 0u32;
+        let first = hom_scene_add_clustered_object(c, 0, identity.as_ptr(), 64, 3.0, &mut count);
+        assert_eq!(
+            (first, count),
+            (i64::from(want.start), want.end - want.start),
+            "{}",
+            last_error()
+        );
+        assert!(count > 50, "3,200 triangles in clusters of at most 64: {count}");
+        assert!((0..count).all(|id| hom_scene_parent_of(c, id) == 0));
+        let whole = hom_scene_add_object(c, 0, identity.as_ptr(), 0);
+        assert_eq!(whole, i64::from(count));
+        assert_eq!(hom_scene_parent_of(c, count), 1, "the next object added");
+        // Misuse.
+        let bad = hom_scene_add_clustered_object(c, 0, identity.as_ptr(), 0, 3.0, std::ptr::null_mut());
+        assert_eq!(bad, i64::from(HOM_ERROR_INVALID));
+        assert!(last_error().contains("clusters"), "{}", last_error());
+        assert_eq!(hom_scene_parent_of(c, count + 1), i64::from(HOM_ERROR_INVALID));
+        assert!(last_error().contains("no object"), "{}", last_error());
+        assert_eq!(hom_scene_parent_of(std::ptr::null(), 0), i64::from(HOM_ERROR_NULL));
+        hom_scene_free(c);
+    }
+}

@@ -21,7 +21,6 @@
 //! the half with the smaller coordinates first; within a group the pieces
 //! keep their input order. The result is a pure function of the input.
 
-use glam::Vec3;
 use hom::clusters::{self, ClusterOptions};
 use hom::geom::Aabb;
 use hom::scene::{Mesh, SceneError};
@@ -76,62 +75,32 @@ pub fn group_pieces(pieces: &[Piece], options: &SplitOptions) -> Vec<Vec<u32>> {
             vec![(0..pieces.len() as u32).collect()]
         };
     }
-    let cut = ClusterOptions {
-        max_triangles: u32::try_from(options.max_triangles).unwrap_or(u32::MAX),
-        max_extent: options.max_extent,
-    };
-    clusters::group_pieces(pieces, &cut)
+    clusters::group_pieces(pieces, &cluster_options(options))
 }
 
 /// Splits `mesh` into meshes of at most `options.max_triangles` triangles and
 /// `options.max_extent` metres (each triangle is a piece), named `NAME_K`, each
-/// holding only the vertices it uses. Disabled, or small enough, it returns the
-/// mesh unchanged, alone.
+/// holding only the vertices it uses ([`Mesh::cut`]). Disabled, or small
+/// enough, it returns the mesh unchanged, alone.
 pub fn split_mesh(mesh: &Mesh, options: &SplitOptions) -> Result<Vec<Mesh>, SceneError> {
-    let p = mesh.positions();
-    let pieces: Vec<Piece> = mesh
-        .triangles()
-        .iter()
-        .map(|t| Piece {
-            bounds: Aabb::from_points(t.iter().map(|&i| p[i as usize])),
-            triangles: 1,
-        })
-        .collect();
-    let groups = group_pieces(&pieces, options);
-    if groups.len() <= 1 {
+    if !options.enabled {
         return Ok(vec![mesh.clone()]);
     }
-    groups
-        .iter()
-        .enumerate()
-        .map(|(k, g)| {
-            let tris: Vec<[u32; 3]> = g.iter().map(|&i| mesh.triangles()[i as usize]).collect();
-            compact(format!("{}_{k}", mesh.name()), p, &tris)
-        })
-        .collect()
+    mesh.cut(&cluster_options(options))
 }
 
-/// A mesh of `triangles` (indices into `positions`) holding only the vertices they use.
-pub(crate) fn compact(name: String, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Mesh, SceneError> {
-    let mut remap = std::collections::HashMap::new();
-    let mut local = Vec::new();
-    let tris = triangles
-        .iter()
-        .map(|t| {
-            t.map(|i| {
-                *remap.entry(i).or_insert_with(|| {
-                    local.push(positions[i as usize]);
-                    (local.len() - 1) as u32
-                })
-            })
-        })
-        .collect();
-    Mesh::new(name, local, tris)
+/// The clusters' options `options` asks for.
+fn cluster_options(options: &SplitOptions) -> ClusterOptions {
+    ClusterOptions {
+        max_triangles: u32::try_from(options.max_triangles).unwrap_or(u32::MAX),
+        max_extent: options.max_extent,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// A row of `n` unit quads along +X (2 triangles each).
     fn strip(n: usize) -> Mesh {

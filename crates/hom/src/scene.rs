@@ -87,6 +87,14 @@ pub enum SceneError {
         /// Object count.
         count: usize,
     },
+    /// Options a mesh cannot be cut into clusters with.
+    #[error("mesh '{mesh}': cannot cut into clusters: {source}")]
+    BadClusterOptions {
+        /// Mesh name.
+        mesh: String,
+        /// What is wrong with the options.
+        source: crate::clusters::ClusterError,
+    },
 }
 
 /// An indexed triangle mesh in its own (object) space. Triangles are two-sided.
@@ -140,6 +148,59 @@ impl Mesh {
             bounds,
             tight,
         })
+    }
+
+    /// A mesh named `name` of `triangles` (indices into `positions`) that
+    /// holds only the vertices they use, in the order they are first used.
+    pub fn compact(name: impl Into<String>, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<Mesh, SceneError> {
+        let name = name.into();
+        let mut local_of = std::collections::HashMap::new();
+        let mut local = Vec::new();
+        let mut tris = Vec::with_capacity(triangles.len());
+        for (triangle, t) in triangles.iter().enumerate() {
+            let mut out = [0u32; 3];
+            for (o, &i) in out.iter_mut().zip(t) {
+                let Some(&p) = positions.get(i as usize) else {
+                    return Err(SceneError::IndexOutOfRange {
+                        mesh: name,
+                        triangle,
+                        index: i,
+                        vertex_count: positions.len(),
+                    });
+                };
+                *o = *local_of.entry(i).or_insert_with(|| {
+                    local.push(p);
+                    (local.len() - 1) as u32
+                });
+            }
+            tris.push(out);
+        }
+        Mesh::new(name, local, tris)
+    }
+
+    /// This mesh cut into clusters ([`crate::clusters::cluster_triangles`]):
+    /// one mesh per cluster, in the clusters' order, named `NAME_K`, each
+    /// holding only the vertices it uses ([`Mesh::compact`]). A mesh that is
+    /// one cluster comes back alone, as it is.
+    pub fn cut(&self, options: &crate::clusters::ClusterOptions) -> Result<Vec<Mesh>, SceneError> {
+        let clusters =
+            crate::clusters::cluster_triangles(&self.positions, &self.triangles, options).map_err(|source| {
+                SceneError::BadClusterOptions {
+                    mesh: self.name.clone(),
+                    source,
+                }
+            })?;
+        if clusters.clusters.len() <= 1 {
+            return Ok(vec![self.clone()]);
+        }
+        let ordered = clusters.reorder(&self.triangles);
+        (0..)
+            .zip(&clusters.clusters)
+            .map(|(k, c)| {
+                let tris = &ordered[c.triangles.start as usize..c.triangles.end as usize];
+                Mesh::compact(format!("{}_{k}", self.name), &self.positions, tris)
+            })
+            .collect()
     }
 
     /// The mesh's name (from the file, or the generator).
@@ -488,6 +549,34 @@ impl Scene {
         Ok(first..self.objects.len() as u32)
     }
 
+    /// Adds the static object `name` placing mesh `mesh` with `transform`,
+    /// cut into clusters ([`Mesh::cut`]: their meshes are added, then
+    /// [`Scene::add_clusters`]), so that the cullers test and the renderer
+    /// draws its parts while reports keep one object ([`Object::parent`]).
+    /// For a big mesh an engine would draw whole (a ground, a track, a
+    /// block of buildings); a mesh that is one cluster is added as it is.
+    /// Returns the clusters' ids. To move the object, move each cluster.
+    pub fn add_clustered_object(
+        &mut self,
+        name: impl Into<String>,
+        mesh: MeshId,
+        transform: Mat4,
+        options: &crate::clusters::ClusterOptions,
+    ) -> Result<std::ops::Range<u32>, SceneError> {
+        let name = name.into();
+        self.check(&name, mesh, &transform, 1)?;
+        let parts = self.meshes[mesh as usize].cut(options)?;
+        let clusters: Vec<(String, MeshId)> = if parts.len() == 1 {
+            vec![(name.clone(), mesh)]
+        } else {
+            parts
+                .into_iter()
+                .map(|m| (m.name().to_owned(), self.add_mesh(m)))
+                .collect()
+        };
+        self.add_clusters(name, clusters, transform)
+    }
+
     fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, dynamic: bool) -> Result<u32, SceneError> {
         self.check(&name, mesh, &transform, 1)?;
         let parent = self.parents.len() as u32;
@@ -800,5 +889,87 @@ mod tests {
             (4, 3),
             "a refused object adds nothing"
         );
+    }
+
+    /// A row of `n` unit quads along +x (2 triangles each, shared vertices).
+    fn strip(n: u32) -> Mesh {
+        let p = (0..=n).flat_map(|i| [Vec3::new(i as f32, 0.0, 0.0), Vec3::new(i as f32, 1.0, 0.0)]);
+        let t = (0..n).flat_map(|i| [[2 * i, 2 * i + 2, 2 * i + 3], [2 * i, 2 * i + 3, 2 * i + 1]]);
+        Mesh::new("strip", p.collect(), t.collect()).unwrap()
+    }
+
+    /// A mesh's triangles as corner positions, sorted (bit patterns).
+    fn corners(meshes: &[&Mesh]) -> Vec<[[u32; 3]; 3]> {
+        let mut all: Vec<[[u32; 3]; 3]> = meshes
+            .iter()
+            .flat_map(|m| {
+                m.triangles()
+                    .iter()
+                    .map(|t| t.map(|i| m.positions()[i as usize].to_array().map(f32::to_bits)))
+            })
+            .collect();
+        all.sort_unstable();
+        all
+    }
+
+    #[test]
+    fn an_engines_big_mesh_is_added_cut_under_one_parent() {
+        let mut s = Scene::new("engine");
+        let long = s.add_mesh(strip(100));
+        let short = s.add_mesh(strip(2));
+        let at = Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0));
+        let options = crate::clusters::ClusterOptions::default();
+        let ids = s.add_clustered_object("road", long, at, &options).unwrap();
+        assert!(ids.len() >= 25, "100 m in clusters of 3 m of centroids: {ids:?}");
+        let clusters: Vec<&Mesh> = ids.clone().map(|id| s.mesh_of(s.object(id))).collect();
+        assert_eq!(
+            corners(&clusters),
+            corners(&[&s.meshes()[long as usize]]),
+            "the same triangles"
+        );
+        for id in ids.clone() {
+            let o = s.object(id);
+            assert_eq!((o.parent(), o.transform), (0, at));
+            assert!(o.triangles <= 64 && o.aabb.extent().x <= 4.0, "{}", o.name);
+            assert!(
+                s.mesh_of(o).positions().len() <= 2 * o.triangles as usize + 2,
+                "only the vertices it uses"
+            );
+        }
+        assert_eq!(
+            (s.object(ids.start).name.as_str(), s.parent_name(0)),
+            ("strip_0", Some("road"))
+        );
+        // One cluster: added as it is, placing the engine's own mesh.
+        let meshes = s.meshes().len();
+        let kerb = s.add_clustered_object("kerb", short, at, &options).unwrap();
+        assert_eq!(
+            (kerb.len(), s.object(kerb.start).mesh, s.meshes().len()),
+            (1, short, meshes)
+        );
+        assert_eq!(s.parent_name(1), Some("kerb"));
+        // Bad options: an error naming them, nothing added.
+        let none = crate::clusters::ClusterOptions {
+            max_triangles: 0,
+            ..options
+        };
+        let count = (s.objects().len(), s.meshes().len(), s.parent_count());
+        assert!(matches!(
+            s.add_clustered_object("bad", long, at, &none),
+            Err(SceneError::BadClusterOptions { .. })
+        ));
+        assert!(matches!(
+            s.add_clustered_object("bad", 99, at, &options),
+            Err(SceneError::UnknownMesh { mesh: 99, .. })
+        ));
+        assert_eq!((s.objects().len(), s.meshes().len(), s.parent_count()), count);
+        assert!(matches!(
+            Mesh::compact("c", &[Vec3::ZERO], &[[0, 0, 1]]),
+            Err(SceneError::IndexOutOfRange {
+                index: 1,
+                triangle: 0,
+                ..
+            })
+        ));
     }
 }

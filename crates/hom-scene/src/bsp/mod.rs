@@ -49,11 +49,11 @@ use pk3::{entry_map_name, read_capped, Capped};
 use pvs::{read_pvs, Pvs};
 
 use crate::camera_path::{CameraPath, PathFrame};
-use crate::split::{compact, group_pieces, Piece, SplitOptions};
+use crate::split::{group_pieces, Piece, SplitOptions};
 use crate::LoadError;
 use glam::{Mat4, Vec3};
 use hom::geom::Aabb;
-use hom::scene::{Scene, SceneBuilder};
+use hom::scene::{Mesh, Scene, SceneBuilder};
 use std::path::Path;
 
 /// The only BSP version read.
@@ -891,7 +891,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             object_leaves.push(clustered);
             object_solid_leaves.push(unclustered);
             let scene_err = |source| BspError::BadGeometry { source };
-            let mesh = compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
+            let mesh = Mesh::compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
             parts.push((object_name, builder.add_mesh(mesh)));
         }
         let name = format!("{label}_{}", builder.parent_count());

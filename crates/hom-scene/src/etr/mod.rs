@@ -137,7 +137,7 @@ pub use error::EtrError;
 
 use crate::builtin::rng::Rng;
 use crate::camera_path::{CameraPath, PathFrame};
-use crate::split::{compact, group_pieces, Piece, SplitOptions};
+use crate::split::{group_pieces, Piece, SplitOptions};
 use crate::LoadError;
 use glam::{Mat4, Quat, Vec3};
 use hom::geom::Aabb;
@@ -696,7 +696,7 @@ fn build(
         let tris: Vec<[u32; 3]> = group.iter().flat_map(|&c| cell_triangles(c as usize)).collect();
         clusters.push((
             object_name.clone(),
-            builder.add_mesh(compact(object_name, &positions, &tris)?),
+            builder.add_mesh(Mesh::compact(object_name, &positions, &tris)?),
         ));
     }
     builder.add_clusters("terrain_0", clusters, Mat4::IDENTITY)?;
