@@ -127,3 +127,37 @@ fn the_masked_buffer_checks_against_its_subtile_bounds() {
         );
     }
 }
+
+/// On every second frame, an object drawn in the frame before is not
+/// checked (it stays visible); the others are, and what the check culls
+/// stays culled.
+#[test]
+fn what_was_drawn_rests_every_other_frame() {
+    let (scene, camera, near, far) = sloped_walls(1.0, 384, 288);
+    let mut culler = MaskedCuller::new(&scene, checking(DepthCheck::IfDrawn).with_buffer(()));
+    let stats: Vec<_> = (0..4)
+        .map(|frame| {
+            let out = assert_no_false_culls(&scene, &camera, &mut culler);
+            assert!(out.visible.contains(&near), "frame {frame}: the near wall is seen");
+            assert!(out.occluded.contains(&far), "frame {frame}: the far wall is culled");
+            out.stats.depth_check.expect("the check ran")
+        })
+        .collect();
+    assert_eq!(stats[0].rested, 0, "{stats:?}");
+    assert!(
+        stats[0].checked >= 2,
+        "the near wall checked and found visible: {stats:?}"
+    );
+    assert!(stats[1].rested >= 1, "the near wall rests: {stats:?}");
+    assert!(
+        stats[1].checked >= 1,
+        "the far wall, culled, is checked again: {stats:?}"
+    );
+    assert_eq!(stats[1].checked + stats[1].rested, stats[0].checked, "{stats:?}");
+    assert_eq!((stats[2].checked, stats[2].rested), (stats[0].checked, 0), "{stats:?}");
+    assert_eq!(
+        (stats[3].checked, stats[3].rested),
+        (stats[1].checked, stats[1].rested),
+        "{stats:?}"
+    );
+}

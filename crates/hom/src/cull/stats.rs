@@ -119,6 +119,9 @@ pub struct DepthCheckStats {
     pub checked: u64,
     /// Of them, behind the occluders at every sample, and culled (`depth_check_culled`).
     pub culled: u64,
+    /// Not checked this frame, resting: drawn in the frame checked before
+    /// (`depth_check_rested`).
+    pub rested: u64,
     /// HOM: tiles of 8×8 samples of occluder depth drawn for the check
     /// (`depth_check_tiles`); HZB's z-buffer is already drawn.
     pub tiles_drawn: u64,
@@ -260,6 +263,7 @@ impl CullStats {
             c.extend([
                 ("depth_checks", d.checked),
                 ("depth_check_culled", d.culled),
+                ("depth_check_rested", d.rested),
                 ("depth_check_tiles", d.tiles_drawn),
             ]);
         }
