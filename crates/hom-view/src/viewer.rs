@@ -49,16 +49,21 @@ impl Default for ViewerOptions {
 /// What one frame drew and what it cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameFigures {
-    /// Objects drawn: the scene's objects as the cullers see them, a cut
-    /// object's clusters each counted ([`hom::scene::Object::parent`]).
+    /// Objects drawn, as the file or engine names them: an object is drawn
+    /// when any of its clusters is ([`hom::scene::Object::parent`]).
     pub objects_drawn: usize,
-    /// Live objects of the scene, counted as `objects_drawn`.
+    /// Objects of the scene with a live cluster.
     pub objects: usize,
+    /// Clusters drawn: what the cullers test and the renderer draws (an
+    /// object not cut is one).
+    pub clusters_drawn: usize,
+    /// Live clusters of the scene.
+    pub clusters: usize,
     /// Triangles drawn.
     pub triangles_drawn: u64,
     /// Triangles of the scene.
     pub triangles: u64,
-    /// Objects culled as occluded.
+    /// Clusters culled as occluded.
     pub occluded: usize,
     /// The cull's milliseconds.
     pub cull_ms: f64,
@@ -125,9 +130,18 @@ impl Viewer {
         culler.frame_done(None);
         let cull_ms = start.elapsed().as_secs_f64() * 1e3;
         let objects = scene.objects();
+        // Parents counted only where some object was cut.
+        let (objects_drawn, live_objects) = if scene.parent_count() == objects.len() {
+            (self.out.visible.len(), scene.live_count())
+        } else {
+            let live: Vec<u32> = scene.live_objects().map(|(id, _)| id).collect();
+            (scene.parents_of(&self.out.visible).len(), scene.parents_of(&live).len())
+        };
         let figures = FrameFigures {
-            objects_drawn: self.out.visible.len(),
-            objects: scene.live_count(),
+            objects_drawn,
+            objects: live_objects,
+            clusters_drawn: self.out.visible.len(),
+            clusters: scene.live_count(),
             triangles_drawn: self
                 .out
                 .visible
@@ -172,10 +186,17 @@ impl Viewer {
         (width, height): (u32, u32),
     ) {
         if let (true, Some(status)) = (self.options.figures, status) {
+            let clusters = if figures.clusters == figures.objects {
+                String::new()
+            } else {
+                // A line of its own: the figures' line is long already.
+                format!(" in {} of {} clusters\n", figures.clusters_drawn, figures.clusters)
+            };
             let line = format!(
-                "{status}\n{} of {} objects, {} of {} triangles drawn, {:.0} % culled ({} occluded), cull {:.2} ms",
+                "{status}\n{} of {} objects{clusters}{}{} of {} triangles drawn, {:.0} % culled ({} occluded), cull {:.2} ms",
                 figures.objects_drawn,
                 figures.objects,
+                if clusters.is_empty() { ", " } else { "" },
                 count(figures.triangles_drawn),
                 count(figures.triangles),
                 figures.culled_percent(),

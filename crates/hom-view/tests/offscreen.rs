@@ -188,3 +188,72 @@ fn headless_pictures_show_the_oracles_objects_up_to_edge_pixels() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A ground cut into clusters and a sign: the figures count two objects and
+/// the clusters apart.
+#[test]
+fn figures_count_objects_and_their_clusters() {
+    use hom::glam::{Mat4, Vec3};
+    let mut scene = hom::scene::Scene::new("cut ground");
+    let n = 30u32;
+    let points: Vec<Vec3> = (0..=n)
+        .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32 - 15.0, 0.0, -(j as f32))))
+        .collect();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    let tris: Vec<[u32; 3]> = (0..n)
+        .flat_map(|j| {
+            (0..n).flat_map(move |i| {
+                [
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
+                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
+                ]
+            })
+        })
+        .collect();
+    let ground = scene.add_mesh(hom::scene::Mesh::new("ground", points, tris).unwrap());
+    let options = hom::clusters::ClusterOptions::default();
+    let clusters = scene
+        .add_clustered_object("ground", ground, Mat4::IDENTITY, &options)
+        .unwrap();
+    let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y].to_vec();
+    let sign = scene.add_mesh(hom::scene::Mesh::new("sign", quad, vec![[0, 1, 2], [0, 2, 3]]).unwrap());
+    scene
+        .add_object("sign", sign, Mat4::from_translation(Vec3::new(0.0, 0.0, -8.0)))
+        .unwrap();
+    if wgpu_or_skip(&scene).is_none() {
+        return;
+    }
+    let path = hom_scene::CameraPath {
+        width: 160,
+        height: 120,
+        frames: vec![hom_scene::PathFrame {
+            eye: [0.0, 2.0, 4.0],
+            target: [0.0, 0.0, -10.0],
+        }],
+        ..serde_json::from_str(r#"{"frames":[]}"#).unwrap()
+    };
+    let dir = std::env::temp_dir().join(format!("hom-view-figures-{}", std::process::id()));
+    let options = hom_view::headless::HeadlessOptions {
+        frames: None,
+        out: dir.clone(),
+        viewer: hom_view::ViewerOptions::default(),
+        frame_rate: 30.0,
+    };
+    let mut culler =
+        hom_walk::cullers::make("frustum", &scene, &hom_walk::cullers::CullerSettings::for_scene(&scene)).unwrap();
+    let summary = hom_view::headless::run(
+        &mut scene,
+        &hom_scene::Animation::default(),
+        &path,
+        culler.as_mut(),
+        "frustum",
+        &options,
+        |_| {},
+    )
+    .unwrap();
+    let f = summary.figures[0];
+    assert_eq!((f.objects, f.clusters), (2, clusters.len() + 1));
+    assert_eq!(f.objects_drawn, 2, "the ground and the sign in view");
+    assert!(f.clusters_drawn > 2 && f.clusters_drawn < f.clusters, "{f:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
