@@ -623,21 +623,8 @@ fn clusters_equal_the_front_doors() {
 /// the Rust twin's cut, one parent; an object added after is the next parent.
 #[test]
 fn a_clustered_object_is_its_clusters_under_one_parent() {
-    let n = 40u32;
-    let points: Vec<Vec3> = (0..=n)
-        .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, 0.0, j as f32)))
-        .collect();
-    let at = |i: u32, j: u32| j * (n + 1) + i;
-    let tris: Vec<[u32; 3]> = (0..n)
-        .flat_map(|j| {
-            (0..n).flat_map(move |i| {
-                [
-                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                ]
-            })
-        })
-        .collect();
+    let ground = hom_testkit::grid_mesh(40);
+    let (points, tris) = (ground.positions().to_vec(), ground.triangles().to_vec());
     let flat: Vec<f32> = points.iter().flat_map(|p| p.to_array()).collect();
     let indices: Vec<u32> = tris.concat();
     let mut rust = hom::scene::Scene::new("rust");

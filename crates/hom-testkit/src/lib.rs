@@ -255,6 +255,27 @@ pub fn random_moving_scene(seed: u64, n: usize, dynamic: bool) -> (Scene, Animat
     (b.build().expect("a valid scene"), animation)
 }
 
+/// A mesh, `ground`: `n` × `n` unit quads in the XZ plane from the origin
+/// (2 n² triangles, n metres across; the triangles [`grid_obj`]'s quads
+/// make), a mesh that spans a level and is cut into clusters.
+pub fn grid_mesh(n: u32) -> Mesh {
+    let points: Vec<Vec3> = (0..=n)
+        .flat_map(|z| (0..=n).map(move |x| Vec3::new(x as f32, 0.0, z as f32)))
+        .collect();
+    let at = |x: u32, z: u32| z * (n + 1) + x;
+    let tris: Vec<[u32; 3]> = (0..n)
+        .flat_map(|z| {
+            (0..n).flat_map(move |x| {
+                [
+                    [at(x, z), at(x + 1, z), at(x + 1, z + 1)],
+                    [at(x, z), at(x + 1, z + 1), at(x, z + 1)],
+                ]
+            })
+        })
+        .collect();
+    Mesh::new("ground", points, tris).expect("a valid grid")
+}
+
 /// The text of an OBJ file holding one object, `ground`: `n` × `n` unit
 /// quads in the XZ plane (2 n² triangles, n metres across).
 pub fn grid_obj(n: usize) -> String {

@@ -195,26 +195,10 @@ fn headless_pictures_show_the_oracles_objects_up_to_edge_pixels() {
 fn figures_count_objects_and_their_clusters() {
     use hom::glam::{Mat4, Vec3};
     let mut scene = hom::scene::Scene::new("cut ground");
-    let n = 30u32;
-    let points: Vec<Vec3> = (0..=n)
-        .flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32 - 15.0, 0.0, -(j as f32))))
-        .collect();
-    let at = |i: u32, j: u32| j * (n + 1) + i;
-    let tris: Vec<[u32; 3]> = (0..n)
-        .flat_map(|j| {
-            (0..n).flat_map(move |i| {
-                [
-                    [at(i, j), at(i + 1, j), at(i + 1, j + 1)],
-                    [at(i, j), at(i + 1, j + 1), at(i, j + 1)],
-                ]
-            })
-        })
-        .collect();
-    let ground = scene.add_mesh(hom::scene::Mesh::new("ground", points, tris).unwrap());
+    let ground = scene.add_mesh(hom_testkit::grid_mesh(30));
     let options = hom::clusters::ClusterOptions::default();
-    let clusters = scene
-        .add_clustered_object("ground", ground, Mat4::IDENTITY, &options)
-        .unwrap();
+    let at = Mat4::from_translation(Vec3::new(-15.0, 0.0, -30.0));
+    let clusters = scene.add_clustered_object("ground", ground, at, &options).unwrap();
     let quad = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y].to_vec();
     let sign = scene.add_mesh(hom::scene::Mesh::new("sign", quad, vec![[0, 1, 2], [0, 2, 3]]).unwrap());
     scene
