@@ -532,21 +532,12 @@ impl Scene {
         clusters: impl IntoIterator<Item = (String, MeshId)>,
         transform: Mat4,
     ) -> Result<std::ops::Range<u32>, SceneError> {
-        let name = name.into();
         let clusters: Vec<(String, MeshId)> = clusters.into_iter().collect();
-        let first = self.objects.len() as u32;
         if clusters.is_empty() {
-            return Ok(first..first);
+            let next = self.objects.len() as u32;
+            return Ok(next..next);
         }
-        for (cluster, mesh) in &clusters {
-            self.check(cluster, *mesh, &transform, clusters.len())?;
-        }
-        let parent = self.parents.len() as u32;
-        self.parents.push(name);
-        for (cluster, mesh) in clusters {
-            self.push_checked(cluster, mesh, transform, false, parent);
-        }
-        Ok(first..self.objects.len() as u32)
+        self.add_parent(name.into(), clusters, transform, false)
     }
 
     /// Adds the static object `name` placing mesh `mesh` with `transform`,
@@ -564,7 +555,8 @@ impl Scene {
         options: &crate::clusters::ClusterOptions,
     ) -> Result<std::ops::Range<u32>, SceneError> {
         let name = name.into();
-        self.check(&name, mesh, &transform, 1)?;
+        // Checked before the cut's meshes are added, so that nothing is added on an error.
+        self.check(&name, &[(name.clone(), mesh)], &transform)?;
         let parts = self.meshes[mesh as usize].cut(options)?;
         let clusters: Vec<(String, MeshId)> = if parts.len() == 1 {
             vec![(name.clone(), mesh)]
@@ -578,22 +570,42 @@ impl Scene {
     }
 
     fn push(&mut self, name: String, mesh: MeshId, transform: Mat4, dynamic: bool) -> Result<u32, SceneError> {
-        self.check(&name, mesh, &transform, 1)?;
-        let parent = self.parents.len() as u32;
-        self.parents.push(name.clone());
-        Ok(self.push_checked(name, mesh, transform, dynamic, parent))
+        let ids = self.add_parent(name.clone(), vec![(name, mesh)], transform, dynamic)?;
+        Ok(ids.start)
     }
 
-    /// Whether `adding` more objects, the first placing `mesh` with `transform`, may be added.
-    fn check(&self, name: &str, mesh: MeshId, transform: &Mat4, adding: usize) -> Result<(), SceneError> {
-        if self.meshes.get(mesh as usize).is_none() {
+    /// Adds parent `name` and its `clusters` (at least one), each placing
+    /// its mesh with `transform`; checked first, so nothing is added on an
+    /// error. Returns the clusters' ids.
+    fn add_parent(
+        &mut self,
+        name: String,
+        clusters: Vec<(String, MeshId)>,
+        transform: Mat4,
+        dynamic: bool,
+    ) -> Result<std::ops::Range<u32>, SceneError> {
+        self.check(&name, &clusters, &transform)?;
+        let first = self.objects.len() as u32;
+        let parent = self.parents.len() as u32;
+        self.parents.push(name);
+        for (cluster, mesh) in clusters {
+            self.push_checked(cluster, mesh, transform, dynamic, parent);
+        }
+        Ok(first..self.objects.len() as u32)
+    }
+
+    /// Whether object `name`'s `clusters` may be added with `transform`:
+    /// every mesh known, the transform finite and invertible, ids left.
+    fn check(&self, name: &str, clusters: &[(String, MeshId)], transform: &Mat4) -> Result<(), SceneError> {
+        if let Some((cluster, mesh)) = clusters.iter().find(|(_, m)| self.meshes.get(*m as usize).is_none()) {
             return Err(SceneError::UnknownMesh {
-                object: name.to_string(),
-                mesh,
+                object: cluster.clone(),
+                mesh: *mesh,
                 mesh_count: self.meshes.len(),
             });
         }
         check_transform(name, transform)?;
+        let adding = clusters.len();
         if self.objects.len().saturating_add(adding) > (u32::MAX - 1) as usize {
             return Err(SceneError::TooManyObjects {
                 count: self.objects.len() + adding,

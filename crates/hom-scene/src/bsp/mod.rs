@@ -848,6 +848,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     let spawns = spawns(&entities)?;
 
     // Objects: opaque faces, then see-through faces, then sky, grouped spatially.
+    let scene_err = |source| BspError::BadGeometry { source };
     let mut builder = SceneBuilder::new(name);
     let mut object_clusters = Vec::new();
     let mut object_leaves = Vec::new();
@@ -890,14 +891,11 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
             object_clusters.push(clusters);
             object_leaves.push(clustered);
             object_solid_leaves.push(unclustered);
-            let scene_err = |source| BspError::BadGeometry { source };
             let mesh = Mesh::compact(object_name.clone(), &positions, &tris).map_err(scene_err)?;
             parts.push((object_name, builder.add_mesh(mesh)));
         }
         let name = format!("{label}_{}", builder.parent_count());
-        let ids = builder
-            .add_clusters(name, parts, Mat4::IDENTITY)
-            .map_err(|source| BspError::BadGeometry { source })?;
+        let ids = builder.add_clusters(name, parts, Mat4::IDENTITY).map_err(scene_err)?;
         for id in ids {
             builder.set_occluder(id, kind != Surface::SeeThrough);
         }
@@ -905,7 +903,7 @@ pub fn parse(data: &[u8], name: &str, options: &BspOptions) -> Result<BspMap, Bs
     if builder.object_count() == 0 {
         return Err(BspError::NoGeometry);
     }
-    let scene = builder.build().map_err(|source| BspError::BadGeometry { source })?;
+    let scene = builder.build().map_err(scene_err)?;
     Ok(BspMap {
         scene,
         spawns,
